@@ -1,0 +1,95 @@
+"""Registry of the thesis experiments.
+
+Each module in this package registers one or more experiments with :func:`register`; the CLI
+(`sobolev-drake list | run NAME | demo | reproduce`) discovers them with :func:`discover`, so
+adding an experiment never edits a shared file.
+
+An experiment's ``run`` callable has the signature::
+
+    run(out_dir: pathlib.Path, *, duration: float | None, record: bool, smoke: bool) -> ExperimentResult
+
+``smoke=True`` asks for a short version (seconds of wall time) used by the test suite.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+
+@dataclass
+class Claim:
+    """One checkable statement of the thesis and whether it held in our run."""
+
+    text: str
+    held: bool
+    detail: str = ""
+
+
+@dataclass
+class ExperimentResult:
+    """What an experiment produced: files, headline numbers and thesis claims."""
+
+    name: str
+    outputs: dict[str, Path] = field(default_factory=dict)  # label -> file (png/html/md/json)
+    metrics: dict = field(default_factory=dict)
+    claims: list[Claim] = field(default_factory=list)
+    table_markdown: str = ""  # our numbers beside the thesis'
+
+
+@dataclass
+class Experiment:
+    name: str
+    summary: str
+    run: Callable[..., ExperimentResult]
+    default_duration: float | None = None
+    flagship: bool = False
+    thesis_ref: str = ""
+
+
+REGISTRY: dict[str, Experiment] = {}
+
+
+class UnknownExperimentError(KeyError):
+    def __str__(self):  # KeyError quotes its message; we want plain text
+        return self.args[0]
+
+
+def register(name: str, summary: str, *, default_duration=None, flagship=False, thesis_ref=""):
+    """Decorator registering ``run`` as experiment ``name``."""
+
+    def wrap(run):
+        if name in REGISTRY and REGISTRY[name].run is not run:
+            raise ValueError(f"experiment {name!r} registered twice")
+        REGISTRY[name] = Experiment(name, summary, run, default_duration, flagship, thesis_ref)
+        return run
+
+    return wrap
+
+
+def discover() -> dict[str, Experiment]:
+    """Import every module of this package so that they register themselves."""
+    for info in pkgutil.iter_modules(__path__):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{info.name}")
+    return REGISTRY
+
+
+def get(name: str) -> Experiment:
+    discover()
+    if name not in REGISTRY:
+        known = ", ".join(sorted(REGISTRY)) or "(none)"
+        raise UnknownExperimentError(f"unknown experiment {name!r}; known experiments: {known}")
+    return REGISTRY[name]
+
+
+def flagship() -> Experiment:
+    """The experiment `make demo` runs: the one registered with ``flagship=True`` (last wins)."""
+    discover()
+    flag = [e for e in REGISTRY.values() if e.flagship]
+    if not flag:
+        raise UnknownExperimentError("no flagship experiment is registered")
+    return sorted(flag, key=lambda e: e.name)[-1] if len(flag) > 1 else flag[0]
