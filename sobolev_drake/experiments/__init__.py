@@ -46,7 +46,7 @@ class Experiment:
     summary: str
     run: Callable[..., ExperimentResult]
     default_duration: float | None = None
-    flagship: bool = False
+    flagship: int = 0  # priority for `make demo`; the highest registered wins
     thesis_ref: str = ""
 
 
@@ -58,7 +58,7 @@ class UnknownExperimentError(KeyError):
         return self.args[0]
 
 
-def register(name: str, summary: str, *, default_duration=None, flagship=False, thesis_ref=""):
+def register(name: str, summary: str, *, default_duration=None, flagship=0, thesis_ref=""):
     """Decorator registering ``run`` as experiment ``name``."""
 
     def wrap(run):
@@ -87,9 +87,9 @@ def get(name: str) -> Experiment:
 
 
 def flagship() -> Experiment:
-    """The experiment `make demo` runs: the one registered with ``flagship=True`` (last wins)."""
+    """The experiment `make demo` runs: the highest ``flagship`` priority (> 0) registered."""
     discover()
-    flag = [e for e in REGISTRY.values() if e.flagship]
+    flag = [e for e in REGISTRY.values() if e.flagship > 0]
     if not flag:
         raise UnknownExperimentError("no flagship experiment is registered")
-    return sorted(flag, key=lambda e: e.name)[-1] if len(flag) > 1 else flag[0]
+    return max(flag, key=lambda e: (e.flagship, e.name))
