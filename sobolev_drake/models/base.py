@@ -118,3 +118,9 @@ class MechanicalModel:
     def B(self, q) -> np.ndarray:
         """Input matrix B(q) (thesis order, columns = actuator inputs). Overridden per model."""
         raise NotImplementedError(f"{self.name} does not define an input matrix")
+
+    def friction(self, qdot) -> np.ndarray:
+        """Velocity-dependent generalized friction K(q̇) (thesis order, on the left-hand side of
+        M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it."""
+        check_vector("qdot", qdot, self.n)
+        return np.zeros(self.n)

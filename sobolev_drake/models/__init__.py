@@ -1,0 +1,16 @@
+"""Plant builders: URDF → MultibodyPlant wrapped as :class:`MechanicalModel` (DESIGN §5).
+
+Each model module provides a parameter dataclass (thesis table values by default), a
+MechanicalModel subclass with the thesis closed forms, ``make_<name>_model(params)`` (standalone
+model on its own plant) and ``add_<name>(builder, params)`` (plant + SceneGraph + thesis adapter,
+returning :class:`PlantHandles`).
+"""
+
+from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.models.handles import PlantHandles
+from sobolev_drake.models.arm import ArmParams, TwoLinkArmModel, add_arm, make_arm_model
+
+__all__ = [
+    "MechanicalModel", "check_vector", "PlantHandles",
+    "ArmParams", "TwoLinkArmModel", "add_arm", "make_arm_model",
+]

@@ -1,0 +1,123 @@
+"""Planar two-link manipulator, thesis (5.119)–(5.122), Table 5.1 (Spong et al. 2006).
+
+q = [q1, q2]: q1 angle of link 1 from the horizontal, q2 angle of link 2 relative to link 1;
+both joints actuated (B = I), gravity in the plane of motion.
+
+The thesis' printed d11 and d12 contain typos; the closed forms here are the standard Spong
+model, which is also what the URDF produces:
+
+    d11 = m1 lc1² + m2 (l1² + lc2² + 2 l1 lc2 cos q2) + I1 + I2
+          (thesis prints an extra ``2 l1 (l2/2)²`` term inside the m2 bracket),
+    d12 = m2 (lc2² + l1 lc2 cos q2) + I2
+          (thesis prints ``l1 (l2/2)² cos q2``, i.e. lc2 squared once too often),
+    d22 = m2 lc2² + I2,
+
+with lc_i = l_i / 2 and I_i the moment of inertia of link i about its centre of mass.
+C (5.121) and g (5.122) are printed correctly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+
+from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
+                                          coordinate_map, urdf_text)
+
+
+@dataclass(frozen=True)
+class ArmParams:
+    """Table 5.1: I1 = I2 = 1 kg m², m1 = m2 = 1 kg, l1 = l2 = 1 m, g = 9.8 m/s²."""
+
+    m1: float = 1.0
+    m2: float = 1.0
+    l1: float = 1.0
+    l2: float = 1.0
+    I1: float = 1.0
+    I2: float = 1.0
+    g: float = 9.8
+
+    @property
+    def lc1(self) -> float:
+        return self.l1 / 2
+
+    @property
+    def lc2(self) -> float:
+        return self.l2 / 2
+
+
+def _arm_urdf(p: ArmParams) -> str:
+    ed = UrdfEditor(urdf_text("arm"))
+    for name, m, l, inertia in (("link1", p.m1, p.l1, p.I1), ("link2", p.m2, p.l2, p.I2)):
+        if min(m, l, inertia) <= 0:
+            raise ValueError(f"arm masses, lengths and inertias must be positive, got {p}")
+        # Ixx (along the link) only has to keep the inertia physically valid.
+        ed.set_inertial(name, m, [l / 2, 0, 0], [0.05 * inertia, inertia, inertia])
+        ed.set_visual(name, 0, xyz=[l / 2, 0, 0], box={"size": [l, 0.06, 0.06]})
+    ed.set_joint_origin("q2", [p.l1, 0, 0])
+    return ed.text()
+
+
+class TwoLinkArmModel(MechanicalModel):
+    """MechanicalModel of the two-link arm with the closed forms (5.120)–(5.122)."""
+
+    num_inputs = 2
+
+    def __init__(self, plant, params: ArmParams | None = None):
+        self.params = params or ArmParams()
+        super().__init__(plant, coordinate_map=coordinate_map(plant, [("q1", 1.0), ("q2", 1.0)]),
+                         dof_names=["q1", "q2"], name="arm")
+
+    # --- thesis closed forms -------------------------------------------------------------------
+    def M_closed_form(self, q) -> np.ndarray:
+        """(5.120) with the d11/d12 typos corrected (module docstring)."""
+        q = check_vector("q", q, 2)
+        p = self.params
+        c2 = np.cos(q[1])
+        d11 = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2 * c2) + p.I1 + p.I2
+        d12 = p.m2 * (p.lc2**2 + p.l1 * p.lc2 * c2) + p.I2
+        d22 = p.m2 * p.lc2**2 + p.I2
+        return np.array([[d11, d12], [d12, d22]])
+
+    def C_closed_form(self, q, qdot) -> np.ndarray:
+        """C(q, q̇) of (5.121), h = −m2 l1 lc2 sin q2."""
+        q = check_vector("q", q, 2)
+        qdot = check_vector("qdot", qdot, 2)
+        p = self.params
+        h = -p.m2 * p.l1 * p.lc2 * np.sin(q[1])
+        return np.array([[h * qdot[1], h * (qdot[0] + qdot[1])], [-h * qdot[0], 0.0]])
+
+    def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+        return self.C_closed_form(q, qdot) @ check_vector("qdot", qdot, 2)
+
+    def g_closed_form(self, q) -> np.ndarray:
+        """(5.122)."""
+        q = check_vector("q", q, 2)
+        p = self.params
+        g2 = p.m2 * p.lc2 * p.g * np.cos(q[0] + q[1])
+        return np.array([(p.m1 * p.lc1 + p.m2 * p.l1) * p.g * np.cos(q[0]) + g2, g2])
+
+    def B(self, q) -> np.ndarray:
+        """B = I (both joints actuated, (5.119))."""
+        check_vector("q", q, 2)
+        return np.eye(2)
+
+
+def make_arm_model(params: ArmParams | None = None) -> TwoLinkArmModel:
+    """Standalone TwoLinkArmModel on its own plant (no SceneGraph)."""
+    params = params or ArmParams()
+    plant, _ = build_plant(_arm_urdf(params), params.g)
+    return TwoLinkArmModel(plant, params)
+
+
+def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHandles:
+    """Add the arm (MultibodyPlant + SceneGraph + adapter) to ``builder``.
+
+    ``u`` = joint torques [τ1, τ2] (N m); ``disturbance`` = [w1, w2]; ``x`` = [q1 q2 q̇1 q̇2].
+    """
+    params = params or ArmParams()
+    plant, scene_graph = build_plant(_arm_urdf(params), params.g, builder)
+    return attach_adapter(builder, plant, scene_graph, TwoLinkArmModel(plant, params), "arm")

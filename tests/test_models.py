@@ -1,0 +1,147 @@
+"""Drake models vs the thesis' closed forms: M, C q̇, g, B, Christoffel structure, simulation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from sobolev_drake.models import arm
+
+N_STATES = 20
+REL_TOL = 1e-9
+
+
+def rel_err(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.linalg.norm(a - b) / max(np.linalg.norm(b), 1e-12))
+
+
+def random_states(n, seed, q_scale=np.pi, v_scale=3.0, count=N_STATES):
+    rng = np.random.default_rng(seed)
+    return [(rng.uniform(-q_scale, q_scale, n), rng.uniform(-v_scale, v_scale, n)) for _ in range(count)]
+
+
+# --- generic Christoffel checks (used by every model) -------------------------------------------
+def christoffel_C_fd(model, q, qdot, h=1e-5):
+    """C(q, q̇) from central differences of M via Christoffel symbols of the first kind."""
+    n = model.n
+    dM = []
+    for k in range(n):
+        e = np.zeros(n)
+        e[k] = h
+        dM.append((model.M(q + e) - model.M(q - e)) / (2 * h))
+    C = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            C[i, j] = sum(0.5 * (dM[k][i, j] + dM[j][i, k] - dM[i][j, k]) * qdot[k] for k in range(n))
+    Mdot = sum(dM[k] * qdot[k] for k in range(n))
+    return C, Mdot
+
+
+def C_matrix_polarized(model, q, qdot):
+    """C(q, q̇) column by column from the polarization identity (model.C_times)."""
+    n = model.n
+    return np.column_stack([model.C_times(q, qdot, np.eye(n)[j]) for j in range(n)])
+
+
+def check_christoffel(model, states, tol=1e-6):
+    rng = np.random.default_rng(7)
+    for q, qdot in states:
+        C_fd, Mdot = christoffel_C_fd(model, q, qdot)
+        C_pol = C_matrix_polarized(model, q, qdot)
+        v = rng.normal(size=model.n)
+        scale = max(np.linalg.norm(C_fd), 1.0)
+        assert np.linalg.norm(C_pol @ v - C_fd @ v) <= tol * scale * np.linalg.norm(v)
+        S = Mdot - 2 * C_pol
+        assert np.linalg.norm(S + S.T) <= tol * max(np.linalg.norm(Mdot), 1.0)
+
+
+def check_closed_forms(model, states):
+    for q, qdot in states:
+        assert rel_err(model.M(q), model.M_closed_form(q)) <= REL_TOL
+        assert rel_err(model.Cqdot(q, qdot), model.Cqdot_closed_form(q, qdot)) <= REL_TOL
+        assert rel_err(model.g(q), model.g_closed_form(q)) <= REL_TOL
+
+
+def check_bad_inputs(model):
+    n = model.n
+    with pytest.raises(ValueError, match="q must be a vector of length"):
+        model.M(np.zeros(n + 1))
+    with pytest.raises(ValueError, match="qdot must be finite"):
+        model.Cqdot(np.zeros(n), np.full(n, np.nan))
+    with pytest.raises(ValueError, match="q must be finite"):
+        model.g(np.r_[np.inf, np.zeros(n - 1)])
+    with pytest.raises(ValueError, match="v must be a vector of length"):
+        model.C_times(np.zeros(n), np.zeros(n), np.zeros(n - 1))
+
+
+# --- two-link arm ---------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def arm_model():
+    return arm.make_arm_model()
+
+
+def test_arm_closed_forms(arm_model):
+    check_closed_forms(arm_model, random_states(2, 1))
+    np.testing.assert_array_equal(arm_model.B(np.zeros(2)), np.eye(2))
+
+
+def test_arm_closed_forms_other_params():
+    p = arm.ArmParams(m1=1.3, m2=0.7, l1=0.8, l2=1.4, I1=0.2, I2=0.4, g=9.81)
+    check_closed_forms(arm.make_arm_model(p), random_states(2, 2))
+
+
+def test_arm_thesis_d11_typo_is_a_typo(arm_model):
+    # The printed d11 has an extra 2 l1 (l2/2)^2 = 0.5 term: not what the physics (Drake) gives.
+    q = np.array([0.3, 0.0])
+    p = arm_model.params
+    printed = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2**2 + 2 * p.l1 * p.lc2) + p.I1 + p.I2
+    assert abs(arm_model.M(q)[0, 0] - printed) > 0.4
+    assert abs(arm_model.M(q)[0, 0] - arm_model.M_closed_form(q)[0, 0]) < 1e-12
+
+
+def test_arm_christoffel(arm_model):
+    check_christoffel(arm_model, random_states(2, 3))
+
+
+def test_arm_bad_inputs(arm_model):
+    check_bad_inputs(arm_model)
+    with pytest.raises(ValueError, match="positive"):
+        arm.make_arm_model(arm.ArmParams(m1=-1.0))
+
+
+def test_arm_energy_conserved_in_simulation():
+    builder = DiagramBuilder()
+    h = arm.add_arm(builder)
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    h.u.FixValue(h.adapter.GetMyMutableContextFromRoot(ctx), np.zeros(2))
+    h.set_state(ctx, diagram, [0.4, -0.7], [1.0, -0.5])
+    plant_ctx = h.plant.GetMyContextFromRoot(ctx)
+
+    def energy():
+        return h.plant.CalcKineticEnergy(plant_ctx) + h.plant.CalcPotentialEnergy(plant_ctx)
+
+    x0 = h.x.Eval(h.adapter.GetMyContextFromRoot(ctx))
+    np.testing.assert_allclose(x0, [0.4, -0.7, 1.0, -0.5])
+    e0 = energy()
+    sim.get_mutable_integrator().set_target_accuracy(1e-9)
+    sim.AdvanceTo(2.0)
+    drift = abs(energy() - e0) / abs(e0)
+    assert drift < 1e-6, drift
+    q, qdot = h.get_state(sim.get_context())
+    assert np.linalg.norm(q - [0.4, -0.7]) > 0.1  # it actually moved
+
+
+def test_arm_set_state_rejects_bad_sizes():
+    builder = DiagramBuilder()
+    h = arm.add_arm(builder)
+    diagram = builder.Build()
+    ctx = diagram.CreateDefaultContext()
+    with pytest.raises(ValueError, match="qdot must be a vector of length 2"):
+        h.set_state(ctx, diagram, [0, 0], [0, 0, 0])
+    with pytest.raises(ValueError, match="q must be finite"):
+        h.set_state(ctx, diagram, [np.nan, 0], [0, 0])
