@@ -1,0 +1,339 @@
+"""Nonlinear W∞ controller with control allocation for the tilt-rotor UAV (thesis §7.3.2).
+
+The generalized coordinates q = [αR αL φ θ ψ x y z] (thesis order) are partitioned (7.63) in
+
+* stabilized  q_s = [φ θ]          — only q̇_s → 0 is asked (W^{1,2}, weights Υ0, Υ1),
+* regulated   q_r = [αR αL ψ]      — set-point tracking without integral (W^{2,2}, Σ0, Σ1, Σ2),
+* controlled  q_c = [x y z]        — tracking with integral action (W^{3,2}, Γ0 … Γ3).
+
+The thesis text lists q_r = [ψ αR αL], but its Σ weights are only symmetric in the two tilt
+angles in the order [αR αL ψ] (Σ0 = diag(20, 20, 0.01), …), which is the order used here.
+
+Theorem 12 / (7.81): with the state x = [q̇_s, ė_r, ė_c, e_c, e_r, ∫e_c] the optimal
+generalized input is (k = g, so the worst-case disturbance (7.83) vanishes and W2 = W∞)
+
+    u* = M(q) q̈_des + C(q, q̇) q̇ + g(q) − ϑ_passive(q, q̇, ζ),
+
+    q̈_s,des = −Υ1⁻¹ U q̇_s,
+    q̈_r,des = q̈_r,ref − Σ2⁻¹ (A ė_r + B e_r),
+    q̈_c,des = q̈_c,ref − Γ3⁻¹ (Q ė_c + K e_c + T ∫e_c),
+
+where U, A, B, Q, K, T solve the Riccati equations (7.70)–(7.75), i.e. the CARE of one chain of
+integrators per group (DESIGN §4.2).  The gains are *received* here (``synthesis.mechanical``
+computes them); this module never re-derives them.
+
+The applied actuator vector τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL] solves the bounded least
+squares allocation (7.84)–(7.89); the propeller forces are then mapped to propeller speeds by
+inverting f = ρ d⁴ n² Ct(J, φ) (7.90).
+
+The controller is sampled (zero-order hold, period ``period``): every update computes the
+law, the allocation and the thrust inversion once and stores the result in discrete state, so
+the outputs depend on state only (no algebraic loop) and the expensive allocation runs at the
+sampling rate instead of at every integrator stage.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from sobolev_drake.models.base import check_vector
+
+# Thesis-order index sets of the partition (7.63).
+STABILIZED = np.array([2, 3])        # φ θ
+REGULATED = np.array([0, 1, 4])      # αR αL ψ
+CONTROLLED = np.array([5, 6, 7])     # x y z
+N_Q = 8
+N_TAU = 8
+
+# Thesis tuning of §7.3.2 (text after Remark 50).
+THESIS_WEIGHTS = {
+    "Upsilon0": np.diag([180.0, 10.0]),
+    "Upsilon1": np.diag([2.0, 0.02]),
+    "Sigma0": np.diag([20.0, 20.0, 0.01]),
+    "Sigma1": np.diag([15.0, 15.0, 400.0]),
+    "Sigma2": np.diag([0.1, 0.1, 15.0]),
+    "Gamma0": np.diag([0.05, 0.05, 0.5]),
+    "Gamma1": np.eye(3),
+    "Gamma2": np.diag([400.0, 400.0, 200.0]),
+    "Gamma3": np.diag([500.0, 500.0, 50.0]),
+}
+
+# Actuator limits of §7.3.2: thrust 0–100 N, servo ±2 N m, surfaces ±5π/36 · sigmf(V_air; 2, 12).
+THESIS_LIMITS = {
+    "thrust": (0.0, 100.0),
+    "servo_torque": (-2.0, 2.0),
+    "surface": 5.0 * np.pi / 36.0,
+    "sigmoid_s": 2.0,
+    "sigmoid_c": 12.0,
+}
+
+
+def _as_matrix(name, value, shape):
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    return arr
+
+
+@dataclass(frozen=True)
+class TiltrotorWInfGains:
+    """Acceleration feedback gains of the partitioned law (7.81).
+
+    ``Ks`` (2×2): q̈_s,des = −Ks q̇_s                      (Ks = Υ1⁻¹U)
+    ``Kr`` (3×6): ë_r*    = −Kr [ė_r; e_r]               (Kr = Σ2⁻¹[A B])
+    ``Kc`` (3×9): ë_c*    = −Kc [ė_c; e_c; ∫e_c]         (Kc = Γ3⁻¹[Q K T])
+    """
+
+    Ks: np.ndarray
+    Kr: np.ndarray
+    Kc: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "Ks", _as_matrix("Ks", self.Ks, (2, 2)))
+        object.__setattr__(self, "Kr", _as_matrix("Kr", self.Kr, (3, 6)))
+        object.__setattr__(self, "Kc", _as_matrix("Kc", self.Kc, (3, 9)))
+
+    @classmethod
+    def from_sobolev(cls, stabilized, regulated, controlled) -> "TiltrotorWInfGains":
+        """Build from the three ``SobolevGains`` of ``synthesis.mechanical`` (their ``.K``)."""
+        return cls(Ks=stabilized.K, Kr=regulated.K, Kc=controlled.K)
+
+
+def tilt_schedule_polynomial(coefficients, speed_range=(0.0, 33.99)):
+    """Tilt-angle reference α(U_b) from a polynomial in forward air speed (highest power first).
+
+    Returns ``f(U) -> (α, dα/dU, d²α/dU²)``; U is clamped to ``speed_range`` (derivatives are
+    zero outside it), as in the mission data file's trim-derived schedule.
+    """
+    c = np.asarray(coefficients, dtype=float)
+    if c.ndim != 1 or c.size < 1:
+        raise ValueError("coefficients must be a non-empty 1-D sequence (highest power first)")
+    d1, d2 = np.polyder(c, 1), np.polyder(c, 2)
+    lo, hi = speed_range
+
+    def schedule(U):
+        inside = lo <= U <= hi
+        Uc = min(max(U, lo), hi)
+        if not inside:
+            return float(np.polyval(c, Uc)), 0.0, 0.0
+        return float(np.polyval(c, Uc)), float(np.polyval(d1, Uc)), float(np.polyval(d2, Uc))
+
+    return schedule
+
+
+def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
+    """Forward air speed U_b of the *reference* motion in the heading frame and its rate.
+
+    U_b = [cos ψ, sin ψ]·(ṗ_r − ζ)_xy with the measured wind ζ taken constant over a sample;
+    using the reference (not the measured velocity) keeps α_r smooth with known derivatives.
+    """
+    c, s = np.cos(psi), np.sin(psi)
+    vx, vy = vel_ref[0] - wind[0], vel_ref[1] - wind[1]
+    U = c * vx + s * vy
+    Udot = c * acc_ref[0] + s * acc_ref[1] + psidot * (-s * vx + c * vy)
+    return U, Udot
+
+
+def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
+    """(q_rr, q̇_rr, q̈_rr) of the regulated DOF [αR αL ψ] (tilt from the trim schedule).
+
+    ``psi_ref`` = (ψ_r, ψ̇_r, ψ̈_r) from the mission.  q̈ of the tilt uses α''U̇² (the jerk term
+    α'Ü is dropped: the mission references are piecewise constant-acceleration).
+    """
+    psi, psid, psidd = psi_ref
+    U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
+    a, da, dda = schedule(U)
+    q = np.array([a, a, psi])
+    qd = np.array([da * Udot, da * Udot, psid])
+    qdd = np.array([dda * Udot**2, dda * Udot**2, psidd])
+    return q, qd, qdd
+
+
+def desired_acceleration(gains: TiltrotorWInfGains, q, qdot, ref_c, ref_r, integral_ec):
+    """q̈_des of (7.81) in thesis order.
+
+    ``ref_c`` = (q_cr, q̇_cr, q̈_cr) of [x y z]; ``ref_r`` = (q_rr, q̇_rr, q̈_rr) of [αR αL ψ];
+    ``integral_ec`` = ∫(q_c − q_cr) dt.
+    """
+    q = check_vector("q", q, N_Q)
+    qdot = check_vector("qdot", qdot, N_Q)
+    ie = check_vector("integral_ec", integral_ec, 3)
+    qcr, qdcr, qddcr = (check_vector(f"ref_c[{i}]", v, 3) for i, v in enumerate(ref_c))
+    qrr, qdrr, qddrr = (check_vector(f"ref_r[{i}]", v, 3) for i, v in enumerate(ref_r))
+    e_c, ed_c = q[CONTROLLED] - qcr, qdot[CONTROLLED] - qdcr
+    e_r, ed_r = q[REGULATED] - qrr, qdot[REGULATED] - qdrr
+    qdd = np.empty(N_Q)
+    qdd[STABILIZED] = -gains.Ks @ qdot[STABILIZED]
+    qdd[REGULATED] = qddrr - gains.Kr @ np.concatenate([ed_r, e_r])
+    qdd[CONTROLLED] = qddcr - gains.Kc @ np.concatenate([ed_c, e_c, ie])
+    return qdd
+
+
+def generalized_input(model, q, qdot, qdd_des, theta_passive):
+    """u* = M(q) q̈_des + C(q, q̇) q̇ + g(q) − ϑ_passive (7.81) with k = g (w* = 0)."""
+    return (model.M(q) @ qdd_des + model.Cqdot(q, qdot) + model.g(q)
+            - check_vector("theta_passive", theta_passive, N_Q))
+
+
+def sigmf(v, s=THESIS_LIMITS["sigmoid_s"], c=THESIS_LIMITS["sigmoid_c"]):
+    """Sigmoid (7.89): 1 / (1 + exp(−s (v − c)))."""
+    return 1.0 / (1.0 + np.exp(-s * (np.asarray(v, dtype=float) - c)))
+
+
+def thesis_bounds(v_air_surfaces, limits=THESIS_LIMITS):
+    """(lo, up) of (7.85)–(7.88) given the relative air speed of the four surfaces [WR WL TR TL]."""
+    v = check_vector("v_air_surfaces", v_air_surfaces, 4)
+    dmax = limits["surface"] * sigmf(v, limits["sigmoid_s"], limits["sigmoid_c"])
+    lo = np.concatenate([[limits["thrust"][0]] * 2, [limits["servo_torque"][0]] * 2, -dmax])
+    up = np.concatenate([[limits["thrust"][1]] * 2, [limits["servo_torque"][1]] * 2, dmax])
+    return lo, up
+
+
+def saturation_flags(tau, lo, up, rel_tol=1e-3):
+    """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
+    of the bound width; a zero-width box, e.g. surfaces at zero air speed, counts as inside)."""
+    tau, lo, up = (np.asarray(a, dtype=float) for a in (tau, lo, up))
+    tol = rel_tol * np.maximum(up - lo, 0.0)
+    width_ok = (up - lo) > 1e-9
+    return np.where(width_ok & (tau >= up - tol), 1.0,
+                    np.where(width_ok & (tau <= lo + tol), -1.0, 0.0))
+
+
+@dataclass
+class ControlStep:
+    """Everything one evaluation of the law produced (for logging and tests)."""
+
+    qdd_des: np.ndarray
+    u_star: np.ndarray
+    B: np.ndarray
+    theta_passive: np.ndarray
+    tau_bar: np.ndarray
+    lo: np.ndarray
+    up: np.ndarray
+    propeller_speed: np.ndarray
+    residual: float
+    ref_r: tuple = field(default=())
+
+
+class TiltrotorWInfLaw:
+    """The pure (numpy) law: references → q̈_des → u* → allocation → propeller speeds.
+
+    Parameters
+    ----------
+    model : ``TiltrotorModel`` (M, Cqdot, g in thesis order).
+    gains : :class:`TiltrotorWInfGains`.
+    input_affine : ``f(model, q, qdot, zeta) -> (B 8×8, ϑ_passive 8)`` (plant engineer's map).
+    allocate : ``f(B, u, lo, up) -> τ̄`` bounded least squares (7.84).
+    bounds : ``f(q, qdot, zeta) -> (lo, up)`` (7.85)–(7.89).
+    thrust_to_speed : ``f(thrust (2,), q, qdot, zeta) -> n (2,)`` inverting (7.90).
+    tilt_schedule : ``f(U) -> (α, α', α'')`` for the regulated tilt references.
+    """
+
+    def __init__(self, model, gains, *, input_affine, allocate, bounds, thrust_to_speed,
+                 tilt_schedule):
+        if not isinstance(gains, TiltrotorWInfGains):
+            raise TypeError("gains must be a TiltrotorWInfGains")
+        for name, f in [("input_affine", input_affine), ("allocate", allocate),
+                        ("bounds", bounds), ("thrust_to_speed", thrust_to_speed),
+                        ("tilt_schedule", tilt_schedule)]:
+            if not callable(f):
+                raise TypeError(f"{name} must be callable")
+        self.model, self.gains = model, gains
+        self.input_affine, self.allocate, self.bounds = input_affine, allocate, bounds
+        self.thrust_to_speed, self.tilt_schedule = thrust_to_speed, tilt_schedule
+
+    def step(self, q, qdot, reference, wind, integral_ec) -> ControlStep:
+        """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12)."""
+        ref = check_vector("reference", reference, 12)
+        wind = check_vector("wind", wind, 3)
+        p, v, a = ref[0:4], ref[4:8], ref[8:12]
+        ref_c = (p[:3], v[:3], a[:3])
+        ref_r = regulated_reference(self.tilt_schedule, v, a, (p[3], v[3], a[3]), wind)
+        qdd = desired_acceleration(self.gains, q, qdot, ref_c, ref_r, integral_ec)
+        B, theta = self.input_affine(self.model, q, qdot, wind)
+        u = generalized_input(self.model, q, qdot, qdd, theta)
+        lo, up = self.bounds(q, qdot, wind)
+        tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
+        n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind), dtype=float)
+        res = float(np.linalg.norm(u - B @ tau))
+        return ControlStep(qdd, u, np.asarray(B), np.asarray(theta), tau, lo, up, n, res, ref_r)
+
+
+class TiltrotorWInfController(LeafSystem):
+    """Sampled nonlinear W∞ controller with allocation (7.81)–(7.90) as a Drake LeafSystem.
+
+    Inputs: ``x`` (16, thesis order [q; q̇]), ``reference`` (12, [x y z ψ] positions, rates,
+    accelerations), ``wind_measured`` (3, inertial m/s; Assumption 19 — gusts are *not* in it).
+    Outputs: ``propeller_speed`` (2, rev/s), ``servo_torque`` (2, N m), ``surface_deflection``
+    (4, rad [δWR δWL δTR δTL]), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1,
+    ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound).  All outputs are zero-order holds of the last update.
+    """
+
+    # discrete state layout
+    _I = slice(0, 3)        # ∫e_c
+    _TAU = slice(3, 11)     # τ̄
+    _N = slice(11, 13)      # propeller speeds
+    _U = slice(13, 21)      # u*
+    _RES = slice(21, 22)    # residual
+    _SAT = slice(22, 30)    # +1 on upper bound, −1 on lower bound, 0 inside
+    _SIZE = 30
+
+    def __init__(self, law: TiltrotorWInfLaw, *, period=0.01, initial_tau=None,
+                 initial_speed=None):
+        super().__init__()
+        if not isinstance(law, TiltrotorWInfLaw):
+            raise TypeError("law must be a TiltrotorWInfLaw")
+        if not (np.isfinite(period) and period > 0):
+            raise ValueError(f"period must be a positive finite number, got {period}")
+        self.law, self.period = law, float(period)
+        self.x_port = self.DeclareVectorInputPort("x", 2 * N_Q)
+        self.reference_port = self.DeclareVectorInputPort("reference", 12)
+        self.wind_port = self.DeclareVectorInputPort("wind_measured", 3)
+        init = np.zeros(self._SIZE)
+        if initial_tau is not None:
+            init[self._TAU] = check_vector("initial_tau", initial_tau, N_TAU)
+        if initial_speed is not None:
+            init[self._N] = check_vector("initial_speed", initial_speed, 2)
+        self._state = self.DeclareDiscreteState(BasicVector(init))
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
+        dep = {self.all_state_ticket()}
+        for name, sl in [("propeller_speed", self._N), ("tau_bar", self._TAU),
+                         ("u_star", self._U), ("allocation_residual", self._RES),
+                         ("integral_error", self._I), ("saturation", self._SAT)]:
+            self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(sl),
+                                         prerequisites_of_calc=dep)
+        self.DeclareVectorOutputPort("servo_torque", 2, self._slicer(slice(5, 7)),
+                                     prerequisites_of_calc=dep)
+        self.DeclareVectorOutputPort("surface_deflection", 4, self._slicer(slice(7, 11)),
+                                     prerequisites_of_calc=dep)
+        self.last_step: ControlStep | None = None
+
+    def _slicer(self, sl):
+        def calc(context, output):
+            output.SetFromVector(context.get_discrete_state(self._state).value()[sl])
+        return calc
+
+    def _update(self, context, discrete_state):
+        x = self.x_port.Eval(context)
+        q, qdot = x[:N_Q], x[N_Q:]
+        ref = self.reference_port.Eval(context)
+        wind = self.wind_port.Eval(context)
+        old = context.get_discrete_state(self._state).value()
+        ie = old[self._I]
+        step = self.law.step(q, qdot, ref, wind, ie)
+        new = old.copy()
+        # forward-Euler integral of the controlled-DOF error over one sample
+        new[self._I] = ie + self.period * (q[CONTROLLED] - ref[0:3])
+        new[self._TAU] = step.tau_bar
+        new[self._N] = step.propeller_speed
+        new[self._U] = step.u_star
+        new[self._RES] = step.residual
+        new[self._SAT] = saturation_flags(step.tau_bar, step.lo, step.up)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(new)
+        self.last_step = step

@@ -1,0 +1,149 @@
+"""Tilt-rotor nonlinear W∞ law (thesis §7.3.2): gains, partition, u*, allocation bookkeeping."""
+
+import numpy as np
+import pytest
+from scipy.linalg import solve_continuous_are
+
+from sobolev_drake.systems import tiltrotor_controller as tc
+
+
+def _chain_gain(weights, R):
+    """Private check: LQR of a chain of integrators of order len(weights) per DOF.
+
+    State [e^(k-1); …; e; ∫e…] (highest derivative first), input the next derivative; weights[i]
+    on the i-th block.  Returns K with input* = −K x."""
+    m = R.shape[0]
+    k = len(weights)
+    A = np.zeros((k * m, k * m))
+    for i in range(1, k):
+        A[i * m:(i + 1) * m, (i - 1) * m:i * m] = np.eye(m)
+    B = np.zeros((k * m, m))
+    B[:m] = np.eye(m)
+    Q = np.zeros((k * m, k * m))
+    for i, W in enumerate(weights):
+        Q[i * m:(i + 1) * m, i * m:(i + 1) * m] = W
+    P = solve_continuous_are(A, B, Q, R)
+    return np.linalg.solve(R, B.T @ P), P
+
+
+W = tc.THESIS_WEIGHTS
+
+
+def thesis_gains_by_care():
+    Ks, _ = _chain_gain([W["Upsilon0"]], W["Upsilon1"])
+    Kr, _ = _chain_gain([W["Sigma1"], W["Sigma0"]], W["Sigma2"])
+    Kc, _ = _chain_gain([W["Gamma2"], W["Gamma1"], W["Gamma0"]], W["Gamma3"])
+    return tc.TiltrotorWInfGains(Ks=Ks, Kr=Kr, Kc=Kc)
+
+
+def test_care_gains_satisfy_theorem_12_riccati_set():
+    """(7.70)–(7.75) hold for the blocks of the CARE solutions (diagonal weights)."""
+    _, Pr = _chain_gain([W["Sigma1"], W["Sigma0"]], W["Sigma2"])
+    A, B = Pr[:3, :3], Pr[:3, 3:]
+    S2i = np.linalg.inv(W["Sigma2"])
+    assert np.allclose(-B @ S2i @ B + W["Sigma0"], 0, atol=1e-8)            # (7.71)
+    assert np.allclose(-A @ S2i @ A + 2 * B + W["Sigma1"], 0, atol=1e-6)     # (7.73)
+    _, Pc = _chain_gain([W["Gamma2"], W["Gamma1"], W["Gamma0"]], W["Gamma3"])
+    Q, K, T = Pc[:3, :3], Pc[:3, 3:6], Pc[:3, 6:]
+    G3i = np.linalg.inv(W["Gamma3"])
+    assert np.allclose(-T @ G3i @ T + W["Gamma0"], 0, atol=1e-8)             # (7.72)
+    assert np.allclose(-K @ G3i @ K + W["Gamma1"] + 2 * T @ G3i @ Q, 0, atol=1e-6)  # (7.74)
+    assert np.allclose(-Q @ G3i @ Q + 2 * K + W["Gamma2"], 0, atol=1e-5)     # (7.75)
+    # (7.77)–(7.79): S = QΓ3⁻¹T, P = TΓ3⁻¹K, R = KΓ3⁻¹Q − T
+    assert np.allclose(Pc[3:6, 6:], Q @ G3i @ T, atol=1e-6)
+    assert np.allclose(Pc[6:, 6:], T @ G3i @ K, atol=1e-6)
+    assert np.allclose(Pc[3:6, 3:6], K @ G3i @ Q - T, atol=1e-6)
+    # (7.70) closed form: U = √(Υ0 Υ1) for diagonal weights
+    Ks, Pu = _chain_gain([W["Upsilon0"]], W["Upsilon1"])
+    assert np.allclose(np.diag(Pu), np.sqrt(np.diag(W["Upsilon0"]) * np.diag(W["Upsilon1"])))
+
+
+def test_scalar_closed_form_controlled_chain():
+    """t = √(γ0γ3), q²/γ3 = 2k + γ2, k²/γ3 = 2qt/γ3 + γ1 (DESIGN §4.2) match the CARE."""
+    g0, g1, g2, g3 = 0.05, 1.0, 400.0, 500.0
+    K, P = _chain_gain([np.eye(1) * g2, np.eye(1) * g1, np.eye(1) * g0], np.eye(1) * g3)
+    t = np.sqrt(g0 * g3)
+    q, k = P[0, 0], P[0, 1]
+    assert np.isclose(P[0, 2], t)
+    assert np.isclose(q**2 / g3, 2 * k + g2)
+    assert np.isclose(k**2 / g3, 2 * q * t / g3 + g1)
+    assert np.allclose(K, np.array([[q, k, t]]) / g3)
+
+
+def test_mechanical_synthesis_matches_private_care():
+    mech = pytest.importorskip("sobolev_drake.synthesis.mechanical")
+    ref = thesis_gains_by_care()
+    g = tc.TiltrotorWInfGains.from_sobolev(
+        mech.stabilized_gains(W["Upsilon0"], W["Upsilon1"]),
+        mech.regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
+        mech.controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]))
+    assert np.allclose(g.Ks, ref.Ks, rtol=1e-6)
+    assert np.allclose(g.Kr, ref.Kr, rtol=1e-6)
+    assert np.allclose(g.Kc, ref.Kc, rtol=1e-6)
+
+
+def test_closed_loop_error_chains_are_hurwitz():
+    g = thesis_gains_by_care()
+    # controlled: ë = −Kc[ė, e, ∫e] → companion matrix per DOF
+    A = np.zeros((9, 9))
+    A[:3] = -g.Kc
+    A[3:6, :3] = np.eye(3)
+    A[6:, 3:6] = np.eye(3)
+    assert np.max(np.linalg.eigvals(A).real) < 0
+    Ar = np.zeros((6, 6))
+    Ar[:3] = -g.Kr
+    Ar[3:, :3] = np.eye(3)
+    assert np.max(np.linalg.eigvals(Ar).real) < 0
+    assert np.all(np.linalg.eigvals(-g.Ks).real < 0)
+
+
+def test_desired_acceleration_partition():
+    g = thesis_gains_by_care()
+    rng = np.random.default_rng(0)
+    q, qd = rng.normal(size=8), rng.normal(size=8)
+    ref_c = tuple(rng.normal(size=3) for _ in range(3))
+    ref_r = tuple(rng.normal(size=3) for _ in range(3))
+    ie = rng.normal(size=3)
+    qdd = tc.desired_acceleration(g, q, qd, ref_c, ref_r, ie)
+    assert np.allclose(qdd[[2, 3]], -g.Ks @ qd[[2, 3]])
+    er = q[[0, 1, 4]] - ref_r[0]
+    edr = qd[[0, 1, 4]] - ref_r[1]
+    assert np.allclose(qdd[[0, 1, 4]], ref_r[2] - g.Kr @ np.r_[edr, er])
+    ec = q[5:] - ref_c[0]
+    edc = qd[5:] - ref_c[1]
+    assert np.allclose(qdd[5:], ref_c[2] - g.Kc @ np.r_[edc, ec, ie])
+    with pytest.raises(ValueError, match="integral_ec"):
+        tc.desired_acceleration(g, q, qd, ref_c, ref_r, np.zeros(2))
+
+
+def test_gains_reject_bad_shapes():
+    with pytest.raises(ValueError, match="Kc"):
+        tc.TiltrotorWInfGains(Ks=np.eye(2), Kr=np.zeros((3, 6)), Kc=np.zeros((3, 6)))
+
+
+def test_thesis_bounds_and_sigmoid():
+    lo, up = tc.thesis_bounds([0.0, 12.0, 30.0, 12.0])
+    assert np.allclose(lo[:4], [0, 0, -2, -2]) and np.allclose(up[:4], [100, 100, 2, 2])
+    dmax = 5 * np.pi / 36
+    assert np.isclose(up[5], dmax / 2)              # sigmf(c) = 1/2
+    assert up[4] < 1e-9                             # ≈ 0 at rest (e^{-24})
+    assert up[6] > 0.999999 * dmax
+    assert np.allclose(lo[4:], -up[4:])
+
+
+def test_saturation_flags():
+    f = tc.saturation_flags([100, 50, -2, 1.0, 0, 0, 0, 0], np.r_[0, 0, -2, -2, 0, 0, -0.1, -0.1],
+                            np.r_[100, 100, 2, 2, 0, 0, 0.1, 0.1])
+    assert list(f) == [1, 0, -1, 0, 0, 0, 0, 0]
+
+
+def test_tilt_schedule_polynomial_derivatives():
+    c = [3.0081e-08, 4.5551e-06, -0.00024816, 0.003874, -0.0061735, -0.13061]
+    s = tc.tilt_schedule_polynomial(c)
+    a0, _, _ = s(0.0)
+    assert np.isclose(a0, -0.13061)
+    h = 1e-4
+    a, da, dda = s(10.0)
+    assert np.isclose(da, (s(10 + h)[0] - s(10 - h)[0]) / (2 * h), rtol=1e-6)
+    assert np.isclose(dda, (s(10 + h)[1] - s(10 - h)[1]) / (2 * h), rtol=1e-5)
+    assert s(50.0) == (s(33.99)[0], 0.0, 0.0)
