@@ -7,7 +7,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models import arm
+from sobolev_drake.models import arm, two_wheeled
 
 N_STATES = 20
 REL_TOL = 1e-9
@@ -75,6 +75,31 @@ def check_bad_inputs(model):
         model.g(np.r_[np.inf, np.zeros(n - 1)])
     with pytest.raises(ValueError, match="v must be a vector of length"):
         model.C_times(np.zeros(n), np.zeros(n), np.zeros(n - 1))
+
+
+def check_diagram_dynamics(add_fn, closed_model, states, u_list, w_list, **kwargs):
+    """Accelerations of the diagram (plant + adapter) equal the closed-form thesis dynamics
+    q̈ = M⁻¹(B u + w − K(q̇) − C q̇ − g), i.e. the adapter maps u, w, friction correctly."""
+    builder = DiagramBuilder()
+    h = add_fn(builder, **kwargs)
+    diagram = builder.Build()
+    ctx = diagram.CreateDefaultContext()
+    adapter_ctx = h.adapter.GetMyMutableContextFromRoot(ctx)
+    derivs = diagram.AllocateTimeDerivatives()
+    n = h.model.n
+    for (q, qdot), u, w in zip(states, u_list, w_list):
+        h.set_state(ctx, diagram, q, qdot)
+        h.u.FixValue(adapter_ctx, u)
+        h.disturbance.FixValue(adapter_ctx, w)
+        diagram.CalcTimeDerivatives(ctx, derivs)
+        vdot_drake = derivs.get_vector().CopyToVector()[n:]
+        qddot = h.model.to_thesis(vdot_drake)
+        m = closed_model
+        rhs = (m.B(q) @ u + w - m.friction(qdot) - m.Cqdot_closed_form(q, qdot) - m.g_closed_form(q))
+        expected = np.linalg.solve(m.M_closed_form(q), rhs)
+        assert rel_err(qddot, expected) <= 1e-8
+        np.testing.assert_allclose(h.x.Eval(adapter_ctx), np.r_[q, qdot], rtol=1e-12, atol=1e-12)
+    return h
 
 
 # --- two-link arm ---------------------------------------------------------------------------------
@@ -145,3 +170,81 @@ def test_arm_set_state_rejects_bad_sizes():
         h.set_state(ctx, diagram, [0, 0], [0, 0, 0])
     with pytest.raises(ValueError, match="q must be finite"):
         h.set_state(ctx, diagram, [np.nan, 0], [0, 0])
+
+
+def test_arm_diagram_dynamics(arm_model):
+    rng = np.random.default_rng(11)
+    states = random_states(2, 12, count=5)
+    check_diagram_dynamics(arm.add_arm, arm_model, states,
+                           [rng.normal(size=2) * 10 for _ in states], [rng.normal(size=2) for _ in states])
+
+
+# --- two-wheeled vehicle --------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tw_model():
+    return two_wheeled.make_two_wheeled_model()
+
+
+def test_two_wheeled_closed_forms(tw_model):
+    states = random_states(2, 21)
+    check_closed_forms(tw_model, states)
+    p = tw_model.params
+    assert (p.Ir, p.Ip, p.k, p.m, p.M, p.l, p.r, p.g) == (0.0421, 0.201, 0.00215, 2.75, 3.75, 0.1435, 0.25, 9.8)
+    # the individual entries of (4.30)
+    q = np.array([0.0, 0.0])
+    assert abs(tw_model.M(q)[0, 0] - ((p.M + p.m) * p.r**2 + p.Ir)) < 1e-12
+    assert abs(tw_model.M(q)[1, 1] - (p.m * p.l**2 + p.Ip)) < 1e-12
+    np.testing.assert_array_equal(tw_model.B(q), [[1.0], [-1.0]])
+    np.testing.assert_allclose(tw_model.friction([2.0, 5.0]), [2 * p.k, -2 * p.k])
+
+
+def test_two_wheeled_closed_forms_other_params():
+    p = two_wheeled.TwoWheeledParams(Ir=0.03, Ip=0.1, k=0.01, m=1.5, M=2.0, l=0.3, r=0.1, g=9.81)
+    check_closed_forms(two_wheeled.make_two_wheeled_model(p), random_states(2, 22))
+
+
+def test_two_wheeled_christoffel(tw_model):
+    check_christoffel(tw_model, random_states(2, 23))
+
+
+def test_two_wheeled_bad_inputs(tw_model):
+    check_bad_inputs(tw_model)
+    with pytest.raises(ValueError, match="parameter r must be positive"):
+        two_wheeled.make_two_wheeled_model(two_wheeled.TwoWheeledParams(r=0.0))
+    with pytest.raises(ValueError, match="friction k"):
+        two_wheeled.TwoWheeledParams(k=-1.0).validate()
+
+
+def test_two_wheeled_diagram_dynamics_with_friction(tw_model):
+    rng = np.random.default_rng(24)
+    states = random_states(2, 25, count=5)
+    check_diagram_dynamics(two_wheeled.add_two_wheeled, tw_model, states,
+                           [rng.normal(size=1) for _ in states], [rng.normal(size=2) for _ in states])
+
+
+def test_two_wheeled_friction_dissipates_energy():
+    """u = w = 0: the energy decreases at the rate −k ϕ̇ (ϕ̇ − θ̇) (power of K(q̇))."""
+    builder = DiagramBuilder()
+    h = two_wheeled.add_two_wheeled(builder)
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    h.set_state(ctx, diagram, [0.0, 0.1], [4.0, 0.0])
+    plant_ctx = h.plant.GetMyContextFromRoot(ctx)
+
+    def energy():
+        return h.plant.CalcKineticEnergy(plant_ctx) + h.plant.CalcPotentialEnergy(plant_ctx)
+
+    k = h.model.params.k
+    e0 = energy()
+    ts = np.linspace(0, 0.3, 61)
+    power = []
+    sim.get_mutable_integrator().set_target_accuracy(1e-9)
+    for t in ts:
+        sim.AdvanceTo(t)
+        _, qd = h.get_state(ctx)
+        power.append(-k * qd[0] * (qd[0] - qd[1]))
+    # trapezoid of the friction power vs the energy change
+    dissipated = float(np.sum(0.5 * (np.array(power[1:]) + power[:-1]) * np.diff(ts)))
+    assert dissipated < 0
+    assert abs((energy() - e0) - dissipated) <= 1e-3 * abs(dissipated)

@@ -9,8 +9,11 @@ returning :class:`PlantHandles`).
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import PlantHandles
 from sobolev_drake.models.arm import ArmParams, TwoLinkArmModel, add_arm, make_arm_model
+from sobolev_drake.models.two_wheeled import (TwoWheeledModel, TwoWheeledParams, add_two_wheeled,
+                                              make_two_wheeled_model)
 
 __all__ = [
     "MechanicalModel", "check_vector", "PlantHandles",
     "ArmParams", "TwoLinkArmModel", "add_arm", "make_arm_model",
+    "TwoWheeledParams", "TwoWheeledModel", "add_two_wheeled", "make_two_wheeled_model",
 ]

@@ -121,3 +121,6 @@ def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHa
     params = params or ArmParams()
     plant, scene_graph = build_plant(_arm_urdf(params), params.g, builder)
     return attach_adapter(builder, plant, scene_graph, TwoLinkArmModel(plant, params), "arm")
+
+
+Params = ArmParams  # short alias
