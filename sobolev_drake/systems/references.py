@@ -1,0 +1,253 @@
+"""Reference trajectories (q_r, q̇_r, q̈_r) with analytic derivatives, as Drake LeafSystems.
+
+A trajectory is a list of *pieces* separated by breakpoints b_0 < b_1 < …; piece k applies on
+(b_{k−1}, b_k] (the thesis writes its tables as "t ≤ 8", "8 < t ≤ 30"), the last piece for
+every t beyond the last breakpoint.  Each piece gives, for every coordinate, a
+:class:`Coordinate`: a callable of *absolute* time t returning (f, ḟ, f̈) — numpy-vectorized.
+
+:class:`PiecewiseTrajectory` is pure numpy (``evaluate(t) -> (q, qd, qdd)``);
+:class:`TrajectoryReference` wraps one as a LeafSystem with output ports ``q_r``, ``qdot_r``,
+``qddot_r`` and ``reference`` = [q_r; q̇_r; q̈_r] (size 3m), depending on time only.
+
+The thesis catalogue (see each function's docstring for the reconstruction of garbled tables
+and the smoothness at the breakpoints) lives in :mod:`sobolev_drake.systems.reference_catalogue`
+and is re-exported here: ``table_5_2``, ``table_5_5``, ``table_5_8``, ``table_6_3``,
+``table_7_1``, ``envelope_mission``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+__all__ = [
+    "Coordinate", "const", "sine", "poly", "PiecewiseTrajectory", "TrajectoryReference",
+]
+
+
+class Coordinate:
+    """One scalar reference coordinate on a piece: t ↦ (f(t), ḟ(t), f̈(t)), vectorized in t."""
+
+    def __init__(self, fn: Callable, description: str = ""):
+        self._fn = fn
+        self.description = description
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        f, df, ddf = self._fn(t)
+        shape = t.shape
+        return (np.broadcast_to(f, shape).astype(float), np.broadcast_to(df, shape).astype(float),
+                np.broadcast_to(ddf, shape).astype(float))
+
+    def __repr__(self):
+        return f"Coordinate({self.description})"
+
+
+def const(c: float) -> Coordinate:
+    """f(t) = c."""
+    c = float(c)
+    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}")
+
+
+def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
+    """f(t) = offset + A sin(ω (t − t0) + phase)  (use phase = π/2 for a cosine)."""
+    A, w, ph, c, s = map(float, (amplitude, omega, phase, offset, t0))
+
+    def fn(t):
+        arg = w * (t - s) + ph
+        return c + A * np.sin(arg), A * w * np.cos(arg), -A * w * w * np.sin(arg)
+
+    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})")
+
+
+def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
+    """f(t) = Σ_k c_k (t − t0)^k with ascending coefficients c_0, c_1, …"""
+    c = np.asarray(coefficients, dtype=float)
+    if c.ndim != 1 or c.size == 0:
+        raise ValueError("coefficients must be a non-empty 1-D sequence (ascending powers)")
+    P = np.polynomial.Polynomial(c)
+    dP, ddP = P.deriv(1), P.deriv(2)
+    s = float(t0)
+    return Coordinate(lambda t: (P(t - s), dP(t - s), ddP(t - s)), f"poly{tuple(c)} in (t-{s:g})")
+
+
+class PiecewiseTrajectory:
+    """Pure-numpy piecewise-analytic trajectory of m named coordinates.
+
+    Parameters
+    ----------
+    names : the m coordinate names (e.g. ``["x", "y", "z", "psi"]``), in output order.
+    pieces : list of K pieces; each is a sequence of m :class:`Coordinate`.
+    breakpoints : K − 1 strictly increasing times separating the pieces.
+    description : free text (source, reconstruction notes).
+    """
+
+    def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
+                 breakpoints: Sequence[float] = (), description: str = ""):
+        self.names = [str(n) for n in names]
+        self.m = len(self.names)
+        if self.m == 0:
+            raise ValueError("names must list at least one coordinate")
+        if len(set(self.names)) != self.m:
+            raise ValueError(f"names must be distinct, got {self.names}")
+        self.pieces = [list(p) for p in pieces]
+        if not self.pieces:
+            raise ValueError("pieces must contain at least one piece")
+        for k, p in enumerate(self.pieces):
+            if len(p) != self.m:
+                raise ValueError(f"pieces[{k}] has {len(p)} coordinates, expected {self.m} ({self.names})")
+            for j, c in enumerate(p):
+                if not isinstance(c, Coordinate):
+                    raise TypeError(f"pieces[{k}][{j}] must be a Coordinate, got {type(c).__name__}")
+        self.breakpoints = np.asarray(breakpoints, dtype=float).reshape(-1)
+        if self.breakpoints.size != len(self.pieces) - 1:
+            raise ValueError(f"breakpoints must have {len(self.pieces) - 1} entries (one fewer than pieces), "
+                             f"got {self.breakpoints.size}")
+        if np.any(np.diff(self.breakpoints) <= 0):
+            raise ValueError("breakpoints must be strictly increasing")
+        self.description = description
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no coordinate {name!r}; coordinates are {self.names}") from None
+
+    def evaluate(self, t):
+        """(q_r, q̇_r, q̈_r) at time(s) t: each shaped (m,) for scalar t, (N, m) for a vector."""
+        t_arr = np.asarray(t, dtype=float)
+        scalar = t_arr.ndim == 0
+        tt = np.atleast_1d(t_arr)
+        if tt.ndim != 1 or not np.all(np.isfinite(tt)):
+            raise ValueError(f"t must be a finite scalar or 1-D array, got shape {t_arr.shape}")
+        which = np.searchsorted(self.breakpoints, tt, side="left")  # (b_{k-1}, b_k] → piece k
+        out = np.zeros((3, tt.size, self.m))
+        for k in np.unique(which):
+            mask = which == k
+            for j, coord in enumerate(self.pieces[k]):
+                f, df, ddf = coord(tt[mask])
+                out[0, mask, j], out[1, mask, j], out[2, mask, j] = f, df, ddf
+        if scalar:
+            return out[0, 0], out[1, 0], out[2, 0]
+        return out[0], out[1], out[2]
+
+    def __call__(self, t):
+        return self.evaluate(t)
+
+    def subset(self, names: Sequence[str]) -> "PiecewiseTrajectory":
+        """The trajectory restricted to / reordered as ``names``."""
+        idx = [self.index(n) for n in names]
+        pieces = [[p[i] for i in idx] for p in self.pieces]
+        return PiecewiseTrajectory(list(names), pieces, self.breakpoints, self.description)
+
+    def jumps(self, eps: float = 1e-9) -> list[dict]:
+        """Jumps of q, q̇, q̈ at each breakpoint b (value of piece k+1 at b minus piece k at b).
+
+        Returns one dict per breakpoint: ``{"t": b, "q": (m,), "qd": (m,), "qdd": (m,)}``.
+        """
+        out = []
+        for k, b in enumerate(self.breakpoints):
+            left = [np.array([c(b)[i] for c in self.pieces[k]]) for i in range(3)]
+            right = [np.array([c(b)[i] for c in self.pieces[k + 1]]) for i in range(3)]
+            out.append({"t": float(b), "q": right[0] - left[0], "qd": right[1] - left[1],
+                        "qdd": right[2] - left[2]})
+        return out
+
+    def smoothness(self, tol: float = 1e-6) -> list[dict]:
+        """Per breakpoint and coordinate, the continuity class: "C2+", "C1", "C0" or "jump"."""
+        rows = []
+        for j in self.jumps():
+            for i, name in enumerate(self.names):
+                if abs(j["q"][i]) > tol:
+                    cls = "jump"
+                elif abs(j["qd"][i]) > tol:
+                    cls = "C0"
+                elif abs(j["qdd"][i]) > tol:
+                    cls = "C1"
+                else:
+                    cls = "C2+"
+                rows.append({"t": j["t"], "name": name, "class": cls})
+        return rows
+
+
+class TrajectoryReference(LeafSystem):
+    """LeafSystem emitting a :class:`PiecewiseTrajectory` (time-only outputs, no inputs).
+
+    Output ports: ``q_r`` (m), ``qdot_r`` (m), ``qddot_r`` (m), ``reference`` (3m, stacked
+    [q_r; q̇_r; q̈_r]).  ``evaluate(t)`` is the pure-numpy equivalent; ``names`` lists the
+    coordinates in output order.
+    """
+
+    def __init__(self, trajectory: PiecewiseTrajectory):
+        super().__init__()
+        if not isinstance(trajectory, PiecewiseTrajectory):
+            raise TypeError("trajectory must be a PiecewiseTrajectory")
+        self.trajectory = trajectory
+        self.names = list(trajectory.names)
+        self.m = trajectory.m
+        self.description = trajectory.description
+        time_only = {self.time_ticket()}
+        self.DeclareVectorOutputPort("q_r", self.m, self._calc_q, prerequisites_of_calc=time_only)
+        self.DeclareVectorOutputPort("qdot_r", self.m, self._calc_qd, prerequisites_of_calc=time_only)
+        self.DeclareVectorOutputPort("qddot_r", self.m, self._calc_qdd, prerequisites_of_calc=time_only)
+        self.DeclareVectorOutputPort("reference", 3 * self.m, self._calc_all, prerequisites_of_calc=time_only)
+
+    def evaluate(self, t):
+        """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`)."""
+        return self.trajectory.evaluate(t)
+
+    def _calc_q(self, context, output: BasicVector):
+        output.SetFromVector(self.trajectory.evaluate(context.get_time())[0])
+
+    def _calc_qd(self, context, output: BasicVector):
+        output.SetFromVector(self.trajectory.evaluate(context.get_time())[1])
+
+    def _calc_qdd(self, context, output: BasicVector):
+        output.SetFromVector(self.trajectory.evaluate(context.get_time())[2])
+
+    def _calc_all(self, context, output: BasicVector):
+        q, qd, qdd = self.trajectory.evaluate(context.get_time())
+        output.SetFromVector(np.concatenate([q, qd, qdd]))
+
+
+# Catalogue: thin wrappers (the definitions live in reference_catalogue.py, which imports this
+# module; importing lazily keeps either import order working).
+def table_5_2() -> TrajectoryReference:
+    """Manipulator, Table 5.2 (see :func:`reference_catalogue.table_5_2`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.table_5_2()
+
+
+def table_5_5() -> TrajectoryReference:
+    """Quadrotor altitude/attitude, Table 5.5 (see :func:`reference_catalogue.table_5_5`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.table_5_5()
+
+
+def table_5_8() -> TrajectoryReference:
+    """Quadrotor figure-8, Table 5.8 (see :func:`reference_catalogue.table_5_8`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.table_5_8()
+
+
+def table_6_3() -> TrajectoryReference:
+    """Quadrotor polytopic experiment, Table 6.3 (see :func:`reference_catalogue.table_6_3`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.table_6_3()
+
+
+def table_7_1(full_state: bool = False) -> TrajectoryReference:
+    """Tilt-rotor helicopter mode, Table 7.1 (see :func:`reference_catalogue.table_7_1`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.table_7_1(full_state=full_state)
+
+
+def envelope_mission() -> TrajectoryReference:
+    """Tilt-rotor full-envelope mission, scenario 2 (see :func:`reference_catalogue.envelope_mission`)."""
+    from sobolev_drake.systems import reference_catalogue as cat
+    return cat.envelope_mission()
+
+
+__all__ += ["table_5_2", "table_5_5", "table_5_8", "table_6_3", "table_7_1", "envelope_mission"]
