@@ -1,0 +1,137 @@
+"""Parameters (thesis Table B.1) and rigid-body kinematics of the tilt-rotor UAV (section 7.2).
+
+Generalized coordinates in thesis order q = [αR αL φ θ ψ x y z] (7.1)–(7.13); z up;
+R_I^B = Rz(ψ) Ry(θ) Rx(φ); R_B^A2 = Ry(αR) Rx(−β), R_B^A3 = Ry(αL) Rx(β).
+
+This module has no Drake dependency: it is shared by the URDF writer, the force systems
+(propellers, aerodynamics), the input-affine form and the tests.  Generalized forces are
+obtained from the Jacobians of the thesis in closed form:
+
+* a force ``F_B`` (body axes) at body point ``r`` plus a body torque ``M_B`` on the main body give
+  ``[0, 0, Wηᵀ (r × F_B + M_B), R F_B]``  ((7.47) with J_S (7.35), W_S (7.36));
+* on a thruster group they also give ``e_yᵀ (R_B^A d × F_B + M_B)`` on its tilt angle (7.32).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+#: thesis order of the generalized coordinates
+DOF_NAMES = ("alpha_R", "alpha_L", "phi", "theta", "psi", "x", "y", "z")
+#: thesis order of the input-affine actuator vector τ̄ (7.62)
+ACTUATOR_NAMES = ("f_PR", "f_PL", "tau_sR", "tau_sL", "delta_WR", "delta_WL", "delta_TR", "delta_TL")
+#: aerodynamic surfaces (7.34)–(7.56): fuselage, wings, tails, interference (at C1)
+SURFACES = ("F", "WR", "WL", "TR", "TL", "I")
+
+
+def _v(x):
+    return np.asarray(x, dtype=float)
+
+
+@dataclass(frozen=True)
+class TiltrotorParams:
+    """Physical and aerodynamic parameters of the ProVANT-Emergentia tilt-rotor (Table B.1).
+
+    Gravity: Table B.1 lists 9.87 m/s², the text of (7.17) 9.8 m/s²; 9.8 is the default because
+    it reproduces the thesis' hover trim n = 51.9 rev/s best (see ``trim_hover``).
+    """
+
+    g: float = 9.8
+    beta: float = np.deg2rad(5.0)        # thruster inclination toward the fuselage
+    epsilon: float = np.deg2rad(5.0)     # wing dihedral (visual only: R_I^S = R_I^B, App. B)
+    mu: float = np.deg2rad(30.0)         # V-tail dihedral (visual only)
+    nu: float = 0.005                    # servo viscous friction [N m s/rad]
+    m1: float = 7.0
+    m2: float = 0.3
+    m3: float = 0.3
+    d_B_C1: np.ndarray = field(default_factory=lambda: _v([0.05, 0.0, 0.12]))
+    d_B_A2: np.ndarray = field(default_factory=lambda: _v([0.03, -1.025, 0.292]))
+    d_B_A3: np.ndarray = field(default_factory=lambda: _v([0.03, 1.025, 0.292]))
+    d_A_C: np.ndarray = field(default_factory=lambda: _v([0.0, 0.0, 0.07]))   # A2→C2, A3→C3
+    d_A_P: np.ndarray = field(default_factory=lambda: _v([0.0, 0.0, 0.1]))    # A2→PR, A3→PL
+    d_B_F: np.ndarray = field(default_factory=lambda: _v([0.1960, 0.0, 0.1200]))
+    d_B_WR: np.ndarray = field(default_factory=lambda: _v([0.0060, -0.4650, 0.2620]))
+    d_B_WL: np.ndarray = field(default_factory=lambda: _v([0.0060, 0.4650, 0.2620]))
+    d_B_TR: np.ndarray = field(default_factory=lambda: _v([-0.4823, -0.2952, 0.3532]))
+    d_B_TL: np.ndarray = field(default_factory=lambda: _v([-0.4823, 0.2952, 0.3532]))
+    I_C1: np.ndarray = field(default_factory=lambda: _v([[2.727, 0, -0.002], [0, 7.447, 0], [-0.002, 0, 9.95]]))
+    I_C2: np.ndarray = field(default_factory=lambda: np.diag([0.005, 0.005, 0.002]))
+    I_C3: np.ndarray = field(default_factory=lambda: np.diag([0.005, 0.005, 0.002]))
+    # propellers (7.25)–(7.28): rotation signs λR = 1, λL = −1
+    lambda_R: float = 1.0
+    lambda_L: float = -1.0
+    # aerodynamics (Appendix B)
+    rho: float = 1.21
+    S: float = 0.125                    # reference area of each tested component
+    chord: float = 0.1366
+    span: float = 1.7592
+    c_delta_a: float = 0.7104
+    c_delta_e: float = 0.3759
+    c_delta_r: float = -0.0730
+
+    @property
+    def mass(self) -> float:
+        return self.m1 + self.m2 + self.m3
+
+    def with_(self, **changes) -> "TiltrotorParams":
+        """Copy with some parameters changed."""
+        return replace(self, **changes)
+
+    def aero_points(self) -> np.ndarray:
+        """(6, 3) body-frame aerodynamic centres in ``SURFACES`` order (interference at C1)."""
+        return np.array([self.d_B_F, self.d_B_WR, self.d_B_WL, self.d_B_TR, self.d_B_TL, self.d_B_C1])
+
+
+# --- rotations ---------------------------------------------------------------------------------
+def rot_x(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def rot_y(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+
+
+def rot_z(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def R_IB(q) -> np.ndarray:
+    """R_I^B = Rz(ψ) Ry(θ) Rx(φ) (7.2)."""
+    return rot_z(q[4]) @ rot_y(q[3]) @ rot_x(q[2])
+
+
+def W_eta(q) -> np.ndarray:
+    """Wη of (7.10): body angular velocity ω_B = Wη η̇, η = [φ θ ψ]."""
+    sphi, cphi = np.sin(q[2]), np.cos(q[2])
+    sth, cth = np.sin(q[3]), np.cos(q[3])
+    return np.array([[1.0, 0.0, -sth], [0.0, cphi, cth * sphi], [0.0, -sphi, cphi * cth]])
+
+
+def R_BA(params: TiltrotorParams, alpha_R: float, alpha_L: float):
+    """(R_B^A2, R_B^A3) = (Ry(αR) Rx(−β), Ry(αL) Rx(β)) (7.4), (7.6)."""
+    return rot_y(alpha_R) @ rot_x(-params.beta), rot_y(alpha_L) @ rot_x(params.beta)
+
+
+def body_generalized_force(q, r_B, F_B, M_B=None) -> np.ndarray:
+    """Generalized force (thesis order) of body-axes forces ``F_B`` (k, 3) at body points
+    ``r_B`` (k, 3) plus body torques ``M_B`` (k, 3), all acting on the main body."""
+    F_B = np.atleast_2d(F_B)
+    tau_B = np.cross(np.atleast_2d(r_B), F_B).sum(axis=0)
+    if M_B is not None:
+        tau_B = tau_B + np.atleast_2d(M_B).sum(axis=0)
+    out = np.zeros(8)
+    out[2:5] = W_eta(q).T @ tau_B
+    out[5:8] = R_IB(q) @ F_B.sum(axis=0)
+    return out
+
+
+def body_point_velocity(q, qdot, r_B) -> np.ndarray:
+    """Body-axes velocity R_Bᵀ ṗ of main-body points ``r_B`` (k, 3) (7.35)."""
+    R = R_IB(q)
+    w = W_eta(q) @ qdot[2:5]
+    return (R.T @ qdot[5:8])[None, :] + np.cross(w, np.atleast_2d(r_B))
