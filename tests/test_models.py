@@ -7,7 +7,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models import arm, two_wheeled
+from sobolev_drake.models import arm, quadrotor, two_wheeled
 
 N_STATES = 20
 REL_TOL = 1e-9
@@ -95,7 +95,8 @@ def check_diagram_dynamics(add_fn, closed_model, states, u_list, w_list, **kwarg
         vdot_drake = derivs.get_vector().CopyToVector()[n:]
         qddot = h.model.to_thesis(vdot_drake)
         m = closed_model
-        rhs = (m.B(q) @ u + w - m.friction(qdot) - m.Cqdot_closed_form(q, qdot) - m.g_closed_form(q))
+        B = m.B_closed_form(q) if hasattr(m, "B_closed_form") else m.B(q)
+        rhs = (B @ u + w - m.friction(qdot) - m.Cqdot_closed_form(q, qdot) - m.g_closed_form(q))
         expected = np.linalg.solve(m.M_closed_form(q), rhs)
         assert rel_err(qddot, expected) <= 1e-8
         np.testing.assert_allclose(h.x.Eval(adapter_ctx), np.r_[q, qdot], rtol=1e-12, atol=1e-12)
@@ -248,3 +249,107 @@ def test_two_wheeled_friction_dissipates_energy():
     dissipated = float(np.sum(0.5 * (np.array(power[1:]) + power[:-1]) * np.diff(ts)))
     assert dissipated < 0
     assert abs((energy() - e0) - dissipated) <= 1e-3 * abs(dissipated)
+
+
+# --- quadrotor ------------------------------------------------------------------------------------
+def quad_states(seed, count=N_STATES):
+    """Random states away from the Euler singularity |θ| = π/2."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        q = np.r_[rng.uniform(-np.pi, np.pi), rng.uniform(-1.3, 1.3), rng.uniform(-np.pi, np.pi),
+                  rng.uniform(-5, 5, 3)]
+        out.append((q, rng.uniform(-3, 3, 6)))
+    return out
+
+
+@pytest.fixture(scope="module")
+def quad_model():
+    return quadrotor.make_quadrotor_model()
+
+
+def test_quadrotor_table_5_4(quad_model):
+    p = quad_model.params
+    assert (p.Ixx, p.Iyy, p.Izz, p.m, p.l, p.g, p.b, p.d) == (0.0363, 0.0363, 0.0615, 2.2, 0.21, 9.8, 2.9e-5, 6e-6)
+    assert abs(quad_model.tilt - np.deg2rad(5)) < 1e-15
+    assert quad_model.dof_names == ["phi", "theta", "psi", "x", "y", "z"]
+    # thesis order [ϕ θ ψ x y z] vs Drake's joint order [x y z ψ θ ϕ]
+    np.testing.assert_array_equal(quad_model.to_drake([1, 2, 3, 4, 5, 6]), [4, 5, 6, 3, 2, 1])
+
+
+@pytest.mark.parametrize("tilt", [None, 0.0])
+def test_quadrotor_closed_forms(tilt):
+    check_closed_forms(quadrotor.make_quadrotor_model(tilt=tilt), quad_states(31))
+
+
+def test_quadrotor_closed_forms_chapter6_params():
+    check_closed_forms(quadrotor.make_quadrotor_model(quadrotor.QuadrotorParams.chapter6_nominal()),
+                       quad_states(32, count=5))
+
+
+@pytest.mark.parametrize("tilt,mode", [(None, "thesis"), (0.0, "thesis"), (None, "axial"), (0.3, "axial")])
+def test_quadrotor_B_from_jacobians_equals_5_123(tilt, mode):
+    model = quadrotor.make_quadrotor_model(tilt=tilt, reaction_torque=mode)
+    for q, _ in quad_states(33):
+        B, Bc = model.B(q), model.B_closed_form(q)
+        # block-wise: torque rows are ~1e-6, force rows ~1e-5
+        assert rel_err(B[:3], Bc[:3]) <= REL_TOL
+        assert rel_err(B[3:], Bc[3:]) <= REL_TOL
+
+
+def test_quadrotor_B_at_level_attitude(quad_model):
+    p, a = quad_model.params, quad_model.tilt
+    B = quad_model.B(np.zeros(6))
+    lb = p.l * p.b * np.cos(a)
+    np.testing.assert_allclose(B[0], [0, lb, 0, -lb], atol=1e-20)
+    np.testing.assert_allclose(B[2], p.d * np.cos(a) * np.array([1, -1, 1, -1]), rtol=1e-12)
+    np.testing.assert_allclose(B[3], p.b * np.sin(a) * np.array([-1, 0, 1, 0]), rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(B[5], np.full(4, p.b * np.cos(a)), rtol=1e-12)
+    # the axial drag torque differs from (5.123) by d sin α in the roll/pitch rows
+    Bax = quadrotor.make_quadrotor_model(reaction_torque="axial").B(np.zeros(6))
+    np.testing.assert_allclose(np.abs(Bax[:2] - B[:2]).sum(axis=0), np.full(4, p.d * np.sin(a)), rtol=1e-9)
+
+
+def test_quadrotor_christoffel(quad_model):
+    check_christoffel(quad_model, quad_states(34, count=10))
+
+
+def test_quadrotor_diagram_dynamics(quad_model):
+    rng = np.random.default_rng(35)
+    states = quad_states(36, count=5)
+    hover = quad_model.params.hover_input()
+    check_diagram_dynamics(quadrotor.add_quadrotor, quad_model, states,
+                           [hover * rng.uniform(0.5, 1.5, 4) for _ in states],
+                           [rng.normal(size=6) for _ in states])
+
+
+def test_quadrotor_untilted_truth_and_hover():
+    builder = DiagramBuilder()
+    h = quadrotor.add_quadrotor(builder, tilt=0.0)
+    diagram = builder.Build()
+    assert h.model.tilt == 0.0
+    np.testing.assert_allclose(h.model.B(np.zeros(6))[3:5], 0.0, atol=1e-20)
+    sim = Simulator(diagram)
+    ctx = sim.get_mutable_context()
+    hover = h.model.params.hover_input()
+    h.u.FixValue(h.adapter.GetMyMutableContextFromRoot(ctx), np.full(4, hover))
+    h.set_state(ctx, diagram, [0, 0, 0.4, 1, 2, 3], np.zeros(6))
+    sim.AdvanceTo(1.0)
+    q, qdot = h.get_state(ctx)
+    np.testing.assert_allclose(q, [0, 0, 0.4, 1, 2, 3], atol=1e-9)
+    np.testing.assert_allclose(qdot, 0, atol=1e-9)
+    # a plant built untilted cannot be wrapped as a tilted model
+    with pytest.raises(ValueError, match="tilted by"):
+        quadrotor.QuadrotorModel(h.plant, tilt=np.deg2rad(5))
+
+
+def test_quadrotor_bad_inputs(quad_model):
+    check_bad_inputs(quad_model)
+    with pytest.raises(ValueError, match="q must be a vector of length 6"):
+        quad_model.B(np.zeros(4))
+    with pytest.raises(ValueError, match="reaction_torque"):
+        quadrotor.make_quadrotor_model(reaction_torque="sideways")
+    with pytest.raises(ValueError, match="tilt alpha"):
+        quadrotor.make_quadrotor_model(tilt=2.0)
+    with pytest.raises(ValueError, match="triangle"):
+        quadrotor.make_quadrotor_model(quadrotor.QuadrotorParams(Izz=1.0))

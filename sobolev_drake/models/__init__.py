@@ -11,9 +11,12 @@ from sobolev_drake.models.handles import PlantHandles
 from sobolev_drake.models.arm import ArmParams, TwoLinkArmModel, add_arm, make_arm_model
 from sobolev_drake.models.two_wheeled import (TwoWheeledModel, TwoWheeledParams, add_two_wheeled,
                                               make_two_wheeled_model)
+from sobolev_drake.models.quadrotor import (QuadrotorModel, QuadrotorParams, add_quadrotor,
+                                            make_quadrotor_model)
 
 __all__ = [
     "MechanicalModel", "check_vector", "PlantHandles",
     "ArmParams", "TwoLinkArmModel", "add_arm", "make_arm_model",
     "TwoWheeledParams", "TwoWheeledModel", "add_two_wheeled", "make_two_wheeled_model",
+    "QuadrotorParams", "QuadrotorModel", "add_quadrotor", "make_quadrotor_model",
 ]
