@@ -29,11 +29,16 @@ def _chain_gain(weights, R):
 W = tc.THESIS_WEIGHTS
 
 
+class _Gains:
+    def __init__(self, Ks, Kr, Kc):
+        self.Ks, self.Kr, self.Kc = Ks, Kr, Kc
+
+
 def thesis_gains_by_care():
     Ks, _ = _chain_gain([W["Upsilon0"]], W["Upsilon1"])
     Kr, _ = _chain_gain([W["Sigma1"], W["Sigma0"]], W["Sigma2"])
     Kc, _ = _chain_gain([W["Gamma2"], W["Gamma1"], W["Gamma0"]], W["Gamma3"])
-    return tc.TiltrotorWInfGains(Ks=Ks, Kr=Kr, Kc=Kc)
+    return _Gains(Ks, Kr, Kc)
 
 
 def test_care_gains_satisfy_theorem_12_riccati_set():
@@ -71,15 +76,14 @@ def test_scalar_closed_form_controlled_chain():
 
 
 def test_mechanical_synthesis_matches_private_care():
-    mech = pytest.importorskip("sobolev_drake.synthesis.mechanical")
     ref = thesis_gains_by_care()
-    g = tc.TiltrotorWInfGains.from_sobolev(
-        mech.stabilized_gains(W["Upsilon0"], W["Upsilon1"]),
-        mech.regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
-        mech.controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]))
-    assert np.allclose(g.Ks, ref.Ks, rtol=1e-6)
-    assert np.allclose(g.Kr, ref.Kr, rtol=1e-6)
-    assert np.allclose(g.Kc, ref.Kc, rtol=1e-6)
+    inner = tc.thesis_inner_law()
+    assert np.allclose(inner.stabilized.K, ref.Ks, rtol=1e-6)
+    assert np.allclose(inner.regulated.K, ref.Kr, rtol=1e-6)
+    assert np.allclose(inner.controlled.K, ref.Kc, rtol=1e-6)
+    # the inverse of E = blkdiag(Υ1, Σ2, Γ3) quoted from the author's simulator
+    Einv = np.r_[1 / np.diag(W["Upsilon1"]), 1 / np.diag(W["Sigma2"]), 1 / np.diag(W["Gamma3"])]
+    assert np.allclose(Einv, [0.5, 50, 10, 10, 0.0667, 0.002, 0.002, 0.02], rtol=1e-3)
 
 
 def test_closed_loop_error_chains_are_hurwitz():
@@ -95,30 +99,6 @@ def test_closed_loop_error_chains_are_hurwitz():
     Ar[3:, :3] = np.eye(3)
     assert np.max(np.linalg.eigvals(Ar).real) < 0
     assert np.all(np.linalg.eigvals(-g.Ks).real < 0)
-
-
-def test_desired_acceleration_partition():
-    g = thesis_gains_by_care()
-    rng = np.random.default_rng(0)
-    q, qd = rng.normal(size=8), rng.normal(size=8)
-    ref_c = tuple(rng.normal(size=3) for _ in range(3))
-    ref_r = tuple(rng.normal(size=3) for _ in range(3))
-    ie = rng.normal(size=3)
-    qdd = tc.desired_acceleration(g, q, qd, ref_c, ref_r, ie)
-    assert np.allclose(qdd[[2, 3]], -g.Ks @ qd[[2, 3]])
-    er = q[[0, 1, 4]] - ref_r[0]
-    edr = qd[[0, 1, 4]] - ref_r[1]
-    assert np.allclose(qdd[[0, 1, 4]], ref_r[2] - g.Kr @ np.r_[edr, er])
-    ec = q[5:] - ref_c[0]
-    edc = qd[5:] - ref_c[1]
-    assert np.allclose(qdd[5:], ref_c[2] - g.Kc @ np.r_[edc, ec, ie])
-    with pytest.raises(ValueError, match="integral_ec"):
-        tc.desired_acceleration(g, q, qd, ref_c, ref_r, np.zeros(2))
-
-
-def test_gains_reject_bad_shapes():
-    with pytest.raises(ValueError, match="Kc"):
-        tc.TiltrotorWInfGains(Ks=np.eye(2), Kr=np.zeros((3, 6)), Kc=np.zeros((3, 6)))
 
 
 def test_thesis_bounds_and_sigmoid():

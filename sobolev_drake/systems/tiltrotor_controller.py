@@ -41,6 +41,8 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
+from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
+from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
 
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
@@ -72,37 +74,17 @@ THESIS_LIMITS = {
 }
 
 
-def _as_matrix(name, value, shape):
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != shape:
-        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite")
-    return arr
+#: the partition (7.63) for ``systems.mechanical_controller.MechanicalLaw``
+PARTITION = Partition(controlled=tuple(CONTROLLED), regulated=tuple(REGULATED),
+                      stabilized=tuple(STABILIZED))
 
 
-@dataclass(frozen=True)
-class TiltrotorWInfGains:
-    """Acceleration feedback gains of the partitioned law (7.81).
-
-    ``Ks`` (2×2): q̈_s,des = −Ks q̇_s                      (Ks = Υ1⁻¹U)
-    ``Kr`` (3×6): ë_r*    = −Kr [ė_r; e_r]               (Kr = Σ2⁻¹[A B])
-    ``Kc`` (3×9): ë_c*    = −Kc [ė_c; e_c; ∫e_c]         (Kc = Γ3⁻¹[Q K T])
-    """
-
-    Ks: np.ndarray
-    Kr: np.ndarray
-    Kc: np.ndarray
-
-    def __post_init__(self):
-        object.__setattr__(self, "Ks", _as_matrix("Ks", self.Ks, (2, 2)))
-        object.__setattr__(self, "Kr", _as_matrix("Kr", self.Kr, (3, 6)))
-        object.__setattr__(self, "Kc", _as_matrix("Kc", self.Kc, (3, 9)))
-
-    @classmethod
-    def from_sobolev(cls, stabilized, regulated, controlled) -> "TiltrotorWInfGains":
-        """Build from the three ``SobolevGains`` of ``synthesis.mechanical`` (their ``.K``)."""
-        return cls(Ks=stabilized.K, Kr=regulated.K, Kc=controlled.K)
+def thesis_inner_law(weights=None) -> SobolevLaw:
+    """:class:`SobolevLaw` of the thesis tuning (gains from ``synthesis.mechanical`` CAREs)."""
+    W = THESIS_WEIGHTS if weights is None else weights
+    return SobolevLaw(controlled=controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]),
+                      regulated=regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
+                      stabilized=stabilized_gains(W["Upsilon0"], W["Upsilon1"]))
 
 
 def tilt_schedule_polynomial(coefficients, speed_range=(0.0, 33.99)):
@@ -155,30 +137,9 @@ def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
     return q, qd, qdd
 
 
-def desired_acceleration(gains: TiltrotorWInfGains, q, qdot, ref_c, ref_r, integral_ec):
-    """q̈_des of (7.81) in thesis order.
-
-    ``ref_c`` = (q_cr, q̇_cr, q̈_cr) of [x y z]; ``ref_r`` = (q_rr, q̇_rr, q̈_rr) of [αR αL ψ];
-    ``integral_ec`` = ∫(q_c − q_cr) dt.
-    """
-    q = check_vector("q", q, N_Q)
-    qdot = check_vector("qdot", qdot, N_Q)
-    ie = check_vector("integral_ec", integral_ec, 3)
-    qcr, qdcr, qddcr = (check_vector(f"ref_c[{i}]", v, 3) for i, v in enumerate(ref_c))
-    qrr, qdrr, qddrr = (check_vector(f"ref_r[{i}]", v, 3) for i, v in enumerate(ref_r))
-    e_c, ed_c = q[CONTROLLED] - qcr, qdot[CONTROLLED] - qdcr
-    e_r, ed_r = q[REGULATED] - qrr, qdot[REGULATED] - qdrr
-    qdd = np.empty(N_Q)
-    qdd[STABILIZED] = -gains.Ks @ qdot[STABILIZED]
-    qdd[REGULATED] = qddrr - gains.Kr @ np.concatenate([ed_r, e_r])
-    qdd[CONTROLLED] = qddcr - gains.Kc @ np.concatenate([ed_c, e_c, ie])
-    return qdd
-
-
-def generalized_input(model, q, qdot, qdd_des, theta_passive):
-    """u* = M(q) q̈_des + C(q, q̇) q̇ + g(q) − ϑ_passive (7.81) with k = g (w* = 0)."""
-    return (model.M(q) @ qdd_des + model.Cqdot(q, qdot) + model.g(q)
-            - check_vector("theta_passive", theta_passive, N_Q))
+def tracked_reference(ref_c, ref_r):
+    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`."""
+    return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
 def sigmf(v, s=THESIS_LIMITS["sigmoid_s"], c=THESIS_LIMITS["sigmoid_c"]):
@@ -224,10 +185,12 @@ class ControlStep:
 class TiltrotorWInfLaw:
     """The pure (numpy) law: references → q̈_des → u* → allocation → propeller speeds.
 
+    q̈_des and u* come from the shared :class:`MechanicalLaw` with the partition (7.63)
+    (:data:`PARTITION`); ϑ_passive enters as its ``extra`` term.
+
     Parameters
     ----------
-    model : ``TiltrotorModel`` (M, Cqdot, g in thesis order).
-    gains : :class:`TiltrotorWInfGains`.
+    mech_law : :class:`MechanicalLaw` on the controller's tilt-rotor model with :data:`PARTITION`.
     input_affine : ``f(model, q, qdot, zeta) -> (B 8×8, ϑ_passive 8)`` (plant engineer's map).
     allocate : ``f(B, u, lo, up) -> τ̄`` bounded least squares (7.84).
     bounds : ``f(q, qdot, zeta) -> (lo, up)`` (7.85)–(7.89).
@@ -235,29 +198,37 @@ class TiltrotorWInfLaw:
     tilt_schedule : ``f(U) -> (α, α', α'')`` for the regulated tilt references.
     """
 
-    def __init__(self, model, gains, *, input_affine, allocate, bounds, thrust_to_speed,
+    def __init__(self, mech_law, *, input_affine, allocate, bounds, thrust_to_speed,
                  tilt_schedule):
-        if not isinstance(gains, TiltrotorWInfGains):
-            raise TypeError("gains must be a TiltrotorWInfGains")
+        if not isinstance(mech_law, MechanicalLaw):
+            raise TypeError("mech_law must be a MechanicalLaw")
+        p = mech_law.partition
+        if (p.controlled, p.regulated, p.stabilized) != (PARTITION.controlled, PARTITION.regulated,
+                                                         PARTITION.stabilized):
+            raise ValueError(f"mech_law must use the tilt-rotor partition {PARTITION}, got {p}")
+        if not isinstance(mech_law.law, SobolevLaw):
+            raise TypeError("mech_law.law must be a SobolevLaw (W∞ = W2 here, k = g)")
         for name, f in [("input_affine", input_affine), ("allocate", allocate),
                         ("bounds", bounds), ("thrust_to_speed", thrust_to_speed),
                         ("tilt_schedule", tilt_schedule)]:
             if not callable(f):
                 raise TypeError(f"{name} must be callable")
-        self.model, self.gains = model, gains
+        self.mech_law, self.model = mech_law, mech_law.model
         self.input_affine, self.allocate, self.bounds = input_affine, allocate, bounds
         self.thrust_to_speed, self.tilt_schedule = thrust_to_speed, tilt_schedule
 
     def step(self, q, qdot, reference, wind, integral_ec) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12)."""
+        q = check_vector("q", q, N_Q)
+        qdot = check_vector("qdot", qdot, N_Q)
         ref = check_vector("reference", reference, 12)
         wind = check_vector("wind", wind, 3)
         p, v, a = ref[0:4], ref[4:8], ref[8:12]
-        ref_c = (p[:3], v[:3], a[:3])
         ref_r = regulated_reference(self.tilt_schedule, v, a, (p[3], v[3], a[3]), wind)
-        qdd = desired_acceleration(self.gains, q, qdot, ref_c, ref_r, integral_ec)
+        tracked = tracked_reference((p[:3], v[:3], a[:3]), ref_r)
+        qdd = self.mech_law.desired_acceleration(q, qdot, integral_ec, tracked)
         B, theta = self.input_affine(self.model, q, qdot, wind)
-        u = generalized_input(self.model, q, qdot, qdd, theta)
+        u = self.mech_law.generalized_input(q, qdot, integral_ec, tracked, extra=theta)
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind), dtype=float)
@@ -337,3 +308,130 @@ class TiltrotorWInfController(LeafSystem):
         new[self._SAT] = saturation_flags(step.tau_bar, step.lo, step.up)
         discrete_state.get_mutable_vector(self._state).SetFromVector(new)
         self.last_step = step
+
+
+# --- composition with the plant model, allocation and propeller data ----------------------------
+def surface_air_speeds(params, q, qdot, wind):
+    """|V_air| at the wing and tail aerodynamic centres [WR WL TR TL] (body kinematics (7.35))."""
+    from sobolev_drake.models import tiltrotor_params as tp
+    pts = np.array([params.d_B_WR, params.d_B_WL, params.d_B_TR, params.d_B_TL])
+    v_rel = tp.body_point_velocity(q, qdot, pts) - tp.R_IB(q).T @ wind
+    return np.linalg.norm(v_rel, axis=1)
+
+
+def rotor_air_velocity(params, q, qdot, wind):
+    """Air-relative velocity of the two propeller hubs in their rotor frames (2, 3).
+
+    Hub point r = d_B^A + R_B^A d_A^P; the lever-arm term of the tilt rate α̇ (0.1 m) is
+    neglected (it changes J by < 1 % at the tilt rates of the missions)."""
+    from sobolev_drake.models import tiltrotor_params as tp
+    RA = tp.R_BA(params, q[0], q[1])
+    pts = np.array([params.d_B_A2 + RA[0] @ params.d_A_P, params.d_B_A3 + RA[1] @ params.d_A_P])
+    v_b = tp.body_point_velocity(q, qdot, pts) - tp.R_IB(q).T @ wind
+    return np.array([RA[0].T @ v_b[0], RA[1].T @ v_b[1]])
+
+
+def propeller_speeds_for_thrust(coeffs, thrust, v_rel_rotor, iterations=45):
+    """Largest n ≥ 0 solving f − ρ d⁴ n² Ct(J(n), φ) = 0 (7.90) for each rotor.
+
+    J = |v_xz| / (n d) depends on n, and with fast axial inflow Ct(J, φ) < 0 at small n (J is
+    clamped at the table's J_max), so a plain fixed point can oscillate.  Instead the thrust
+    g(n) = ρ d⁴ n² Ct(J(n), φ) is bracketed (it is positive for large n) and the root is found
+    by vectorized bisection (relative accuracy 2⁻⁴⁵).  Zero thrust gives n = 0.
+    """
+    f = np.maximum(np.asarray(thrust, dtype=float), 0.0)
+    v = np.asarray(v_rel_rotor, dtype=float)
+    k = coeffs.rho * coeffs.diameter ** 4
+
+    def g(n):
+        J, phi = coeffs.advance_ratio_and_inflow(v, n)
+        return k * n ** 2 * coeffs.ct(J, phi) - f
+
+    J0, phi0 = coeffs.advance_ratio_and_inflow(v, np.full(f.shape, np.inf))
+    # fast path: the fixed point n ← √(f / (ρd⁴Ct(J(n), φ))) converges in a few steps unless
+    # the inflow is fast; accept it when the thrust residual is negligible.
+    n = np.sqrt(f / (k * np.maximum(coeffs.ct(J0, phi0), 1e-3)))
+    for _ in range(12):
+        J, phi = coeffs.advance_ratio_and_inflow(v, np.maximum(n, 1e-9))
+        ct = coeffs.ct(J, phi)
+        if np.any(ct <= 0):
+            break
+        resid = k * n ** 2 * ct - f
+        if np.all(np.abs(resid) <= 1e-7 * (1.0 + f)):
+            return np.where(f > 0, n, 0.0)
+        n = np.sqrt(f / (k * ct))
+    hi = np.maximum(np.sqrt(f / (k * np.maximum(coeffs.ct(J0, phi0), 1e-3))), 1.0)
+    for _ in range(30):                     # grow until thrust exceeds the demand
+        bad = g(hi) < 0
+        if not np.any(bad):
+            break
+        hi = np.where(bad, 2.0 * hi, hi)
+    lo = 0.5 * hi
+    for _ in range(60):                     # shrink until below the demand (or ~0)
+        bad = (g(lo) >= 0) & (lo > 1e-6)
+        if not np.any(bad):
+            break
+        lo = np.where(bad, 0.5 * lo, lo)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        pos = g(mid) >= 0
+        hi = np.where(pos, mid, hi)
+        lo = np.where(pos, lo, mid)
+    return np.where(f > 0, hi, 0.0)
+
+
+def bounded_least_squares_scipy(B, u, lo, up):
+    """min ‖u − Bτ‖² s.t. lo ≤ τ ≤ up with scipy's BVLS (reference implementation)."""
+    from scipy.optimize import lsq_linear
+    return lsq_linear(B, u, bounds=(lo, up), method="bvls").x
+
+
+def make_law(model, inner=None, *, schedule="data", allocate=None, params=None, coeffs=None):
+    """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
+
+    ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
+
+    ``schedule``: ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``;
+    ``"plant"`` — the plant model's trim schedule (``models.tiltrotor.tilt_schedule``); or a
+    callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
+    ``systems.allocation.bounded_least_squares`` (scipy BVLS if that module is absent).
+    """
+    from sobolev_drake.data import load
+    from sobolev_drake.models import tiltrotor as tr
+    from sobolev_drake.systems.propulsion import PropellerCoefficients
+
+    params = params if params is not None else getattr(model, "params", None)
+    if params is None:
+        from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+        params = TiltrotorParams()
+    coeffs = coeffs if coeffs is not None else PropellerCoefficients()
+    if callable(schedule):
+        sched = schedule
+    elif schedule == "data":
+        spec = load("tiltrotor_missions")["scenario_2_full_envelope"]["tilt_reference_vs_forward_speed"]
+        sched = tilt_schedule_polynomial(spec["coefficients"])
+    elif schedule == "plant":
+        sched = tr.tilt_schedule_function() if hasattr(tr, "tilt_schedule_function") else None
+        if sched is None:
+            raise ValueError("the plant model exposes no tilt schedule function")
+    else:
+        raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
+    if allocate is None:
+        try:
+            from sobolev_drake.systems.allocation import bounded_least_squares as allocate
+        except ImportError:
+            allocate = bounded_least_squares_scipy
+    limits = THESIS_LIMITS
+
+    def bounds(q, qdot, wind):
+        return thesis_bounds(surface_air_speeds(params, q, qdot, wind), limits)
+
+    def thrust_to_speed(f, q, qdot, wind):
+        return propeller_speeds_for_thrust(coeffs, f, rotor_air_velocity(params, q, qdot, wind))
+
+    inner = thesis_inner_law() if inner is None else inner
+    mech = MechanicalLaw(model, PARTITION, inner, allocation=lambda u, q, qd: u)
+    law = TiltrotorWInfLaw(mech, input_affine=tr.input_affine, allocate=allocate,
+                           bounds=bounds, thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
+    law.params, law.coeffs = params, coeffs
+    return law
