@@ -1,0 +1,382 @@
+"""Nonlinear W2/W∞ and classic H∞ controllers for Euler–Lagrange plants (thesis ch. 5 and 7.3.2).
+
+Two layers:
+
+* :class:`MechanicalLaw` — pure numpy/Drake-model maths, no LeafSystem.  Given the plant
+  *model* (a :class:`~sobolev_drake.models.base.MechanicalModel`, usually a separate instance
+  from the simulated truth), a :class:`Partition` of the DOF and an inner law
+  (:class:`SobolevLaw` or :class:`HinfLaw`), it computes from ``(q, q̇, ∫e, reference)``:
+
+  - ``desired_acceleration(...)``  q̈_des (thesis order, size n): q̈_r − K[ė; e; ∫e] on the
+    controlled DOF (5.26)/(5.84), q̈_r − K[ė; e] on the regulated DOF (7.81),
+    −Υ1⁻¹U q̇s on the stabilized DOF (5.84);
+  - ``generalized_input(..., extra=None)`` u* = M q̈_des + C q̇ + g (+ friction) − extra
+    ((5.73)/(5.84); pass ``extra = ϑ_passive(q, q̇, ζ)`` for the tilt-rotor law (7.81));
+    for the classic H∞ law the Chen–Lee–Feng force of DESIGN §4.3;
+  - ``actuation(...)`` τ: B⁻¹u* (fully actuated, (5.26)), B̄⁻¹(M̄ q̈c_des + h̄) (reduced model
+    (5.5)), B†u* (input coupling, (5.100)/(5.118)) or a user ``allocation(u_star, q, qdot)``
+    callable (e.g. the tilt-rotor's bounded least squares (7.84)); optional actuator bounds
+    are enforced by bounded least squares (scipy ``lsq_linear``).
+  - ``integral_derivative(q, reference)`` = q_c − q_cr, the time derivative of ∫e.
+
+  Another controller (e.g. the tilt-rotor's) can therefore reuse the law without this module's
+  LeafSystem::
+
+      law = MechanicalLaw(model, Partition(controlled=[5, 6, 7], regulated=[4, 0, 1],
+                                           stabilized=[2, 3]),
+                          SobolevLaw(controlled=controlled_gains(...),
+                                     regulated=regulated_gains(...),
+                                     stabilized=stabilized_gains(...)))
+      u_star = law.generalized_input(q, qdot, e_int, reference, extra=theta_passive)
+
+* :class:`MechanicalController` — a LeafSystem wrapping a law: input ports ``x`` (plant state
+  [q; q̇], thesis order) and ``reference`` (stacked [q_r; q̇_r; q̈_r] of the *tracked* DOF, i.e.
+  ``partition.tracked`` = controlled DOF followed by regulated DOF); continuous state ∫q̃c;
+  output ports ``u`` (actuator command), ``generalized_force`` (u*, or the reduced force
+  B̄τ) and ``error_integral``.
+
+Reference order: ``partition.tracked`` (controlled then regulated, in the order given).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+from scipy.optimize import lsq_linear
+
+from sobolev_drake.models.base import check_vector
+from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
+
+__all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
+
+
+@dataclass(frozen=True)
+class Partition:
+    """DOF partition by thesis indices (0-based, thesis order).
+
+    ``controlled``: tracked with integral action; ``regulated``: tracked without (7.66);
+    ``stabilized``: q̇s → 0 (5.66); ``uncontrolled``: eliminated by the reduced model (5.5).
+    Every DOF must be in exactly one group.  Mode: ``reduced`` if ``uncontrolled`` is non-empty,
+    ``input_coupling`` if ``stabilized`` or ``regulated`` is, ``fully_actuated`` otherwise.
+    """
+
+    controlled: tuple
+    stabilized: tuple = ()
+    regulated: tuple = ()
+    uncontrolled: tuple = ()
+
+    def __post_init__(self):
+        for name in ("controlled", "stabilized", "regulated", "uncontrolled"):
+            idx = tuple(int(i) for i in np.atleast_1d(getattr(self, name)))
+            object.__setattr__(self, name, idx)
+        if not self.controlled:
+            raise ValueError("partition.controlled must name at least one DOF")
+        if self.uncontrolled and (self.stabilized or self.regulated):
+            raise ValueError("partition: a reduced model (uncontrolled DOF) cannot also have "
+                             "stabilized or regulated DOF")
+
+    @property
+    def tracked(self) -> tuple:
+        return self.controlled + self.regulated
+
+    @property
+    def mode(self) -> str:
+        if self.uncontrolled:
+            return "reduced"
+        if self.stabilized or self.regulated:
+            return "input_coupling"
+        return "fully_actuated"
+
+    def check(self, n: int) -> None:
+        allidx = self.controlled + self.stabilized + self.regulated + self.uncontrolled
+        if sorted(allidx) != list(range(n)):
+            raise ValueError(f"partition must assign each of the {n} DOF to exactly one group, "
+                             f"got {self}")
+
+
+@dataclass
+class SobolevLaw:
+    """W2/W∞ inner law: gains per group (identical for W2 and W∞, Remarks 30/36)."""
+
+    controlled: SobolevGains
+    regulated: SobolevGains | None = None
+    stabilized: SobolevGains | None = None
+
+    def __post_init__(self):
+        for name, grp in (("controlled", self.controlled), ("regulated", self.regulated),
+                          ("stabilized", self.stabilized)):
+            if grp is not None and grp.group != name:
+                raise ValueError(f"SobolevLaw.{name} must be {name} gains, got {grp.group!r}")
+
+    @property
+    def name(self) -> str:
+        return "W2/W∞"
+
+
+@dataclass
+class HinfLaw:
+    """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action)."""
+
+    gains: HinfMechanicalGains
+
+    @property
+    def name(self) -> str:
+        return "H∞"
+
+
+class MechanicalLaw:
+    """Pure control law (see module docstring).
+
+    Parameters
+    ----------
+    model : MechanicalModel used by the controller (M, C q̇, g, C(q,q̇)v, B, friction).
+    partition : :class:`Partition`.
+    law : :class:`SobolevLaw` or :class:`HinfLaw`.
+    allocation : None (B⁻¹ / B̄⁻¹ / B†) or ``callable(u_star, q, qdot) -> tau``.
+    lower, upper : optional actuator bounds (size n_τ) enforced by bounded least squares when
+        no ``allocation`` callable is given.
+    """
+
+    def __init__(self, model, partition: Partition, law, *, allocation: Callable | None = None,
+                 lower=None, upper=None):
+        if not isinstance(partition, Partition):
+            raise TypeError("partition must be a Partition")
+        partition.check(model.n)
+        if not isinstance(law, (SobolevLaw, HinfLaw)):
+            raise TypeError("law must be a SobolevLaw or an HinfLaw")
+        self.model, self.partition, self.law = model, partition, law
+        self.n = model.n
+        self.allocation = allocation
+        p = partition
+        self.ic = np.array(p.controlled, dtype=int)
+        self.ir = np.array(p.regulated, dtype=int)
+        self.is_ = np.array(p.stabilized, dtype=int)
+        self.iu = np.array(p.uncontrolled, dtype=int)
+        self.nc, self.nr, self.ns = len(self.ic), len(self.ir), len(self.is_)
+        self.n_ref = self.nc + self.nr
+        if isinstance(law, SobolevLaw):
+            self._check_group("controlled", law.controlled, self.nc)
+            self._check_group("regulated", law.regulated, self.nr)
+            self._check_group("stabilized", law.stabilized, self.ns)
+        q0 = np.zeros(self.n)
+        try:
+            self.num_inputs = int(np.asarray(model.B(q0)).shape[1])
+        except NotImplementedError:
+            if allocation is None:
+                raise ValueError("model has no B(q): give an allocation callable") from None
+            self.num_inputs = int(getattr(model, "num_inputs", self.n))
+        if p.mode == "fully_actuated" and allocation is None and self.num_inputs != self.n:
+            raise ValueError(f"fully actuated partition needs a square B (n = {self.n}), got "
+                             f"{self.num_inputs} inputs; use a reduced or input-coupling partition")
+        if p.mode == "reduced" and self.num_inputs != self.nc:
+            raise ValueError(f"reduced model needs as many inputs as controlled DOF (Assumption 5):"
+                             f" {self.num_inputs} inputs, {self.nc} controlled DOF")
+        self.lower = None if lower is None else check_vector("lower", lower, self.num_inputs)
+        self.upper = None if upper is None else check_vector("upper", upper, self.num_inputs)
+
+    @staticmethod
+    def _check_group(name, gains, size):
+        if size and gains is None:
+            raise ValueError(f"partition has {size} {name} DOF but the law has no {name} gains")
+        if gains is not None and gains.n != size:
+            raise ValueError(f"{name} gains are for {gains.n} DOF, partition has {size}")
+
+    # --- errors ----------------------------------------------------------------------------
+    def split_reference(self, reference):
+        r = check_vector("reference", reference, 3 * self.n_ref)
+        return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
+
+    def integral_derivative(self, q, reference) -> np.ndarray:
+        """d/dt ∫q̃c = q_c − q_cr."""
+        qr, _, _ = self.split_reference(reference)
+        return np.asarray(q, dtype=float)[self.ic] - qr[:self.nc]
+
+    def _errors(self, q, qdot, reference):
+        qr, qdr, qddr = self.split_reference(reference)
+        tr = np.array(self.partition.tracked, dtype=int)
+        return q[tr] - qr, qdot[tr] - qdr, qddr
+
+    def _h(self, q, qdot):
+        return self.model.Cqdot(q, qdot) + self.model.g(q) + self.model.friction(qdot)
+
+    def _parse(self, q, qdot, e_int):
+        q = check_vector("q", q, self.n)
+        qdot = check_vector("qdot", qdot, self.n)
+        e_int = check_vector("e_int", e_int, self.nc)
+        return q, qdot, e_int
+
+    # --- W laws ------------------------------------------------------------------------------
+    def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
+        """q̈_des (thesis order, size n; uncontrolled entries are NaN) of the Sobolev law."""
+        if not isinstance(self.law, SobolevLaw):
+            raise TypeError("desired_acceleration is defined for the Sobolev law only")
+        q, qdot, e_int = self._parse(q, qdot, e_int)
+        e, ed, qddr = self._errors(q, qdot, reference)
+        acc = np.full(self.n, np.nan)
+        nc = self.nc
+        acc[self.ic] = qddr[:nc] - self.law.controlled.K @ np.concatenate([ed[:nc], e[:nc], e_int])
+        if self.nr:
+            acc[self.ir] = qddr[nc:] - self.law.regulated.K @ np.concatenate([ed[nc:], e[nc:]])
+        if self.ns:
+            acc[self.is_] = -self.law.stabilized.K @ qdot[self.is_]
+        return acc
+
+    def reduced_model(self, q, qdot):
+        """(M̄, B̄, h̄) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u."""
+        M = self.model.M(q)
+        ic, iu = self.ic, self.iu
+        Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
+        X = np.linalg.solve(Muu, np.eye(len(iu)))
+        Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
+        B = np.asarray(self.model.B(q))
+        Bbar = B[ic] - Mcu @ X @ B[iu]
+        h = self._h(q, qdot)
+        hbar = h[ic] - Mcu @ X @ h[iu]
+        return Mbar, Bbar, hbar, Mcu @ X
+
+    # --- H∞ law ------------------------------------------------------------------------------
+    def _hinf_terms(self, q, qdot, e_int, reference):
+        """(a, σ, σ-index set) with a = q̈_r − T11⁻¹(T12 q̃̇ + T13 q̃) (0 on stabilized DOF)."""
+        g: HinfMechanicalGains = self.law.gains
+        e, ed, qddr = self._errors(q, qdot, reference)
+        nc = self.nc
+        if self.nr:
+            raise ValueError("the classic H∞ baseline has no regulated-DOF form")
+        idx = np.concatenate([self.is_, self.ic]).astype(int)
+        sigma = np.concatenate([g.T11 * qdot[self.is_], g.sigma(ed[:nc], e[:nc], e_int)])
+        a = np.concatenate([np.zeros(self.ns), qddr[:nc] - (g.T12 * ed[:nc] + g.T13 * e[:nc]) / g.T11])
+        return idx, sigma, a
+
+    # --- generalized input and actuation -----------------------------------------------------
+    def generalized_input(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+        """u* (generalized force, size n; reduced mode: B̄τ, size n_c), minus ``extra``.
+
+        Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81).
+        H∞: M a + h − C(q,q̇)T11⁻¹σ − T11⁻¹R⁻¹σ (DESIGN §4.3, same inverse dynamics).
+        """
+        q, qdot, e_int = self._parse(q, qdot, e_int)
+        if isinstance(self.law, SobolevLaw):
+            acc = self.desired_acceleration(q, qdot, e_int, reference)
+            if self.partition.mode == "reduced":
+                Mbar, _, hbar, _ = self.reduced_model(q, qdot)
+                out = Mbar @ acc[self.ic] + hbar
+            else:
+                out = self.model.M(q) @ acc + self._h(q, qdot)
+        else:
+            out = self._hinf_force(q, qdot, e_int, reference)
+        if extra is not None:
+            out = out - check_vector("extra", extra, out.shape[0])
+        return out
+
+    def _hinf_force(self, q, qdot, e_int, reference):
+        g: HinfMechanicalGains = self.law.gains
+        idx, sigma, a = self._hinf_terms(q, qdot, e_int, reference)
+        w = np.zeros(self.n)
+        w[idx] = sigma / g.T11                      # q̇ − v = T11⁻¹σ
+        Cw = self.model.C_times(q, qdot, w)
+        h = self._h(q, qdot)
+        M = self.model.M(q)
+        acc = np.zeros(self.n)
+        acc[idx] = a
+        extra = np.zeros(self.n)
+        extra[idx] = -g.R_inv * sigma / g.T11       # T11⁻¹ u, u = −R⁻¹σ
+        if self.partition.mode == "reduced":
+            ic, iu = self.ic, self.iu
+            # only the controlled DOF carry σ; reduce M a + h − C w like (5.5)
+            Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
+            X = np.linalg.solve(Muu, np.eye(len(iu)))
+            Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
+            red = Mbar @ acc[ic] + (h - Cw)[ic] - Mcu @ X @ (h - Cw)[iu]
+            return red + extra[ic]
+        return M @ acc + h - Cw + extra
+
+    def allocate(self, u_star, q, qdot) -> np.ndarray:
+        """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds)."""
+        if self.allocation is not None:
+            return np.asarray(self.allocation(u_star, q, qdot), dtype=float)
+        if self.partition.mode == "reduced":
+            _, Bmat, _, _ = self.reduced_model(q, qdot)
+        else:
+            Bmat = np.asarray(self.model.B(q))
+        if self.lower is not None or self.upper is not None:
+            lo = -np.inf * np.ones(self.num_inputs) if self.lower is None else self.lower
+            hi = np.inf * np.ones(self.num_inputs) if self.upper is None else self.upper
+            return lsq_linear(Bmat, u_star, bounds=(lo, hi), method="bvls").x
+        if Bmat.shape[0] == Bmat.shape[1]:
+            return np.linalg.solve(Bmat, u_star)
+        return np.linalg.pinv(Bmat) @ u_star
+
+    def actuation(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+        """Applied actuator command τ."""
+        u_star = self.generalized_input(q, qdot, e_int, reference, extra)
+        return self.allocate(u_star, np.asarray(q, float), np.asarray(qdot, float))
+
+    def closed_loop_matrix(self) -> np.ndarray:
+        """Linear closed loop of the Sobolev law (5.27)/(5.86): blkdiag of the group chains."""
+        if not isinstance(self.law, SobolevLaw):
+            raise TypeError("closed_loop_matrix is defined for the Sobolev law")
+        mats = [g.closed_loop for g in (self.law.stabilized, self.law.regulated, self.law.controlled)
+                if g is not None]
+        n = sum(m.shape[0] for m in mats)
+        out = np.zeros((n, n))
+        i = 0
+        for m in mats:
+            out[i:i + m.shape[0], i:i + m.shape[0]] = m
+            i += m.shape[0]
+        return out
+
+
+class MechanicalController(LeafSystem):
+    """LeafSystem around a :class:`MechanicalLaw` (ports documented in the module docstring).
+
+    Parameters are those of :class:`MechanicalLaw`, or pass ``law=`` a ready MechanicalLaw.
+    ``initial_integral`` sets the default ∫q̃c(0) (zero by default).
+    """
+
+    def __init__(self, model=None, partition: Partition | None = None, inner=None, *,
+                 law: MechanicalLaw | None = None, allocation=None, lower=None, upper=None,
+                 initial_integral=None):
+        super().__init__()
+        if law is None:
+            if model is None or partition is None or inner is None:
+                raise ValueError("give either law= or (model, partition, inner)")
+            law = MechanicalLaw(model, partition, inner, allocation=allocation, lower=lower,
+                                upper=upper)
+        self.law = law
+        n, nc = law.n, law.nc
+        self._x = self.DeclareVectorInputPort("x", 2 * n)
+        self._ref = self.DeclareVectorInputPort("reference", 3 * law.n_ref)
+        x0 = np.zeros(nc) if initial_integral is None else check_vector("initial_integral",
+                                                                         initial_integral, nc)
+        self.DeclareContinuousState(BasicVector(x0))
+        self.DeclareVectorOutputPort("u", law.num_inputs, self._calc_u)
+        n_gen = nc if law.partition.mode == "reduced" else n
+        self.DeclareVectorOutputPort("generalized_force", n_gen, self._calc_gen)
+        self.DeclareVectorOutputPort("error_integral", nc, self._calc_int,
+                                     prerequisites_of_calc={self.xc_ticket()})
+
+    def _read(self, context):
+        x = np.asarray(self._x.Eval(context), dtype=float)
+        n = self.law.n
+        ref = np.asarray(self._ref.Eval(context), dtype=float)
+        e_int = np.asarray(context.get_continuous_state_vector().CopyToVector())
+        return x[:n], x[n:], e_int, ref
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        q, _, _, ref = self._read(context)
+        derivatives.get_mutable_vector().SetFromVector(self.law.integral_derivative(q, ref))
+
+    def _calc_gen(self, context, output):
+        q, qd, ei, ref = self._read(context)
+        output.SetFromVector(self.law.generalized_input(q, qd, ei, ref))
+
+    def _calc_u(self, context, output):
+        q, qd, ei, ref = self._read(context)
+        u_star = self.law.generalized_input(q, qd, ei, ref)
+        output.SetFromVector(self.law.allocate(u_star, q, qd))
+
+    def _calc_int(self, context, output):
+        output.SetFromVector(context.get_continuous_state_vector().CopyToVector())
