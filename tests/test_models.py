@@ -353,3 +353,12 @@ def test_quadrotor_bad_inputs(quad_model):
         quadrotor.make_quadrotor_model(tilt=2.0)
     with pytest.raises(ValueError, match="triangle"):
         quadrotor.make_quadrotor_model(quadrotor.QuadrotorParams(Izz=1.0))
+
+
+def test_model_rejects_plant_built_with_other_params(arm_model, tw_model):
+    with pytest.raises(ValueError, match="differs from the closed form"):
+        arm.TwoLinkArmModel(arm_model.plant, arm.ArmParams(m2=2.0))
+    with pytest.raises(ValueError, match="differs from the closed form"):
+        two_wheeled.TwoWheeledModel(tw_model.plant, two_wheeled.TwoWheeledParams(l=0.2))
+    # same parameters: accepted (a second view of the same plant)
+    assert arm.TwoLinkArmModel(arm_model.plant).n == 2

@@ -25,7 +25,8 @@ from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
-                                          coordinate_map, urdf_text)
+                                          coordinate_map, urdf_text,
+                                          verify_against_closed_forms)
 
 
 @dataclass(frozen=True)
@@ -62,14 +63,21 @@ def _arm_urdf(p: ArmParams) -> str:
 
 
 class TwoLinkArmModel(MechanicalModel):
-    """MechanicalModel of the two-link arm with the closed forms (5.120)–(5.122)."""
+    """MechanicalModel of the two-link arm with the closed forms (5.120)–(5.122).
+
+    ``plant``: a finalized plant built from ``urdf/arm.urdf`` with the same ``params``
+    (``None``: build a standalone one).
+    """
 
     num_inputs = 2
 
-    def __init__(self, plant, params: ArmParams | None = None):
+    def __init__(self, plant=None, params: ArmParams | None = None):
         self.params = params or ArmParams()
+        if plant is None:
+            plant, _ = build_plant(_arm_urdf(self.params), self.params.g)
         super().__init__(plant, coordinate_map=coordinate_map(plant, [("q1", 1.0), ("q2", 1.0)]),
                          dof_names=["q1", "q2"], name="arm")
+        verify_against_closed_forms(self, np.array([0.3, -0.8]))
 
     # --- thesis closed forms -------------------------------------------------------------------
     def M_closed_form(self, q) -> np.ndarray:
@@ -108,9 +116,7 @@ class TwoLinkArmModel(MechanicalModel):
 
 def make_arm_model(params: ArmParams | None = None) -> TwoLinkArmModel:
     """Standalone TwoLinkArmModel on its own plant (no SceneGraph)."""
-    params = params or ArmParams()
-    plant, _ = build_plant(_arm_urdf(params), params.g)
-    return TwoLinkArmModel(plant, params)
+    return TwoLinkArmModel(None, params)
 
 
 def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHandles:

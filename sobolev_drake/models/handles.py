@@ -167,6 +167,20 @@ def coordinate_map(plant: MultibodyPlant, joints_and_scales) -> np.ndarray:
     return T
 
 
+def verify_against_closed_forms(model, q, tol: float = 1e-8) -> None:
+    """Raise ValueError if the plant's M(q), g(q) (and B(q)) disagree with the model's closed
+    forms at ``q`` — catches a plant built with parameters other than ``model.params``."""
+    pairs = [("M", model.M(q), model.M_closed_form(q)), ("g", model.g(q), model.g_closed_form(q))]
+    if hasattr(model, "B_closed_form"):
+        pairs.append(("B", model.B(q), model.B_closed_form(q)))
+    for what, drake_value, closed in pairs:
+        err = np.linalg.norm(drake_value - closed) / max(np.linalg.norm(closed), 1e-300)
+        if err > tol:
+            raise ValueError(f"{model.name}: the plant's {what}(q) differs from the closed form of "
+                             f"model.params (relative error {err:.2e}); build the plant with the "
+                             "same parameters")
+
+
 def attach_adapter(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph, model,
                    name: str) -> PlantHandles:
     """Add the generic ThesisForceAdapter for ``model`` and wire it to ``plant``."""

@@ -45,7 +45,8 @@ from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
-                                          coordinate_map, urdf_text)
+                                          coordinate_map, urdf_text,
+                                          verify_against_closed_forms)
 
 THESIS_ORDER = ("phi", "theta", "psi", "x", "y", "z")
 ROTOR_DIRECTIONS = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0], [0, -1.0, 0]])
@@ -174,6 +175,7 @@ class QuadrotorModel(MechanicalModel):
         plant_tilt = float(np.arctan2(-z_axis[0], z_axis[2]))  # rotor 1 axis = (−sin α, 0, cos α)
         if abs(plant_tilt - self.tilt) > 1e-9:
             raise ValueError(f"plant rotors are tilted by {plant_tilt} rad but tilt = {self.tilt} rad")
+        verify_against_closed_forms(self, np.array([0.3, -0.4, 0.5, 1.0, 2.0, 3.0]))
 
     # --- thesis closed forms -------------------------------------------------------------------
     def M_closed_form(self, q) -> np.ndarray:

@@ -29,7 +29,8 @@ from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
-                                          coordinate_map, urdf_text)
+                                          coordinate_map, urdf_text,
+                                          verify_against_closed_forms)
 
 
 @dataclass(frozen=True)
@@ -66,14 +67,21 @@ def _two_wheeled_urdf(p: TwoWheeledParams) -> str:
 
 
 class TwoWheeledModel(MechanicalModel):
-    """MechanicalModel of (4.30) in thesis coordinates q = [ϕ, θ] (Drake: [x = r ϕ, θ])."""
+    """MechanicalModel of (4.30) in thesis coordinates q = [ϕ, θ] (Drake: [x = r ϕ, θ]).
+
+    ``plant``: a finalized plant built from ``urdf/two_wheeled.urdf`` with the same ``params``
+    (``None``: build a standalone one).
+    """
 
     num_inputs = 1
 
-    def __init__(self, plant, params: TwoWheeledParams | None = None):
+    def __init__(self, plant=None, params: TwoWheeledParams | None = None):
         self.params = (params or TwoWheeledParams()).validate()
+        if plant is None:
+            plant, _ = build_plant(_two_wheeled_urdf(self.params), self.params.g)
         T = coordinate_map(plant, [("x", self.params.r), ("theta", 1.0)])
         super().__init__(plant, coordinate_map=T, dof_names=["phi", "theta"], name="two_wheeled")
+        verify_against_closed_forms(self, np.array([0.3, -0.8]))
 
     def M_closed_form(self, q) -> np.ndarray:
         q = check_vector("q", q, 2)
@@ -109,9 +117,7 @@ class TwoWheeledModel(MechanicalModel):
 
 def make_two_wheeled_model(params: TwoWheeledParams | None = None) -> TwoWheeledModel:
     """Standalone TwoWheeledModel on its own plant (no SceneGraph)."""
-    params = (params or TwoWheeledParams()).validate()
-    plant, _ = build_plant(_two_wheeled_urdf(params), params.g)
-    return TwoWheeledModel(plant, params)
+    return TwoWheeledModel(None, params)
 
 
 def add_two_wheeled(builder: DiagramBuilder, params: TwoWheeledParams | None = None) -> PlantHandles:
