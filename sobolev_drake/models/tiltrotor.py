@@ -16,8 +16,11 @@ import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 
+from pydrake.systems.framework import LeafSystem
+
 from sobolev_drake.models.base import MechanicalModel
-from sobolev_drake.models.tiltrotor_params import DOF_NAMES, TiltrotorParams
+from sobolev_drake.models.handles import PlantHandles
+from sobolev_drake.models.tiltrotor_params import DOF_NAMES, R_IB, TiltrotorParams, body_generalized_force
 
 #: Drake joint of each thesis coordinate
 JOINTS = ("tilt_right", "tilt_left", "base_roll", "base_pitch", "base_yaw", "base_x", "base_y", "base_z")
@@ -147,3 +150,97 @@ class TiltrotorModel(MechanicalModel):
         qdot = np.zeros(8) if qdot is None else qdot
         zeta = np.zeros(3) if zeta is None else zeta
         return input_affine(self, q, qdot, zeta)[0]
+
+
+class TiltrotorForces(LeafSystem):
+    """All generalized forces of the tilt-rotor in one LeafSystem (one Python call per evaluation).
+
+    Input ports (all read zero when unconnected, except ``plant_state``):
+    ``u`` (8, thesis τ = [nPR nPL τsR τsL δWR δWL δTR δTL]), ``propeller_speed`` (2, rev/s),
+    ``servo_torque`` (2, N m), ``surface_deflection`` (4, rad) — the last three are *added* to the
+    matching parts of ``u`` (connect either); ``wind`` (3, inertial m/s), ``force_disturbance``
+    (3, inertial N at the main-body centre of mass), ``disturbance`` (8, thesis generalized force
+    w), ``plant_state`` (Drake state).
+    Output ports: ``applied_generalized_force`` (Drake order, to the plant), ``x`` (16, thesis
+    order [q; q̇], state-only), ``generalized_force`` (8, thesis order ϑ + w, for logging).
+    """
+
+    def __init__(self, model: TiltrotorModel):
+        super().__init__()
+        from sobolev_drake.systems.input_affine import cores
+        self.model = model
+        self.prop, self.aero = cores(model.params)
+        self._state = self.DeclareVectorInputPort("plant_state", 16)
+        self._ports = {name: self.DeclareVectorInputPort(name, size) for name, size in
+                       (("u", 8), ("propeller_speed", 2), ("servo_torque", 2),
+                        ("surface_deflection", 4), ("wind", 3), ("force_disturbance", 3),
+                        ("disturbance", 8))}
+        st = {self.input_port_ticket(self._state.get_index())}
+        self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
+        self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake)
+        self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis)
+        Tinv = model.T_inv
+        self._P = np.block([[Tinv, np.zeros((8, 8))], [np.zeros((8, 8)), Tinv]])
+
+    def _opt(self, name, context, size):
+        port = self._ports[name]
+        return np.asarray(port.Eval(context)) if port.HasValue(context) else np.zeros(size)
+
+    def _calc_x(self, context, output) -> None:
+        output.SetFromVector(self._P @ self._state.Eval(context))
+
+    def thesis_force(self, context) -> np.ndarray:
+        x = self._P @ self._state.Eval(context)
+        q, qd = x[:8], x[8:]
+        u = self._opt("u", context, 8)
+        n = u[0:2] + self._opt("propeller_speed", context, 2)
+        ts = u[2:4] + self._opt("servo_torque", context, 2)
+        de = u[4:8] + self._opt("surface_deflection", context, 4)
+        zeta = self._opt("wind", context, 3)
+        tau = (self.prop.propeller_force(q, qd, zeta, n) + self.prop.servo_force(qd, ts)
+               + self.aero.generalized_force(q, qd, zeta, de) + self._opt("disturbance", context, 8))
+        fd = self._ports["force_disturbance"]
+        if fd.HasValue(context):
+            tau += body_generalized_force(q, self.model.params.d_B_C1, R_IB(q).T @ np.asarray(fd.Eval(context)))
+        return tau
+
+    def _calc_thesis(self, context, output) -> None:
+        output.SetFromVector(self.thesis_force(context))
+
+    def _calc_drake(self, context, output) -> None:
+        output.SetFromVector(self.model.force_to_drake(self.thesis_force(context)))
+
+
+class TiltrotorHandles(PlantHandles):
+    """PlantHandles plus the tilt-rotor's extra input ports and its force system."""
+
+    def __init__(self, *, forces: TiltrotorForces, **kw):
+        super().__init__(**kw)
+        self.forces = forces
+        self.propeller_speed = forces.GetInputPort("propeller_speed")
+        self.servo_torque = forces.GetInputPort("servo_torque")
+        self.surface_deflection = forces.GetInputPort("surface_deflection")
+        self.wind = forces.GetInputPort("wind")
+        self.force_disturbance = forces.GetInputPort("force_disturbance")
+        self.generalized_force = forces.GetOutputPort("generalized_force")
+
+
+def add_tiltrotor(builder, params: TiltrotorParams | None = None) -> TiltrotorHandles:
+    """Add the tilt-rotor (MultibodyPlant + SceneGraph + :class:`TiltrotorForces`) to ``builder``.
+
+    Returns :class:`TiltrotorHandles`: ``plant, scene_graph, model, u, disturbance, x`` (shared
+    contract) and ``propeller_speed, servo_torque, surface_deflection, wind, force_disturbance,
+    generalized_force, forces``.
+    """
+    params = TiltrotorParams() if params is None else params
+    plant, scene_graph = _build_plant(params, builder)
+    plant.set_name("tiltrotor_plant")
+    model = TiltrotorModel(params, plant=plant)
+    forces = builder.AddSystem(TiltrotorForces(model))
+    forces.set_name("tiltrotor_forces")
+    builder.Connect(plant.get_state_output_port(), forces.GetInputPort("plant_state"))
+    builder.Connect(forces.GetOutputPort("applied_generalized_force"),
+                    plant.get_applied_generalized_force_input_port())
+    return TiltrotorHandles(plant=plant, scene_graph=scene_graph, model=model,
+                            u=forces.GetInputPort("u"), disturbance=forces.GetInputPort("disturbance"),
+                            x=forces.GetOutputPort("x"), adapter=None, forces=forces)

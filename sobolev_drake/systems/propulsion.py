@@ -10,8 +10,10 @@
 from __future__ import annotations
 
 import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
+from sobolev_drake.models.tiltrotor_params import R_BA, R_IB, TiltrotorParams, W_eta
 
 
 class PropellerCoefficients:
@@ -101,3 +103,96 @@ class PropellerCoefficients:
         """n ≥ 0 with ρ d⁴ n² Ct(J, φ) = f for *fixed* (J, φ) (inverse of (7.25), f ≥ 0)."""
         f = np.asarray(f, dtype=float)
         return np.sqrt(np.maximum(f, 0.0) / (self.rho * self.diameter ** 4 * self.ct(J, phi)))
+
+
+class PropulsionModel:
+    """Numpy core of the propeller (7.19)–(7.32) and servomotor (7.33) generalized forces."""
+
+    def __init__(self, params=None, coefficients: PropellerCoefficients | None = None):
+        self.params = TiltrotorParams() if params is None else params
+        self.coef = PropellerCoefficients() if coefficients is None else coefficients
+        p = self.params
+        self.lam = np.array([p.lambda_R, p.lambda_L])
+        self.d_B_A = np.array([p.d_B_A2, p.d_B_A3])
+        self.cosb = np.cos(p.beta)
+
+    def rotor_frames(self, q):
+        """(R_B^A (2,3,3), rotor centres in body axes r (2,3), R_B^A d_A,P (2,3))."""
+        RA = np.array(R_BA(self.params, q[0], q[1]))
+        dA = RA @ self.params.d_A_P
+        return RA, self.d_B_A + dA, dA
+
+    def rotor_air_velocity(self, q, qdot, zeta):
+        """Air-relative rotor velocities in the rotor frames (2, 3) (7.31)."""
+        RA, r, dA = self.rotor_frames(q)
+        R = R_IB(q)
+        w = W_eta(q) @ qdot[2:5]
+        vb = (R.T @ (qdot[5:8] - zeta))[None, :] + np.cross(w, r)
+        vb += qdot[0:2, None] * np.cross(np.array([0.0, 1.0, 0.0]), dA)   # tilt rate about B's y
+        return np.einsum("kji,kj->ki", RA, vb)
+
+    def unit_columns(self, q):
+        """(G_f (8, 2), G_t (8, 2)): generalized force per newton of thrust and per N m of torque
+        about each rotor axis (7.32)."""
+        RA, r, dA = self.rotor_frames(q)
+        z = RA[:, :, 2]                                     # rotor axes in body axes
+        Wt, R = W_eta(q).T, R_IB(q)
+        Gf = np.zeros((8, 2))
+        Gt = np.zeros((8, 2))
+        Gf[[0, 1], [0, 1]] = np.cross(dA, z)[:, 1]          # e_y · (R_B^A d × z)
+        Gf[2:5] = Wt @ np.cross(r, z).T
+        Gf[5:8] = R @ z.T
+        Gt[[0, 1], [0, 1]] = z[:, 1]
+        Gt[2:5] = Wt @ z.T
+        return Gf, Gt
+
+    def thrust_and_torque(self, q, qdot, zeta, n):
+        """(f (2,), signed torques λ t (2,), J (2,), φ (2,)) for propeller speeds n (rev/s)."""
+        vr = self.rotor_air_velocity(q, qdot, zeta)
+        J, phi = self.coef.advance_ratio_and_inflow(vr, n)
+        f = self.coef.thrust(n, J, phi)
+        t = self.lam * self.coef.torque(n, J, phi)
+        return f, t, J, phi
+
+    def propeller_force(self, q, qdot, zeta, n):
+        """ϑ_P (7.32), thesis order."""
+        f, t, _, _ = self.thrust_and_torque(q, qdot, zeta, n)
+        Gf, Gt = self.unit_columns(q)
+        return Gf @ f + Gt @ t
+
+    def servo_force(self, qdot, tau_s):
+        """ϑ_s (7.33): τs acts about the inclined y axis of C2/C3, i.e. cos β τs on the tilt
+        joint (the reaction on the body cancels), minus viscous friction ν α̇."""
+        out = np.zeros(8)
+        out[0:2] = self.cosb * np.asarray(tau_s) - self.params.nu * qdot[0:2]
+        return out
+
+
+class PropellerForces(LeafSystem):
+    """LeafSystem: generalized force of both propellers (7.32) and both servomotors (7.33).
+
+    Inputs: ``x`` (16, thesis order), ``wind`` (3, inertial m/s), ``propeller_speed`` (2, rev/s),
+    ``servo_torque`` (2, N m); the last three read zero when unconnected.
+    Output: ``generalized_force`` (8, thesis order).
+    """
+
+    def __init__(self, params=None):
+        super().__init__()
+        self.core = PropulsionModel(params)
+        self._x = self.DeclareVectorInputPort("x", 16)
+        self._wind = self.DeclareVectorInputPort("wind", 3)
+        self._n = self.DeclareVectorInputPort("propeller_speed", 2)
+        self._ts = self.DeclareVectorInputPort("servo_torque", 2)
+        self.DeclareVectorOutputPort("generalized_force", 8, self._calc)
+
+    @staticmethod
+    def _opt(port, context, size):
+        return np.asarray(port.Eval(context)) if port.HasValue(context) else np.zeros(size)
+
+    def _calc(self, context, output: BasicVector) -> None:
+        x = np.asarray(self._x.Eval(context))
+        zeta = self._opt(self._wind, context, 3)
+        n = self._opt(self._n, context, 2)
+        ts = self._opt(self._ts, context, 2)
+        q, qd = x[:8], x[8:]
+        output.SetFromVector(self.core.propeller_force(q, qd, zeta, n) + self.core.servo_force(qd, ts))

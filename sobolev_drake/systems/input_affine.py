@@ -1,0 +1,104 @@
+"""Input-affine form (7.62) of the tilt-rotor generalized forces (Appendix C) and their total.
+
+    ϑ(q, q̇, τ, ζ) = B(q, q̇, ζ) τ̄ + ϑ_passive(q, q̇, ζ),
+    τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL]
+
+* propellers (C.1)–(C.2): the drag torque is written through the thrust, t = λ d (Cq/Ct)(J, φ) f,
+  so each thrust column is J_Pᵀ R a_z + λ d (Cq/Ct) W_Pᵀ R a_z.  Cq/Ct depends on the advance ratio
+  J = V/(n d), i.e. on the propeller speed: pass ``n`` (rev/s) for an exact identity; by default
+  the thesis' hover speed 51.9 rev/s is used (Cq/Ct varies by ~1 % over the hover range);
+* servomotors (C.3): cos β on the tilt joints (the torque acts about the inclined y axis of
+  C2/C3), the viscous friction −ν α̇ is passive;
+* surfaces (C.4)–(C.8): the deflection terms of the wing and tail lift / tail side force are the
+  columns, everything else is passive.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sobolev_drake.models.base import check_vector
+from sobolev_drake.models.tiltrotor_params import TiltrotorParams, body_generalized_force, R_IB
+from sobolev_drake.systems.aerodynamics import AeroModel
+from sobolev_drake.systems.propulsion import PropulsionModel
+
+#: reference propeller speed (rev/s) for Cq/Ct when ``n`` is not given: thesis hover trim
+N_REF = 51.9
+
+_CORES: dict = {}
+
+
+def cores(params: TiltrotorParams | None = None):
+    """(PropulsionModel, AeroModel) for ``params`` (cached per parameter object)."""
+    params = TiltrotorParams() if params is None else params
+    key = id(params)
+    if key not in _CORES:
+        _CORES[key] = (params, PropulsionModel(params), AeroModel(params))
+    return _CORES[key][1], _CORES[key][2]
+
+
+def _params_of(model_or_params):
+    if model_or_params is None:
+        return TiltrotorParams()
+    if isinstance(model_or_params, TiltrotorParams):
+        return model_or_params
+    params = getattr(model_or_params, "params", None)
+    if not isinstance(params, TiltrotorParams):
+        raise TypeError("model must be a TiltrotorModel or TiltrotorParams, "
+                        f"got {type(model_or_params).__name__}")
+    return params
+
+
+def input_affine(model, q, qdot, zeta, n=None):
+    """(B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
+
+    ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
+    torque/thrust ratio Cq/Ct(J, φ) (default ``N_REF``).  Columns of B follow ``ACTUATOR_NAMES``.
+    """
+    p = _params_of(model)
+    q = check_vector("q", q, 8)
+    qdot = check_vector("qdot", qdot, 8)
+    zeta = check_vector("zeta", zeta, 3)
+    n = np.full(2, N_REF) if n is None else check_vector("n", n, 2)
+    prop, aero = cores(p)
+    Gf, Gt = prop.unit_columns(q)
+    J, phi = prop.coef.advance_ratio_and_inflow(prop.rotor_air_velocity(q, qdot, zeta), n)
+    ratio = prop.lam * prop.coef.torque_per_thrust(J, phi)
+    B = np.zeros((8, 8))
+    B[:, 0:2] = Gf + Gt * ratio[None, :]
+    B[0, 2] = B[1, 3] = prop.cosb
+    passive, Bd = aero.terms(q, qdot, zeta)
+    B[:, 4:8] = Bd
+    passive = passive.copy()
+    passive[0:2] -= p.nu * qdot[0:2]
+    return B, passive
+
+
+def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
+    """Total ϑ = ϑ_P + ϑ_s + ϑ_F + ϑ_W + ϑ_T + ϑ_I (7.18) for thesis inputs
+    τ = [n (rev/s), τs (N m), δ (rad)], from the same cores as the plant's force systems."""
+    p = _params_of(model)
+    q = check_vector("q", q, 8)
+    qdot = check_vector("qdot", qdot, 8)
+    zeta = check_vector("zeta", zeta, 3)
+    n = check_vector("n", n, 2)
+    tau_s = check_vector("tau_s", tau_s, 2)
+    delta = check_vector("delta", delta, 4)
+    prop, aero = cores(p)
+    return (prop.propeller_force(q, qdot, zeta, n) + prop.servo_force(qdot, tau_s)
+            + aero.generalized_force(q, qdot, zeta, delta))
+
+
+def thrust_inputs(model, q, qdot, zeta, n) -> np.ndarray:
+    """Thrusts f = ρ d⁴ n² Ct(J, φ) (7.25), (7.27) of both propellers at speeds n (rev/s)."""
+    prop, _ = cores(_params_of(model))
+    return prop.thrust_and_torque(check_vector("q", q, 8), check_vector("qdot", qdot, 8),
+                                  check_vector("zeta", zeta, 3), check_vector("n", n, 2))[0]
+
+
+def force_disturbance_generalized(model, q, force_inertial) -> np.ndarray:
+    """Generalized force of an inertial force (N) applied at the main-body centre of mass C1."""
+    p = _params_of(model)
+    q = check_vector("q", q, 8)
+    F = check_vector("force_inertial", force_inertial, 3)
+    return body_generalized_force(q, p.d_B_C1, R_IB(q).T @ F)
