@@ -1,0 +1,149 @@
+"""Tables (markdown + JSON) and the REPRODUCTION.md summary of experiment results.
+
+Numbers are printed with 4 significant digits (``fmt``): 845.8, 0.2545, 1.23e-05; integers
+and values in [10⁴, 10⁶) without exponent; NaN/None as "—".  The JSON keeps full precision
+(NaN/inf become null).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+__all__ = ["fmt", "markdown_table", "write_table", "write_reproduction"]
+
+DASH = "—"
+
+
+def fmt(x) -> str:
+    """Human formatting of one table cell."""
+    if x is None:
+        return DASH
+    if isinstance(x, (bool, np.bool_)):
+        return "yes" if x else "no"
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    if isinstance(x, (float, np.floating)):
+        x = float(x)
+        if not math.isfinite(x):
+            return DASH if math.isnan(x) else ("∞" if x > 0 else "−∞")
+        if x == 0.0:
+            return "0"
+        if 1e4 <= abs(x) < 1e6:
+            return f"{x:.0f}"
+        return f"{x:.4g}"
+    return str(x).replace("|", "\\|").replace("\n", " ")
+
+
+def _jsonable(x):
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(float(x)) else None
+    if x is None:
+        return None
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    return str(x)
+
+
+def markdown_table(columns: Sequence[str], rows: Sequence[Sequence]) -> str:
+    head = "| " + " | ".join(fmt(c) for c in columns) + " |"
+    sep = "|" + "|".join("---" for _ in columns) + "|"
+    body = ["| " + " | ".join(fmt(c) for c in r) + " |" for r in rows]
+    return "\n".join([head, sep, *body])
+
+
+def write_table(out_dir, stem: str, columns: Sequence[str], rows: Sequence[Sequence], *,
+                thesis_rows: Sequence[Sequence | None] | None = None, title: str = ""):
+    """Write ``<out_dir>/<stem>.md`` and ``<stem>.json``; return (md_path, json_path, markdown).
+
+    ``thesis_rows`` (optional) is aligned with ``rows`` (``None`` where the thesis has no
+    number); each of our rows is then followed by the thesis row and a "source" column
+    (ours / thesis) is inserted after the first column.
+    """
+    columns = list(columns)
+    rows = [list(r) for r in rows]
+    for k, r in enumerate(rows):
+        if len(r) != len(columns):
+            raise ValueError(f"row {k} has {len(r)} cells, expected {len(columns)} (columns {columns})")
+    if thesis_rows is not None:
+        thesis_rows = [None if r is None else list(r) for r in thesis_rows]
+        if len(thesis_rows) != len(rows):
+            raise ValueError(f"thesis_rows must align with rows: {len(thesis_rows)} != {len(rows)}")
+        for k, r in enumerate(thesis_rows):
+            if r is not None and len(r) != len(columns):
+                raise ValueError(f"thesis_rows[{k}] has {len(r)} cells, expected {len(columns)}")
+        cols = [columns[0], "source", *columns[1:]]
+        shown = []
+        for r, th in zip(rows, thesis_rows):
+            shown.append([r[0], "ours", *r[1:]])
+            if th is not None:
+                shown.append([th[0], "thesis", *th[1:]])
+    else:
+        cols, shown = columns, rows
+    if not stem or "/" in stem or os.sep in stem:
+        raise ValueError(f"stem must be a plain file name without folders, got {stem!r}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    md = (f"### {title}\n\n" if title else "") + markdown_table(cols, shown) + "\n"
+    md_path = out_dir / f"{stem}.md"
+    json_path = out_dir / f"{stem}.json"
+    md_path.write_text(md, encoding="utf-8")
+    json_path.write_text(json.dumps({"title": title, "columns": columns, "rows": _jsonable(rows),
+                                     "thesis_rows": _jsonable(thesis_rows)}, indent=1, ensure_ascii=False),
+                         encoding="utf-8")
+    return md_path, json_path, md
+
+
+def _rel(p, base: Path) -> str:
+    try:
+        return os.path.relpath(Path(p).resolve(), base.resolve())
+    except ValueError:  # different drive (Windows)
+        return Path(p).name
+
+
+def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments") -> Path:
+    """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
+    claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    base = path.parent
+    n_claims = sum(len(r.claims) for r in results)
+    n_held = sum(c.held for r in results for c in r.claims)
+    lines = [f"# {title}", "",
+             f"Generated {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by `sobolev-drake`. "
+             f"{len(results)} experiment(s); claims held: {n_held}/{n_claims}.", "",
+             "| experiment | claims held |", "|---|---|"]
+    for r in results:
+        lines.append(f"| [{r.name}](#{r.name}) | {sum(c.held for c in r.claims)}/{len(r.claims)} |")
+    for r in results:
+        lines += ["", f"## {r.name}", ""]
+        if r.table_markdown:
+            lines += [r.table_markdown.strip(), ""]
+        if r.claims:
+            lines.append("Claims:")
+            lines.append("")
+            for c in r.claims:
+                mark = "✅ held" if c.held else "❌ NOT held"
+                lines.append(f"- {mark} — {c.text}" + (f" ({c.detail})" if c.detail else ""))
+            lines.append("")
+        scalars = {k: v for k, v in (r.metrics or {}).items()
+                   if isinstance(v, (int, float, np.integer, np.floating, str, bool))}
+        if scalars:
+            lines.append("Metrics: " + ", ".join(f"{k} = {fmt(v)}" for k, v in list(scalars.items())[:16]))
+            lines.append("")
+        if r.outputs:
+            lines.append("Outputs: " + ", ".join(f"[{label}]({_rel(p, base)})" for label, p in r.outputs.items()))
+    path.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
+    return path

@@ -1,0 +1,136 @@
+"""Viz, simulation and report helpers on a tiny pendulum built here."""
+
+import base64
+import io
+import json
+import re
+
+import numpy as np
+import pytest
+from pydrake.geometry import Sphere
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, SpatialInertia, UnitInertia
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput
+
+from sobolev_drake import report, viz
+from sobolev_drake.experiments import Claim, ExperimentResult
+from sobolev_drake.simulation import ProgressMonitor, simulate
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def decoded_commands(html: str) -> list[bytes]:
+    """The msgpack command blobs Meshcat embeds as base64 data: URLs."""
+    return [base64.b64decode(m) for m in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)]
+
+
+def pendulum_diagram(meshcat):
+    builder = DiagramBuilder()
+    plant, sg = AddMultibodyPlantSceneGraph(builder, 0.0)
+    bob = plant.AddRigidBody("bob", SpatialInertia.MakeFromCentralInertia(1.0, [0, 0, 0], UnitInertia.SolidSphere(0.1)))
+    plant.RegisterVisualGeometry(bob, RigidTransform(), Sphere(0.1), "bob_visual", np.array([0.8, 0.1, 0.1, 1.0]))
+    pivot = plant.AddFrame(FixedOffsetFrame("pivot", bob.body_frame(), RigidTransform([0, 0, 1.0])))
+    plant.AddJoint(RevoluteJoint("swing", plant.world_frame(), pivot, [0, 1, 0]))
+    plant.Finalize()
+    rec = viz.add_meshcat_recorder(builder, sg, meshcat)
+    logger = LogVectorOutput(plant.get_state_output_port(), builder)
+    return builder.Build(), plant, rec, logger
+
+
+def test_recording_html_is_standalone_and_animated(tmp_path, capsys):
+    meshcat = viz.start_meshcat()
+    other = viz.start_meshcat()
+    assert meshcat.port() != other.port()  # ephemeral ports never collide
+    diagram, plant, rec, logger = pendulum_diagram(meshcat)
+    ctx = diagram.CreateDefaultContext()
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(ctx), [1.0])
+    viz.draw_path(meshcat, "ref", np.column_stack([np.linspace(0, 1, 5), np.zeros(5), np.ones(5)]))
+    sim = simulate(diagram, ctx, 1.0, label="pendulum")
+    assert sim.get_context().get_time() == pytest.approx(1.0)
+    err = capsys.readouterr().err
+    assert "pendulum" in err and "100.0%" in err and err.endswith("\n")  # final line, no TTY
+    path = viz.save_recording_html(meshcat, rec, tmp_path / "sub" / "pendulum.html")
+    html = path.read_text()
+    assert viz.external_script_sources(html) == []
+    assert not re.search(r"<script[^>]*src=[\"']?https?:", html)
+    blobs = decoded_commands(html)
+    assert any(b"set_animation" in b for b in blobs)
+    assert any(b"/paths/ref" in b for b in blobs)
+    # energy is conserved by the error-controlled integrator to the requested accuracy
+    log = logger.FindLog(ctx)
+    q, v = log.data()[0], log.data()[1]
+    g, L = 9.81, 1.0
+    E = 0.5 * v ** 2 - g * L * np.cos(q)  # bob below the pivot for q = 0
+    assert np.ptp(E) < 1e-2 * abs(E[0])
+
+
+def test_external_script_detection():
+    assert viz.external_script_sources('<script src="https://cdn.x/y.js"></script>')
+    assert viz.external_script_sources("<link rel=stylesheet href='//cdn.x/y.css'>")
+    assert viz.external_script_sources('<script>var u = "https://a.b"</script>') == []
+
+
+def test_plot_time_series_and_save_figure(tmp_path):
+    t = np.linspace(0, 2, 101)
+    p = viz.plot_time_series(t, {"q": np.column_stack([np.sin(t), np.cos(t)]), "u": t},
+                             tmp_path / "a" / "q.png", references={"q": np.zeros((101, 2))},
+                             labels={"q": ["q1", "q2"]}, vlines=[1.0], title="demo")
+    assert p.read_bytes()[:8] == PNG_MAGIC
+    with pytest.raises(ValueError, match="101"):
+        viz.plot_time_series(t, {"q": t[:-1]}, tmp_path / "b.png")
+    with pytest.raises(ValueError, match=".png"):
+        import matplotlib.pyplot as plt
+        viz.save_figure(plt.figure(), tmp_path / "x.txt")
+
+
+def test_draw_path_and_recorder_errors():
+    meshcat = viz.start_meshcat()
+    with pytest.raises(ValueError, match="\\(N, 3\\)"):
+        viz.draw_path(meshcat, "p", np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="scene_graph"):
+        viz.add_meshcat_recorder(DiagramBuilder(), None, meshcat)
+
+
+def test_simulate_errors_and_silent_monitor():
+    with pytest.raises(ValueError, match="duration"):
+        simulate(None, None, 0.0)
+    with pytest.raises(ValueError, match="integrator"):
+        simulate(None, None, 1.0, integrator="rk45")
+    buf = io.StringIO()
+    mon = ProgressMonitor(0.0, 10.0, label="x", stream=buf)
+    assert mon.live is False  # StringIO is not a TTY: nothing until the final line
+    mon.finish(10.0, 7)
+    assert buf.getvalue().count("\n") == 1 and "(7 steps)" in buf.getvalue()
+
+
+def test_write_table_and_reproduction(tmp_path):
+    md, js, text = report.write_table(
+        tmp_path, "tab", ["controller", "IADU", "ISE q1"],
+        [["W2/inf", 845.8123, 0.25449], ["Hinf", 843.29, float("nan")]],
+        thesis_rows=[["W2/inf", 845.8, 0.2545], None], title="Table 5.3")
+    assert md.read_text() == text
+    lines = text.splitlines()
+    assert lines[0] == "### Table 5.3"
+    assert "| W2/inf | ours | 845.8 | 0.2545 |" in text
+    assert "| W2/inf | thesis | 845.8 | 0.2545 |" in text
+    assert "| Hinf | ours | 843.3 | — |" in text
+    data = json.loads(js.read_text())
+    assert data["rows"][1][2] is None and data["thesis_rows"][1] is None
+    with pytest.raises(ValueError, match="row 0 has 2"):
+        report.write_table(tmp_path, "bad", ["a", "b", "c"], [[1, 2]])
+    with pytest.raises(ValueError, match="thesis_rows"):
+        report.write_table(tmp_path, "bad", ["a"], [[1]], thesis_rows=[[1], [2]])
+    res = ExperimentResult("demo-exp", outputs={"table": md}, table_markdown=text,
+                           claims=[Claim("W beats Hinf on ISE", True, "0.25 < 0.57"), Claim("gain ≤ γ", False)])
+    out = report.write_reproduction([res], tmp_path / "REPRODUCTION.md")
+    body = out.read_text()
+    assert "demo-exp" in body and "held" in body and "NOT held" in body and "1/2" in body
+    assert "tab.md" in body
+
+
+@pytest.mark.parametrize("x, s", [(845.8123, "845.8"), (0.25449, "0.2545"), (1.23e-5, "1.23e-05"),
+                                  (123456.0, "123456"), (1.5e6, "1.5e+06"), (3, "3"), (True, "yes"), (None, "—"), (2500.0, "2500")])
+def test_number_format(x, s):
+    assert report.fmt(x) == s
