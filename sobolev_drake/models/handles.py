@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
-from importlib import resources
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -71,9 +71,16 @@ class PlantHandles:
 
 
 # --- URDF helpers -------------------------------------------------------------------------------
+URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
+
+
 def urdf_text(name: str) -> str:
-    """Text of ``sobolev_drake/urdf/<name>.urdf`` (shipped with the package)."""
-    path = resources.files("sobolev_drake") / "urdf" / f"{name}.urdf"
+    """Text of ``sobolev_drake/urdf/<name>.urdf`` (shipped with the package).
+
+    Located relative to this file rather than with ``importlib.resources``: the top-level package
+    of an editable install can resolve as a namespace package, which ``resources.files`` rejects.
+    """
+    path = URDF_DIR / f"{name}.urdf"
     if not path.is_file():
         raise FileNotFoundError(f"no URDF named {name!r} in sobolev_drake/urdf")
     return path.read_text()

@@ -62,7 +62,8 @@ def _two_wheeled_urdf(p: TwoWheeledParams) -> str:
     ed.set_joint_origin("x", [0, 0, p.r])
     for i, y in enumerate((0.2, -0.2)):
         ed.set_visual("axle", i, xyz=[0, y, 0], cylinder={"radius": p.r})
-    ed.set_visual("body", 0, xyz=[0, 0, p.l], box={"size": [0.08, 0.3, 2 * p.l]})
+    height = max(2 * p.l, 2.5 * p.r)  # visual only: taller than the wheels so it shows
+    ed.set_visual("body", 0, xyz=[0, 0, height / 2], box={"size": [0.08, 0.3, height]})
     return ed.text()
 
 
