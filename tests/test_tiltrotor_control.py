@@ -101,16 +101,6 @@ def test_closed_loop_error_chains_are_hurwitz():
     assert np.all(np.linalg.eigvals(-g.Ks).real < 0)
 
 
-def test_thesis_bounds_and_sigmoid():
-    lo, up = tc.thesis_bounds([0.0, 12.0, 30.0, 12.0])
-    assert np.allclose(lo[:4], [0, 0, -2, -2]) and np.allclose(up[:4], [100, 100, 2, 2])
-    dmax = 5 * np.pi / 36
-    assert np.isclose(up[5], dmax / 2)              # sigmf(c) = 1/2
-    assert up[4] < 1e-9                             # ≈ 0 at rest (e^{-24})
-    assert up[6] > 0.999999 * dmax
-    assert np.allclose(lo[4:], -up[4:])
-
-
 def test_saturation_flags():
     f = tc.saturation_flags([100, 50, -2, 1.0, 0, 0, 0, 0], np.r_[0, 0, -2, -2, 0, 0, -0.1, -0.1],
                             np.r_[100, 100, 2, 2, 0, 0, 0.1, 0.1])

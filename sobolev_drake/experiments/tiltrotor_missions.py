@@ -150,16 +150,6 @@ def mission_reference(scenario):
     raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")
 
 
-def thesis_gains():
-    """Gains of the thesis tuning from ``synthesis.mechanical`` (integrator-chain CAREs)."""
-    from sobolev_drake.synthesis import mechanical as mech
-    from sobolev_drake.systems.tiltrotor_controller import THESIS_WEIGHTS as W, TiltrotorWInfGains
-    return TiltrotorWInfGains.from_sobolev(
-        mech.stabilized_gains(W["Upsilon0"], W["Upsilon1"]),
-        mech.regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
-        mech.controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]))
-
-
 def build_mission(scenario, duration, *, period=0.01, schedule="data", meshcat=None):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
@@ -173,7 +163,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="data", meshcat=N
     spec = load("tiltrotor_missions")[SCENARIOS[scenario]]
     builder = DiagramBuilder()
     handles = tr.add_tiltrotor(builder)
-    law = tc.make_law(handles.model, thesis_gains(), schedule=schedule)
+    law = tc.make_law(handles.model, tc.thesis_inner_law(), schedule=schedule)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
     ref = builder.AddSystem(mission_reference(scenario))
@@ -215,8 +205,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="data", meshcat=N
 
 
 # --- run, score, plot ----------------------------------------------------------------------------
-def simulate_mission(scenario, duration, *, schedule="data", record=False, out_dir=None,
-                     progress=True):
+def simulate_mission(scenario, duration, *, schedule="data", record=False):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate; returns (built dict, logs dict)."""
     from pydrake.systems.analysis import Simulator
 
@@ -235,12 +224,7 @@ def simulate_mission(scenario, duration, *, schedule="data", record=False, out_d
     sim.Initialize()
     if built["recorder"] is not None:
         built["recorder"].StartRecording()
-    try:
-        from sobolev_drake.simulation import simulate
-        simulate(diagram, ctx, duration, progress=progress, label=f"tiltrotor scenario {scenario}",
-                 simulator=sim) if False else sim.AdvanceTo(duration)
-    except ImportError:
-        sim.AdvanceTo(duration)
+    sim.AdvanceTo(duration)
     logs = {k: sink.FindLog(ctx) for k, sink in built["logs"].items()}
     data = {"t": logs["x"].sample_times().copy()}
     for k, lg in logs.items():
@@ -253,3 +237,189 @@ def simulate_mission(scenario, duration, *, schedule="data", record=False, out_d
         built["recorder"].PublishRecording()
         built["meshcat"] = meshcat
     return built, data
+
+
+def _save(fig, path):
+    try:
+        from sobolev_drake.viz import save_figure
+        return save_figure(fig, path)
+    except ImportError:  # viz not available: plain matplotlib
+        fig.savefig(path, dpi=110)
+        import matplotlib.pyplot as plt
+        plt.close(fig)
+        return path
+
+
+def plot_mission(data, out_dir, stem):
+    """PNG figures: 3-D path, positions, attitude, tilt angles, propeller speeds, servo
+    torques, δe/δr, wind, tracking errors and allocation residual. Returns {label: path}."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, x, ref = data["t"], data["x"], data["reference"]
+    q, pr = x[:8], ref[0:4]
+    tau = data["tau_bar"]
+    out = {}
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(pr[0], pr[1], pr[2], "k--", lw=1, label="reference")
+    ax.plot(q[5], q[6], q[7], "C0", lw=1.5, label="W∞ + allocation")
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
+    ax.legend()
+    out["path_3d"] = _save(fig, Path(out_dir) / f"{stem}_path3d.png")
+
+    def panel(rows, title, fname):
+        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.6), sharex=True)
+        axes = np.atleast_1d(axes)
+        for axis, (lab, curves) in zip(axes, rows):
+            for y, style, name in curves:
+                axis.plot(t, y, style, lw=1, label=name)
+            axis.set_ylabel(lab)
+            axis.grid(alpha=0.3)
+            if len(curves) > 1:
+                axis.legend(fontsize=7, loc="upper right")
+        axes[-1].set_xlabel("time [s]")
+        fig.suptitle(title)
+        fig.tight_layout()
+        return _save(fig, Path(out_dir) / f"{stem}_{fname}.png")
+
+    deg = 180 / np.pi
+    out["positions"] = panel([(n, [(q[5 + i], "C0", "q"), (pr[i], "k--", "ref")])
+                              for i, n in enumerate(["x [m]", "y [m]", "z [m]"])],
+                             "position", "positions")
+    out["attitude"] = panel([("φ [deg]", [(q[2] * deg, "C0", "φ")]),
+                             ("θ [deg]", [(q[3] * deg, "C0", "θ")]),
+                             ("ψ [deg]", [(q[4] * deg, "C0", "ψ"), (pr[3] * deg, "k--", "ψ_r")])],
+                            "attitude", "attitude")
+    out["tilt"] = panel([("αR [deg]", [(q[0] * deg, "C0", "αR")]),
+                         ("αL [deg]", [(q[1] * deg, "C1", "αL")])], "tilt angles", "tilt")
+    sp = data["propeller_speed"]
+    out["actuators"] = panel([("n [rev/s]", [(sp[0], "C0", "nR"), (sp[1], "C1", "nL")]),
+                              ("τs [N m]", [(tau[2], "C0", "τsR"), (tau[3], "C1", "τsL")]),
+                              ("δ [deg]", [(0.5 * (tau[6] + tau[7]) * deg, "C0", "δe"),
+                                           (0.5 * (tau[6] - tau[7]) * deg, "C1", "δr"),
+                                           (tau[4] * deg, "C2", "δWR"), (tau[5] * deg, "C3", "δWL")])],
+                             "actuators", "actuators")
+    w, f = data["wind"], data["force"]
+    out["disturbances"] = panel([("wind [m/s]", [(w[i], f"C{i}", f"ζ{a}") for i, a in enumerate("xyz")]),
+                                 ("force [N]", [(f[i], f"C{i}", f"f{a}") for i, a in enumerate("xyz")])],
+                                "wind and force disturbances", "disturbances")
+    err = q[5:8] - pr[:3]
+    out["errors"] = panel([("e [m]", [(err[i], f"C{i}", f"e{a}") for i, a in enumerate("xyz")]),
+                           ("‖u*−Bτ̄‖", [(data["allocation_residual"][0], "C3", "residual")])],
+                          "tracking error and allocation residual", "errors")
+    return out
+
+
+def draw_reference_path(meshcat, traj_ref, duration, name="reference_path"):
+    """Draw the mission's reference path as a line in Meshcat."""
+    from pydrake.geometry import Rgba
+    ts = np.linspace(0.0, duration, max(int(duration * 5), 50))
+    pts = np.array([traj_ref.evaluate(t)[0][:3] for t in ts]).T
+    meshcat.SetLine(f"/{name}", pts, 2.0, Rgba(0.1, 0.1, 0.1, 1.0))
+
+
+def score(data, scenario, duration):
+    """Metrics: per-phase errors, landing error, effort, bounds, attitude/tilt extremes."""
+    t, q = data["t"], data["x"][:8]
+    phases = scenario_1_phases(duration) if scenario == 1 else scenario_2_phases(duration)
+    rows = phase_metrics(t, q[5:8], data["reference"][0:3], phases)
+    effort = effort_metrics(t, data["tau_bar"], data["propeller_speed"], data["saturation"])
+    land = float(np.linalg.norm(q[5:8, -1] - data["reference"][0:3, -1]))
+    finite = bool(np.all(np.isfinite(data["x"])))
+    return {"phases": rows, "effort": effort, "final_position_error_m": land,
+            "max_abs_roll_deg": float(np.degrees(np.max(np.abs(q[2])))),
+            "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(q[3])))),
+            "tilt_range_deg": [float(np.degrees(np.min(q[:2]))), float(np.degrees(np.max(q[:2])))],
+            "max_allocation_residual": float(np.max(data["allocation_residual"])),
+            "rms_allocation_residual": float(np.sqrt(np.mean(data["allocation_residual"] ** 2))),
+            "finite": finite, "duration_s": float(t[-1])}
+
+
+def _write_table(out_dir, stem, columns, rows, title):
+    try:
+        from sobolev_drake.report import write_table
+        return write_table(out_dir, stem, columns, rows, title=title)
+    except ImportError:  # report module not available: minimal markdown + JSON
+        md = [f"### {title}", "", "| " + " | ".join(columns) + " |",
+              "|" + "---|" * len(columns)]
+        md += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+        text = "\n".join(md) + "\n"
+        mdp, jsp = Path(out_dir) / f"{stem}.md", Path(out_dir) / f"{stem}.json"
+        mdp.write_text(text)
+        jsp.write_text(json.dumps({"columns": columns, "rows": rows}, indent=1))
+        return mdp, jsp, text
+
+
+def _fmt(v, nd=2):
+    return "-" if v is None else (f"{v:.{nd}f}" if isinstance(v, float) else str(v))
+
+
+def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
+                schedule="data"):
+    name = "tiltrotor-hover" if scenario == 1 else "tiltrotor-envelope"
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if duration is None:
+        duration = SMOKE_DURATION if smoke else DURATIONS[scenario]
+    built, data = simulate_mission(scenario, duration, schedule=schedule, record=record)
+    metrics = score(data, scenario, duration)
+    res = ExperimentResult(name=name, metrics=metrics)
+    res.outputs.update(plot_mission(data, out_dir, name))
+    cols = ["phase", "kind", "from [s]", "to [s]", "RMS ‖e‖ [m]", "max ‖e‖ [m]", "goal RMS [m]",
+            "goal met"]
+    rows = [[r["phase"], r["kind"], _fmt(r["from_s"], 1), _fmt(r["to_s"], 1), _fmt(r["rms_m"]),
+             _fmt(r["max_m"]), _fmt(r["goal_rms_m"], 1), _fmt(r["goal_met"])]
+            for r in metrics["phases"]]
+    md, js, text = _write_table(out_dir, f"{name}_phases", cols, rows,
+                                f"{name}: position tracking per phase (duration {duration:g} s)")
+    eff = metrics["effort"]
+    cols2 = ["actuator", "RMS", "IADU", "time on bound [s]"]
+    rows2 = [[k, _fmt(v["rms"], 3), _fmt(v["iadu"], 2), _fmt(v.get("time_on_bound_s"), 2)]
+             for k, v in eff.items()]
+    md2, js2, text2 = _write_table(out_dir, f"{name}_effort", cols2, rows2,
+                                   f"{name}: control effort and time on actuator bounds")
+    summary = (f"\nfinal position error {metrics['final_position_error_m']:.3f} m "
+               f"(goal < {GOAL_LANDING} m); max |φ| {metrics['max_abs_roll_deg']:.1f}°, "
+               f"max |θ| {metrics['max_abs_pitch_deg']:.1f}°, allocation residual RMS "
+               f"{metrics['rms_allocation_residual']:.3g} (max {metrics['max_allocation_residual']:.3g})\n")
+    res.table_markdown = text + "\n" + text2 + summary
+    report = out_dir / f"{name}_report.md"
+    report.write_text(f"# {name}\n\n" + res.table_markdown)
+    (out_dir / f"{name}_metrics.json").write_text(json.dumps(metrics, indent=1))
+    res.outputs.update({"phases_md": md, "phases_json": js, "effort_md": md2, "effort_json": js2,
+                        "report": report, "metrics_json": out_dir / f"{name}_metrics.json"})
+    for r in metrics["phases"]:
+        if r["goal_met"] is not None:
+            res.claims.append(Claim(f"{r['phase']} ({r['kind']}): RMS position error < "
+                                    f"{r['goal_rms_m']:g} m", r["goal_met"],
+                                    f"{r['rms_m']:.2f} m"))
+    if not smoke and duration >= DURATIONS[scenario]:
+        res.claims.append(Claim(f"final point reached within {GOAL_LANDING} m",
+                                metrics["final_position_error_m"] < GOAL_LANDING,
+                                f"{metrics['final_position_error_m']:.2f} m"))
+    res.claims.append(Claim("attitude within ±60° and state finite",
+                            metrics["finite"] and max(metrics["max_abs_roll_deg"],
+                                                      metrics["max_abs_pitch_deg"]) < 60, ""))
+    if record and built.get("meshcat") is not None:
+        from sobolev_drake import viz
+        draw_reference_path(built["meshcat"], built["reference"], duration)
+        html = out_dir / f"{name}.html"
+        viz.save_recording_html(built["meshcat"], built["recorder"], html)
+        res.outputs["recording"] = html
+    return res
+
+
+@register("tiltrotor-hover", "Tilt-rotor helicopter mode (Table 7.1 path), nonlinear W∞ + "
+          "allocation, lateral wind and force pulses", default_duration=200.0,
+          thesis_ref="7.3.2 scenario 1, Figs 7.14-7.20")
+def run_hover(out_dir, *, duration=None, record=False, smoke=False):
+    return run_mission(1, out_dir, duration=duration, record=record, smoke=smoke)
+
+
+@register("tiltrotor-envelope", "Tilt-rotor full flight envelope: take-off, transition, 33 m/s "
+          "cruise, turn, transition, landing; nonlinear W∞ + allocation with wind gusts",
+          default_duration=250.0, flagship=10, thesis_ref="7.3.2 scenario 2, Figs 7.21-7.27")
+def run_envelope(out_dir, *, duration=None, record=False, smoke=False):
+    return run_mission(2, out_dir, duration=duration, record=record, smoke=smoke)

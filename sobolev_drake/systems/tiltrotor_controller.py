@@ -64,14 +64,6 @@ THESIS_WEIGHTS = {
     "Gamma3": np.diag([500.0, 500.0, 50.0]),
 }
 
-# Actuator limits of §7.3.2: thrust 0–100 N, servo ±2 N m, surfaces ±5π/36 · sigmf(V_air; 2, 12).
-THESIS_LIMITS = {
-    "thrust": (0.0, 100.0),
-    "servo_torque": (-2.0, 2.0),
-    "surface": 5.0 * np.pi / 36.0,
-    "sigmoid_s": 2.0,
-    "sigmoid_c": 12.0,
-}
 
 
 #: the partition (7.63) for ``systems.mechanical_controller.MechanicalLaw``
@@ -142,20 +134,6 @@ def tracked_reference(ref_c, ref_r):
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
-def sigmf(v, s=THESIS_LIMITS["sigmoid_s"], c=THESIS_LIMITS["sigmoid_c"]):
-    """Sigmoid (7.89): 1 / (1 + exp(−s (v − c)))."""
-    return 1.0 / (1.0 + np.exp(-s * (np.asarray(v, dtype=float) - c)))
-
-
-def thesis_bounds(v_air_surfaces, limits=THESIS_LIMITS):
-    """(lo, up) of (7.85)–(7.88) given the relative air speed of the four surfaces [WR WL TR TL]."""
-    v = check_vector("v_air_surfaces", v_air_surfaces, 4)
-    dmax = limits["surface"] * sigmf(v, limits["sigmoid_s"], limits["sigmoid_c"])
-    lo = np.concatenate([[limits["thrust"][0]] * 2, [limits["servo_torque"][0]] * 2, -dmax])
-    up = np.concatenate([[limits["thrust"][1]] * 2, [limits["servo_torque"][1]] * 2, dmax])
-    return lo, up
-
-
 def saturation_flags(tau, lo, up, rel_tol=1e-3):
     """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
     of the bound width; a zero-width box, e.g. surfaces at zero air speed, counts as inside)."""
@@ -194,7 +172,7 @@ class TiltrotorWInfLaw:
     input_affine : ``f(model, q, qdot, zeta) -> (B 8×8, ϑ_passive 8)`` (plant engineer's map).
     allocate : ``f(B, u, lo, up) -> τ̄`` bounded least squares (7.84).
     bounds : ``f(q, qdot, zeta) -> (lo, up)`` (7.85)–(7.89).
-    thrust_to_speed : ``f(thrust (2,), q, qdot, zeta) -> n (2,)`` inverting (7.90).
+    thrust_to_speed : ``f(thrust (2,), q, qdot, zeta, n_guess=None) -> n (2,)`` inverting (7.90).
     tilt_schedule : ``f(U) -> (α, α', α'')`` for the regulated tilt references.
     """
 
@@ -217,8 +195,9 @@ class TiltrotorWInfLaw:
         self.input_affine, self.allocate, self.bounds = input_affine, allocate, bounds
         self.thrust_to_speed, self.tilt_schedule = thrust_to_speed, tilt_schedule
 
-    def step(self, q, qdot, reference, wind, integral_ec) -> ControlStep:
-        """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12)."""
+    def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
+        """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
+        (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
         q = check_vector("q", q, N_Q)
         qdot = check_vector("qdot", qdot, N_Q)
         ref = check_vector("reference", reference, 12)
@@ -227,11 +206,14 @@ class TiltrotorWInfLaw:
         ref_r = regulated_reference(self.tilt_schedule, v, a, (p[3], v[3], a[3]), wind)
         tracked = tracked_reference((p[:3], v[:3], a[:3]), ref_r)
         qdd = self.mech_law.desired_acceleration(q, qdot, integral_ec, tracked)
-        B, theta = self.input_affine(self.model, q, qdot, wind)
+        if n_prev is None or np.any(np.asarray(n_prev) <= 0):
+            B, theta = self.input_affine(self.model, q, qdot, wind)
+        else:
+            B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
         u = self.mech_law.generalized_input(q, qdot, integral_ec, tracked, extra=theta)
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
-        n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind), dtype=float)
+        n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
         res = float(np.linalg.norm(u - B @ tau))
         return ControlStep(qdd, u, np.asarray(B), np.asarray(theta), tau, lo, up, n, res, ref_r)
 
@@ -297,7 +279,7 @@ class TiltrotorWInfController(LeafSystem):
         wind = self.wind_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
         ie = old[self._I]
-        step = self.law.step(q, qdot, ref, wind, ie)
+        step = self.law.step(q, qdot, ref, wind, ie, n_prev=old[self._N])
         new = old.copy()
         # forward-Euler integral of the controlled-DOF error over one sample
         new[self._I] = ie + self.period * (q[CONTROLLED] - ref[0:3])
@@ -311,127 +293,100 @@ class TiltrotorWInfController(LeafSystem):
 
 
 # --- composition with the plant model, allocation and propeller data ----------------------------
-def surface_air_speeds(params, q, qdot, wind):
-    """|V_air| at the wing and tail aerodynamic centres [WR WL TR TL] (body kinematics (7.35))."""
-    from sobolev_drake.models import tiltrotor_params as tp
-    pts = np.array([params.d_B_WR, params.d_B_WL, params.d_B_TR, params.d_B_TL])
-    v_rel = tp.body_point_velocity(q, qdot, pts) - tp.R_IB(q).T @ wind
-    return np.linalg.norm(v_rel, axis=1)
-
-
-def rotor_air_velocity(params, q, qdot, wind):
-    """Air-relative velocity of the two propeller hubs in their rotor frames (2, 3).
-
-    Hub point r = d_B^A + R_B^A d_A^P; the lever-arm term of the tilt rate α̇ (0.1 m) is
-    neglected (it changes J by < 1 % at the tilt rates of the missions)."""
-    from sobolev_drake.models import tiltrotor_params as tp
-    RA = tp.R_BA(params, q[0], q[1])
-    pts = np.array([params.d_B_A2 + RA[0] @ params.d_A_P, params.d_B_A3 + RA[1] @ params.d_A_P])
-    v_b = tp.body_point_velocity(q, qdot, pts) - tp.R_IB(q).T @ wind
-    return np.array([RA[0].T @ v_b[0], RA[1].T @ v_b[1]])
-
-
-def propeller_speeds_for_thrust(coeffs, thrust, v_rel_rotor, iterations=45):
-    """Largest n ≥ 0 solving f − ρ d⁴ n² Ct(J(n), φ) = 0 (7.90) for each rotor.
-
-    J = |v_xz| / (n d) depends on n, and with fast axial inflow Ct(J, φ) < 0 at small n (J is
-    clamped at the table's J_max), so a plain fixed point can oscillate.  Instead the thrust
-    g(n) = ρ d⁴ n² Ct(J(n), φ) is bracketed (it is positive for large n) and the root is found
-    by vectorized bisection (relative accuracy 2⁻⁴⁵).  Zero thrust gives n = 0.
-    """
-    f = np.maximum(np.asarray(thrust, dtype=float), 0.0)
-    v = np.asarray(v_rel_rotor, dtype=float)
-    k = coeffs.rho * coeffs.diameter ** 4
-
-    def g(n):
-        J, phi = coeffs.advance_ratio_and_inflow(v, n)
-        return k * n ** 2 * coeffs.ct(J, phi) - f
-
-    J0, phi0 = coeffs.advance_ratio_and_inflow(v, np.full(f.shape, np.inf))
-    # fast path: the fixed point n ← √(f / (ρd⁴Ct(J(n), φ))) converges in a few steps unless
-    # the inflow is fast; accept it when the thrust residual is negligible.
-    n = np.sqrt(f / (k * np.maximum(coeffs.ct(J0, phi0), 1e-3)))
-    for _ in range(12):
-        J, phi = coeffs.advance_ratio_and_inflow(v, np.maximum(n, 1e-9))
-        ct = coeffs.ct(J, phi)
-        if np.any(ct <= 0):
-            break
-        resid = k * n ** 2 * ct - f
-        if np.all(np.abs(resid) <= 1e-7 * (1.0 + f)):
-            return np.where(f > 0, n, 0.0)
-        n = np.sqrt(f / (k * ct))
-    hi = np.maximum(np.sqrt(f / (k * np.maximum(coeffs.ct(J0, phi0), 1e-3))), 1.0)
-    for _ in range(30):                     # grow until thrust exceeds the demand
-        bad = g(hi) < 0
-        if not np.any(bad):
-            break
-        hi = np.where(bad, 2.0 * hi, hi)
-    lo = 0.5 * hi
-    for _ in range(60):                     # shrink until below the demand (or ~0)
-        bad = (g(lo) >= 0) & (lo > 1e-6)
-        if not np.any(bad):
-            break
-        lo = np.where(bad, 0.5 * lo, lo)
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        pos = g(mid) >= 0
-        hi = np.where(pos, mid, hi)
-        lo = np.where(pos, lo, mid)
-    return np.where(f > 0, hi, 0.0)
-
-
-def bounded_least_squares_scipy(B, u, lo, up):
-    """min ‖u − Bτ‖² s.t. lo ≤ τ ≤ up with scipy's BVLS (reference implementation)."""
-    from scipy.optimize import lsq_linear
-    return lsq_linear(B, u, bounds=(lo, up), method="bvls").x
-
-
-def make_law(model, inner=None, *, schedule="data", allocate=None, params=None, coeffs=None):
+def make_law(model, inner=None, *, schedule="data", allocate=None):
     """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
 
     ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
-
     ``schedule``: ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``;
     ``"plant"`` — the plant model's trim schedule (``models.tiltrotor.tilt_schedule``); or a
     callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
-    ``systems.allocation.bounded_least_squares`` (scipy BVLS if that module is absent).
+    ``systems.allocation.bounded_least_squares``.
+
+    Bounds (7.85)–(7.89) use the air speed of each surface [WR WL TR TL] from the aerodynamic
+    model (measured wind ζ); the thrust inversion (7.90) uses each hub's rotor-frame inflow.
     """
     from sobolev_drake.data import load
-    from sobolev_drake.models import tiltrotor as tr
-    from sobolev_drake.systems.propulsion import PropellerCoefficients
+    from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
+                                                  tiltrotor_bounds)
+    from sobolev_drake.systems.input_affine import cores, input_affine
 
-    params = params if params is not None else getattr(model, "params", None)
-    if params is None:
-        from sobolev_drake.models.tiltrotor_params import TiltrotorParams
-        params = TiltrotorParams()
-    coeffs = coeffs if coeffs is not None else PropellerCoefficients()
+    prop, aero = cores(model.params)
     if callable(schedule):
         sched = schedule
     elif schedule == "data":
         spec = load("tiltrotor_missions")["scenario_2_full_envelope"]["tilt_reference_vs_forward_speed"]
         sched = tilt_schedule_polynomial(spec["coefficients"])
     elif schedule == "plant":
-        sched = tr.tilt_schedule_function() if hasattr(tr, "tilt_schedule_function") else None
-        if sched is None:
-            raise ValueError("the plant model exposes no tilt schedule function")
+        from sobolev_drake.models import tiltrotor as tr
+        if not hasattr(tr, "tilt_schedule"):
+            raise ValueError("the plant model exposes no tilt_schedule")
+        sched = _schedule_from_plant(tr.tilt_schedule)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
-    if allocate is None:
-        try:
-            from sobolev_drake.systems.allocation import bounded_least_squares as allocate
-        except ImportError:
-            allocate = bounded_least_squares_scipy
-    limits = THESIS_LIMITS
+    allocate = bounded_least_squares if allocate is None else allocate
 
     def bounds(q, qdot, wind):
-        return thesis_bounds(surface_air_speeds(params, q, qdot, wind), limits)
+        V = aero.surface_air_data(q, qdot, wind)[1]
+        return tiltrotor_bounds(V[1:5])          # surfaces F, WR, WL, TR, TL, I → [WR WL TR TL]
 
-    def thrust_to_speed(f, q, qdot, wind):
-        return propeller_speeds_for_thrust(coeffs, f, rotor_air_velocity(params, q, qdot, wind))
+    def thrust_to_speed(f, q, qdot, wind, n_guess=None):
+        v = prop.rotor_air_velocity(q, qdot, wind)
+        v_xz = np.hypot(v[:, 0], v[:, 2])
+        phi = np.abs(np.clip(np.arctan2(v[:, 0], v[:, 2]), -np.pi / 2, np.pi / 2))
+        if n_guess is not None:
+            n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
+            if n is not None:
+                return n
+        return propeller_speed_for_thrust(f, v_xz, phi, coefficients=prop.coef,
+                                          on_unreachable="clip")
 
     inner = thesis_inner_law() if inner is None else inner
     mech = MechanicalLaw(model, PARTITION, inner, allocation=lambda u, q, qd: u)
-    law = TiltrotorWInfLaw(mech, input_affine=tr.input_affine, allocate=allocate,
-                           bounds=bounds, thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
-    law.params, law.coeffs = params, coeffs
+    law = TiltrotorWInfLaw(mech, input_affine=input_affine, allocate=allocate, bounds=bounds,
+                           thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
+    law.propulsion, law.aero = prop, aero
     return law
+
+
+def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9):
+    """Warm-started Newton solve of ρ d⁴ n² Ct(V_xz / (n d), φ) = f (7.90); None if it fails.
+
+    The previous sample's speeds are an excellent start (the demand changes little over one
+    sample), so 2–3 Newton steps reach machine-level thrust residuals; the caller falls back to
+    the bracketing solver of ``systems.allocation`` when this returns None (no warm start,
+    J clamped at J_max, zero thrust, or no convergence).
+    """
+    f = np.asarray(f, dtype=float)
+    n = np.asarray(n_guess, dtype=float).copy()
+    if np.any(f <= 0) or np.any(n <= 1.0):
+        return None
+    k = coef.rho * coef.diameter ** 4
+    d = coef.diameter
+    for _ in range(iterations):
+        J = v_xz / (n * d)
+        if np.any(J >= coef.J_max):
+            return None
+        h = 1e-6 * n
+        g0 = k * n**2 * coef.ct(J, phi) - f
+        g1 = k * (n + h)**2 * coef.ct(v_xz / ((n + h) * d), phi) - f
+        dg = (g1 - g0) / h
+        if np.any(dg <= 0):
+            return None
+        n = n - g0 / dg
+        if np.any(n <= 0):
+            return None
+        if np.all(np.abs(g0) <= rtol * (1.0 + f)):
+            break
+    J = v_xz / (n * d)
+    if np.any(J >= coef.J_max):
+        return None
+    resid = k * n**2 * coef.ct(J, phi) - f
+    return n if np.all(np.abs(resid) <= 1e-6 * (1.0 + f)) else None
+
+
+def _schedule_from_plant(tilt_schedule, h=0.05):
+    """Wrap the plant's α(U) as ``U -> (α, α', α'')`` by central differences (step h m/s)."""
+    def sched(U):
+        a0, ap, am = (float(np.mean(np.atleast_1d(tilt_schedule(U + d)))) for d in (0.0, h, -h))
+        return a0, (ap - am) / (2 * h), (ap - 2 * a0 + am) / h**2
+    return sched
