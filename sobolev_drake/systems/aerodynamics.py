@@ -89,16 +89,16 @@ class AeroModel:
         beta = np.arcsin(np.clip(v[:, 1] / np.where(V > 1e-12, V, 1.0), -1.0, 1.0))
         return v, V, alpha, beta
 
-    def terms(self, q, qdot, zeta):
-        """(ϑ_aero_passive (8,), B_delta (8, 4)) with ϑ_aero = ϑ_passive + B_delta δ,
-        δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C)."""
+    def surface_loads(self, q, qdot, zeta):
+        """Passive loads per surface: (F (6,3) body-axes forces at the aerodynamic centres,
+        M (6,3) body-axes moments, κs (6,), y_w (6,3), z_w (6,3)) (B.1)–(B.11) with δ = 0."""
         p = self.params
         _, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
         ca = self.tables.lookup(self.tables.alpha_tab, -alpha)   # α_NED = −α
         cb = self.tables.lookup(self.tables.beta_tab, -beta)     # β_NED = −β
         ks = 0.5 * p.rho * V * V * self.area                     # κ s per surface
         sa, cal, sb, cbe = np.sin(alpha), np.cos(alpha), np.sin(beta), np.cos(beta)
-        xw = np.stack([cal * cbe, sb, sa * cbe], axis=1)    # R_S^W columns
+        xw = np.stack([cal * cbe, sb, sa * cbe], axis=1)         # columns of R_S^W = Ry(−α) Rz(β)
         yw = np.stack([-cal * sb, cbe, -sa * sb], axis=1)
         zw = np.stack([-sa, np.zeros(6), cal], axis=1)
         fd = -ks * (cb[:, 1] + ca[:, 1])
@@ -108,6 +108,13 @@ class AeroModel:
         M = np.zeros((6, 3))
         M[:, 1] = -ks * p.chord * ca[:, 2]
         M[:, 2] = -ks * p.span * cb[:, 2]
+        return F, M, ks, yw, zw
+
+    def terms(self, q, qdot, zeta):
+        """(ϑ_aero_passive (8,), B_delta (8, 4)) with ϑ_aero = ϑ_passive + B_delta δ,
+        δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C)."""
+        p = self.params
+        F, M, ks, yw, zw = self.surface_loads(q, qdot, zeta)
         # generalized force of main-body forces/moments: η ← Wηᵀ Σ(r × F + M), ξ ← R Σ F
         Wt = W_eta(q).T
         R = R_IB(q)
