@@ -1,0 +1,173 @@
+"""Tilt-rotor generalized forces: propellers, servos, aerodynamics, input-affine form (7.62)."""
+
+import numpy as np
+import pytest
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import DiagramBuilder
+
+from sobolev_drake.data import load
+from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
+from sobolev_drake.systems.aerodynamics import AerodynamicSurfaces, AeroModel
+from sobolev_drake.systems.input_affine import (force_disturbance_generalized, generalized_force,
+                                                input_affine, thrust_inputs)
+from sobolev_drake.systems.propulsion import PropellerCoefficients, PropellerForces, PropulsionModel
+
+RHO, D = 1.21, 0.6096
+
+
+@pytest.fixture(scope="module")
+def model():
+    return TiltrotorModel()
+
+
+def random_state(rng):
+    q = np.concatenate([rng.uniform(-0.6, 0.6, 5), rng.normal(size=3)])
+    qd = np.concatenate([rng.normal(size=5) * 0.5, rng.normal(size=3) * 6 + [8, 0, 0]])
+    return q, qd, rng.normal(size=3) * 3
+
+
+def test_propeller_coefficients_vectorized_and_clamped():
+    c = PropellerCoefficients()
+    assert c.ct(0, 0) == pytest.approx(0.0829) and c.cq(0, 0) == pytest.approx(0.0053)
+    J = np.linspace(0, 0.75, 7)[:, None]
+    phi = np.linspace(0, np.pi / 2, 5)[None, :]
+    assert c.ct(J, phi).shape == (7, 5) and c.cq(J, phi).shape == (7, 5)
+    v = np.array([[0, 0, 10.0], [10.0, 0, 0], [0, 3.0, -100.0], [0, 0, 0]])
+    J, phi = c.advance_ratio_and_inflow(v, np.array([50.0, 50.0, 50.0, 50.0]))
+    np.testing.assert_allclose(J, [10 / (50 * D), 10 / (50 * D), 0.75, 0.0])
+    np.testing.assert_allclose(phi, [0, np.pi / 2, np.pi / 2, 0])
+    with pytest.raises(ValueError, match="v_rel_rotor_frame"):
+        c.advance_ratio_and_inflow(np.zeros(2), 50.0)
+
+
+def test_static_thrust_and_servo(model):
+    q, qd = np.zeros(8), np.zeros(8)
+    prop = PropulsionModel(model.params)
+    f, t, J, phi = prop.thrust_and_torque(q, qd, np.zeros(3), np.array([40.0, 0.0]))
+    assert f[0] == pytest.approx(RHO * D ** 4 * 40.0 ** 2 * 0.0829, rel=1e-12)
+    assert t[0] == pytest.approx(RHO * D ** 5 * 40.0 ** 2 * 0.0053, rel=1e-12)
+    assert f[1] == 0.0 and t[1] == 0.0
+    th = generalized_force(model, q, qd, np.zeros(3), [40.0, 0.0], [0.5, 0.0], np.zeros(4))
+    beta = model.params.beta
+    assert th[7] == pytest.approx(f[0] * np.cos(beta), rel=1e-12)       # rotor axis Rx(−β) e_z
+    assert th[0] == pytest.approx(0.5 * np.cos(beta) + t[0] * np.sin(beta), rel=1e-12)
+
+
+def test_wing_lift_matches_hand_computation(model):
+    aero = AeroModel(model.params)
+    tab = load("tiltrotor_aero_tables")
+    grid = np.deg2rad(-90 + 0.5 * np.arange(361))
+    V, a = 15.0, np.deg2rad(-4.3)            # body moving forward and down: α_NED = +4.3°
+    qd = np.zeros(8)
+    qd[5], qd[7] = V * np.cos(a), V * np.sin(a)
+    F, M, *_ = aero.surface_loads(np.zeros(8), qd, np.zeros(3))
+    cl = np.interp(-a, grid, tab["tables"]["wing"]["lift_alpha"])
+    cd = np.interp(-a, grid, tab["tables"]["wing"]["drag_alpha"]) + tab["tables"]["wing"]["drag_beta"][180]
+    cm = np.interp(-a, grid, tab["tables"]["wing"]["pitch_moment_alpha"])
+    kappa_s = 0.5 * RHO * V ** 2 * 0.125 / 2
+    lift_dir, vel_dir = np.array([-np.sin(a), 0, np.cos(a)]), np.array([np.cos(a), 0, np.sin(a)])
+    np.testing.assert_allclose(F[1], kappa_s * (cl * lift_dir - cd * vel_dir), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(F[1], F[2], atol=1e-12)
+    assert M[1, 1] == pytest.approx(-kappa_s * 0.1366 * cm, rel=1e-12)
+    assert F[1] @ vel_dir < 0 and F[1][2] > 0                              # drag opposes, lift up
+    lift = kappa_s * cl
+    assert lift == pytest.approx(0.5 * 1.21 * 225 * 0.0625 * cl)
+
+
+def _mirror_state(q, qd, zeta):
+    P = np.eye(8)[[1, 0, 2, 3, 4, 5, 6, 7]]
+    s = np.array([1, 1, -1, 1, -1, 1, -1, 1.0])
+    return s * (P @ q), s * (P @ qd), zeta * [1, -1, 1]
+
+
+def test_mirror_symmetry(model):
+    rng = np.random.default_rng(5)
+    s = np.array([1, 1, -1, 1, -1, 1, -1, 1.0])
+    for _ in range(10):
+        q, qd, zeta = random_state(rng)
+        n, ts, de = rng.uniform(20, 60, 2), rng.normal(size=2), rng.uniform(-0.3, 0.3, 4)
+        th = generalized_force(model, q, qd, zeta, n, ts, de)
+        qm, qdm, zm = _mirror_state(q, qd, zeta)
+        thm = generalized_force(model, qm, qdm, zm, n[::-1], ts[::-1], de[[1, 0, 3, 2]])
+        np.testing.assert_allclose(thm, s * th[[1, 0, 2, 3, 4, 5, 6, 7]], atol=1e-10)
+
+
+def test_input_affine_identity(model):
+    rng = np.random.default_rng(6)
+    for _ in range(60):
+        q, qd, zeta = random_state(rng)
+        n, ts, de = rng.uniform(15, 70, 2), rng.normal(size=2), rng.uniform(-0.4, 0.4, 4)
+        B, passive = input_affine(model, q, qd, zeta, n=n)
+        tau_bar = np.concatenate([thrust_inputs(model, q, qd, zeta, n), ts, de])
+        theta = generalized_force(model, q, qd, zeta, n, ts, de)
+        np.testing.assert_allclose(B @ tau_bar + passive, theta, rtol=0, atol=1e-9)
+
+
+def test_forces_agree_with_drake_jacobians(model):
+    """Closed-form generalized forces = Drake's Jacobianᵀ × spatial forces at the frames."""
+    plant, ctx, W = model.plant, model.context, model.plant.world_frame()
+    prop, aero = PropulsionModel(model.params), AeroModel(model.params)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd, zeta = random_state(rng)
+        n = rng.uniform(20, 60, 2)
+        model._set(q, qd)
+
+        def gen(frame, F, T):
+            J = plant.CalcJacobianSpatialVelocity(ctx, JacobianWrtVariable.kV, plant.GetFrameByName(frame),
+                                                  np.zeros(3), W, W)
+            return model.T.T @ (J.T @ np.concatenate([T, F]))
+        f, t, _, _ = prop.thrust_and_torque(q, qd, zeta, n)
+        g = np.zeros(8)
+        for k, fr in enumerate(("frame_PR", "frame_PL")):
+            X = plant.GetFrameByName(fr).CalcPoseInWorld(ctx)
+            z = X.rotation().matrix()[:, 2]
+            g += gen(fr, f[k] * z, t[k] * z)
+            v = plant.GetFrameByName(fr).CalcSpatialVelocityInWorld(ctx).translational()
+            np.testing.assert_allclose(X.rotation().matrix().T @ (v - zeta),
+                                       prop.rotor_air_velocity(q, qd, zeta)[k], atol=1e-10)
+        np.testing.assert_allclose(g, prop.propeller_force(q, qd, zeta, n), atol=1e-10)
+        F, M, *_ = aero.surface_loads(q, qd, zeta)
+        R = plant.GetFrameByName("frame_C1").CalcPoseInWorld(ctx).rotation().matrix()
+        g = sum(gen(fr, R @ F[k], R @ M[k]) for k, fr in
+                enumerate(("frame_F", "frame_WR", "frame_WL", "frame_TR", "frame_TL", "frame_C1")))
+        np.testing.assert_allclose(g, aero.generalized_force(q, qd, zeta, np.zeros(4)), atol=1e-10)
+        Fd = rng.normal(size=3)
+        np.testing.assert_allclose(gen("frame_C1", Fd, np.zeros(3)),
+                                   force_disturbance_generalized(model, q, Fd), atol=1e-10)
+
+
+def test_leaf_systems_match_combined_plant_forces(model):
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    pf = b.AddSystem(PropellerForces())
+    af = b.AddSystem(AerodynamicSurfaces())
+    for s in (pf, af):
+        b.Connect(h.x, s.GetInputPort("x"))
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    rng = np.random.default_rng(8)
+    q, qd, zeta = random_state(rng)
+    n, ts, de, fdist = rng.uniform(20, 60, 2), rng.normal(size=2), rng.uniform(-0.3, 0.3, 4), rng.normal(size=3)
+    h.set_state(ctx, d, q, qd)
+    fc, pc, ac = (s.GetMyMutableContextFromRoot(ctx) for s in (h.forces, pf, af))
+    h.u.FixValue(fc, np.concatenate([n, ts, de]))
+    h.wind.FixValue(fc, zeta)
+    h.force_disturbance.FixValue(fc, fdist)
+    for port, val in (("wind", zeta), ("propeller_speed", n), ("servo_torque", ts)):
+        pf.GetInputPort(port).FixValue(pc, val)
+    af.GetInputPort("wind").FixValue(ac, zeta)
+    af.GetInputPort("surface_deflection").FixValue(ac, de)
+    total = (pf.GetOutputPort("generalized_force").Eval(pc) + af.GetOutputPort("generalized_force").Eval(ac)
+             + force_disturbance_generalized(model, q, fdist))
+    np.testing.assert_allclose(h.generalized_force.Eval(fc), total, atol=1e-12)
+    np.testing.assert_allclose(h.x.Eval(fc), np.concatenate([q, qd]), atol=0)
+
+
+def test_bad_inputs_raise(model):
+    with pytest.raises(ValueError, match="q must be a vector of length 8"):
+        input_affine(model, np.zeros(7), np.zeros(8), np.zeros(3))
+    with pytest.raises(ValueError, match="zeta"):
+        input_affine(model, np.zeros(8), np.zeros(8), np.zeros(2))
+    with pytest.raises(TypeError, match="TiltrotorModel"):
+        input_affine(object(), np.zeros(8), np.zeros(8), np.zeros(3))
