@@ -171,6 +171,7 @@ class QuadrotorModel(MechanicalModel):
         super().__init__(plant, coordinate_map=T, dof_names=list(THESIS_ORDER), name="quadrotor")
         self._body = plant.GetBodyByName("body")
         self._rotors = [plant.GetFrameByName(f"rotor{i + 1}") for i in range(4)]
+        self._wrench_B = self.body_wrench_matrix()
         z_axis = self._rotors[0].GetFixedPoseInBodyFrame().rotation().col(2)
         plant_tilt = float(np.arctan2(-z_axis[0], z_axis[2]))  # rotor 1 axis = (−sin α, 0, cos α)
         if abs(plant_tilt - self.tilt) > 1e-9:
@@ -240,9 +241,34 @@ class QuadrotorModel(MechanicalModel):
             torque = R_BR.T @ np.array([0.0, 0.0, ROTOR_SPIN[i] * p.d * np.cos(self.tilt)])
         return torque, force
 
+    def body_wrench_matrix(self) -> np.ndarray:
+        """6×4: unit-Ω² wrench of each rotor about the body origin, in body axes (rows: torque,
+        force), assembled from the poses of the Drake rotor frames (constant: rotors are fixed)."""
+        cols = []
+        for i, frame in enumerate(self._rotors):
+            X_BR = frame.GetFixedPoseInBodyFrame()
+            R_BR, p_BR = X_BR.rotation().matrix(), X_BR.translation()
+            torque, force = self.rotor_wrench_in_rotor_frame(i)
+            f_B = R_BR @ force
+            cols.append(np.r_[R_BR @ torque + np.cross(p_BR, f_B), f_B])
+        return np.column_stack(cols)
+
     def B(self, q) -> np.ndarray:
-        """B(q) (6×4, thesis order) from Drake's Jacobians of the rotor frames:
-        column i = Jᵢᵀ [τ_W; f_W] for the unit-Ω² wrench of rotor i at its frame origin."""
+        """B(q) (6×4, thesis order) from Drake's spatial-velocity Jacobian of the body:
+        B = Tᵀ J_Bᵀ blockdiag(R_WB, R_WB) W_B, with W_B the rotor wrenches moved to the body
+        origin (:meth:`body_wrench_matrix`).  Same as summing Jᵢᵀ wrenchᵢ over the rotor frames."""
+        self._set(q)
+        plant, ctx, world = self.plant, self.context, self.plant.world_frame()
+        frame = self._body.body_frame()
+        J = plant.CalcJacobianSpatialVelocity(ctx, JacobianWrtVariable.kV, frame, np.zeros(3),
+                                              world, world)
+        R_WB = frame.CalcRotationMatrixInWorld(ctx).matrix()
+        W_B = self._wrench_B
+        return self.T.T @ (J.T @ np.vstack([R_WB @ W_B[:3], R_WB @ W_B[3:]]))
+
+    def B_per_rotor_jacobians(self, q) -> np.ndarray:
+        """B(q) column by column, column i = Jᵢᵀ [τ_W; f_W] with Jᵢ the Jacobian of rotor frame i
+        (slower reference implementation of :meth:`B`)."""
         self._set(q)
         plant, ctx, world = self.plant, self.context, self.plant.world_frame()
         cols = []
