@@ -171,6 +171,10 @@ def test_arm_set_state_rejects_bad_sizes():
         h.set_state(ctx, diagram, [0, 0], [0, 0, 0])
     with pytest.raises(ValueError, match="q must be finite"):
         h.set_state(ctx, diagram, [np.nan, 0], [0, 0])
+    h.set_state(ctx, diagram, [0, 0], [0, 0])
+    h.u.FixValue(h.adapter.GetMyMutableContextFromRoot(ctx), [np.inf, 0.0])
+    with pytest.raises(ValueError, match="u \\(actuator command\\) must be finite"):
+        diagram.CalcTimeDerivatives(ctx, diagram.AllocateTimeDerivatives())
 
 
 def test_arm_diagram_dynamics(arm_model):

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from sobolev_drake.models.base import check_vector
+
 
 class ThesisForceAdapter(LeafSystem):
     """LeafSystem: (u, disturbance, plant_state) → (applied_generalized_force, x).
@@ -68,8 +70,9 @@ class ThesisForceAdapter(LeafSystem):
         return np.concatenate([self.model.to_thesis(s[:n]), self.model.to_thesis(s[n:])])
 
     def _calc_force(self, context, output: BasicVector) -> None:
-        u = self._read_optional(self._u, context, self.nu)
-        w = self._read_optional(self._w, context, self.n)
+        # non-finite commands would otherwise surface later as a NaN state
+        u = check_vector("u (actuator command)", self._read_optional(self._u, context, self.nu), self.nu)
+        w = check_vector("disturbance", self._read_optional(self._w, context, self.n), self.n)
         tau = self.thesis_force(self._thesis_state(context), u, w)
         output.SetFromVector(self.model.force_to_drake(tau))
 
