@@ -1,0 +1,348 @@
+"""Design model, costs and Galerkin linear systems of the successive Galerkin approximation.
+
+Every cost handled here has the same structure: for a state x and a stacked decision
+v = [u; w] (control, then disturbance) the running cost is quadratic in v,
+
+    ℓ(x, v) = q(x) + 2 s(x)ᵀ v + vᵀ S(x) v,
+
+and the dynamics are ẋ = F(x) + G(x) v with F = f, G = [g k].  Hence
+
+* W2 / W∞ in the weighted Sobolev space (4.13) with z = h(x), ż = ∇h ẋ, B = ∇hᵀσ₁∇h:
+  ℓ = ½hᵀσ₀h + ½(f + Gv)ᵀB(f + Gv) − ½γ²wᵀw, i.e.
+  q = ½hᵀσ₀h + ½fᵀBf, s = ½GᵀBf, S = ½GᵀBG − ½γ² diag(0, I);
+* classic H∞ (Beard & McLain 1998): ℓ = hᵀQh + uᵀRu − γ²wᵀw, i.e. q = hᵀQh, s = 0,
+  S = diag(R, −γ²I).
+
+For V = cᵀΦ the stationary point of the Hamiltonian ∇Vᵀ(F + Gv) + ℓ is
+v* = −S⁻¹(½Gᵀ∇Φᵀc + s): for W2 this is (4.8), for W∞ the pair (4.19)/(4.20), for H∞
+u = −½R⁻¹gᵀ∇V, w = γ⁻²/2 kᵀ∇V.  Policies are therefore affine in the coefficients,
+v(x) = v₀(x) + L(x) p, and the Galerkin system (4.25)/(4.28) for the next coefficients,
+A(p) c = −b(p) with A_kj = ∫Ω φ_k ∇φ_jᵀ(F + Gv) and b_k = ∫Ω φ_k ℓ(x, v), is affine (A) and
+quadratic (b) in p.  :class:`AffineGalerkinSystem` precomputes A = A₀ + A₁·p as a tensor once;
+b is evaluated from the (cheap) pointwise cost at the quadrature nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from sobolev_drake.synthesis.galerkin_basis import Box, check_points
+
+__all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
+           "AffineGalerkinSystem", "GalerkinDivergenceError", "GalerkinConvergenceError",
+           "AdmissibilityError", "SaddlePointError"]
+
+
+class GalerkinDivergenceError(RuntimeError):
+    """The iteration diverged; ``history`` holds the per-iteration records (no coefficients)."""
+
+    def __init__(self, message, history=None):
+        super().__init__(message)
+        self.history = list(history or [])
+
+
+class GalerkinConvergenceError(RuntimeError):
+    """The iteration did not reach the tolerance within the iteration budget."""
+
+    def __init__(self, message, history=None):
+        super().__init__(message)
+        self.history = list(history or [])
+
+
+class AdmissibilityError(ValueError):
+    """The initial control does not stabilize the design model on Ω."""
+
+
+class SaddlePointError(ValueError):
+    """γ (or the weights) violate the saddle-point condition (4.22) somewhere on Ω."""
+
+
+def bmm(A, B):
+    """Batched product (Q, a, b) @ (Q, b, c) -> (Q, a, c) for a small contraction size b.
+
+    numpy's stacked ``matmul`` is slow for tiny matrices; a loop over the (small) contraction
+    axis with broadcasting is vectorized over the batch and the other two axes."""
+    out = A[:, :, 0, None] * B[:, None, 0, :]
+    for i in range(1, A.shape[2]):
+        out += A[:, :, i, None] * B[:, None, i, :]
+    return out
+
+
+def bmv(A, x):
+    """Batched matrix-vector product (Q, a, b) @ (Q, b) -> (Q, a)."""
+    out = A[:, :, 0] * x[:, 0, None]
+    for i in range(1, A.shape[2]):
+        out += A[:, :, i] * x[:, i, None]
+    return out
+
+
+def _call(name, fun, X, shape):
+    out = np.asarray(fun(X), dtype=float)
+    if out.shape != shape:
+        raise ValueError(f"{name}(X) must return shape {shape} for X of shape {X.shape} "
+                         f"(vectorized over the first axis), got {out.shape}")
+    return out
+
+
+class InputAffineModel:
+    """ẋ = f(x) + g(x)u + k(x)w (4.10) given by vectorized callables.
+
+    ``f(X) -> (Q, n)``, ``g(X) -> (Q, n, nu)``, ``k(X) -> (Q, n, nw)`` for X of shape (Q, n);
+    ``k=None`` means no disturbance channel (nw = 0).  Shapes are checked on a probe batch and
+    f(0) = 0 (Assumption 3) is enforced.
+    """
+
+    def __init__(self, f: Callable, g: Callable, k: Callable | None = None, *, n: int,
+                 nu: int | None = None, nw: int | None = None):
+        self.f, self.g, self.k, self.n = f, g, k, int(n)
+        probe = np.zeros((2, self.n))
+        probe[1] = 0.1
+        F = np.asarray(f(probe), dtype=float)
+        if F.shape != (2, self.n):
+            raise ValueError(f"f(X) must return shape (Q, {self.n}), got {F.shape} for Q = 2")
+        Gp = np.asarray(g(probe), dtype=float)
+        if Gp.ndim != 3 or Gp.shape[:2] != (2, self.n):
+            raise ValueError(f"g(X) must return shape (Q, {self.n}, nu), got {Gp.shape} for Q = 2")
+        self.nu = Gp.shape[2] if nu is None else int(nu)
+        if Gp.shape[2] != self.nu:
+            raise ValueError(f"g(X) has {Gp.shape[2]} columns but nu = {self.nu}")
+        if k is None:
+            self.nw = 0
+        else:
+            Kp = np.asarray(k(probe), dtype=float)
+            if Kp.ndim != 3 or Kp.shape[:2] != (2, self.n):
+                raise ValueError(f"k(X) must return shape (Q, {self.n}, nw), got {Kp.shape}")
+            self.nw = Kp.shape[2]
+            if nw is not None and int(nw) != self.nw:
+                raise ValueError(f"k(X) has {self.nw} columns but nw = {nw}")
+        if np.max(np.abs(F[0])) > 1e-9:
+            raise ValueError(f"f(0) must be 0 (origin an equilibrium, Assumption 3), got {F[0]}")
+
+    @property
+    def m(self) -> int:
+        return self.nu + self.nw
+
+    def evaluate(self, X):
+        """F (Q, n) and G = [g k] (Q, n, nu + nw) at the points X."""
+        X = check_points("X", X, self.n)
+        Q = X.shape[0]
+        F = _call("f", self.f, X, (Q, self.n))
+        G = _call("g", self.g, X, (Q, self.n, self.nu))
+        if self.nw:
+            G = np.concatenate([G, _call("k", self.k, X, (Q, self.n, self.nw))], axis=2)
+        return F, G
+
+
+def _spd(name, M, size):
+    M = np.atleast_2d(np.asarray(M, dtype=float))
+    if M.shape != (size, size):
+        raise ValueError(f"{name} must be a {size}x{size} matrix, got shape {M.shape}")
+    if not np.allclose(M, M.T, atol=1e-12 * max(1.0, np.abs(M).max())):
+        raise ValueError(f"{name} must be symmetric")
+    if np.linalg.eigvalsh(M).min() <= 0:
+        raise ValueError(f"{name} must be positive definite, eigenvalues "
+                         f"{np.linalg.eigvalsh(M).tolist()}")
+    return M
+
+
+@dataclass
+class W2Cost:
+    """J = ½‖z‖²σ₀ + ½‖ż‖²σ₁ with z = h(x) (4.2); ``dh(X) -> (Q, nz, n)`` is ∇h."""
+
+    h: Callable
+    dh: Callable
+    sigma0: np.ndarray
+    sigma1: np.ndarray
+    kind = "w2"
+
+    def gamma_value(self):
+        return None
+
+    def coefficients(self, X, F, G, nu):
+        nz = np.asarray(self.sigma0).shape[0]
+        return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=None)
+
+
+@dataclass
+class WinfCost:
+    """J = ½‖z‖²σ₀ + ½‖ż‖²σ₁ − ½γ²‖w‖² (4.12)/(4.13)."""
+
+    h: Callable
+    dh: Callable
+    sigma0: np.ndarray
+    sigma1: np.ndarray
+    gamma: float
+    kind = "winf"
+
+    def gamma_value(self):
+        return float(self.gamma)
+
+    def coefficients(self, X, F, G, nu):
+        nz = np.asarray(self.sigma0).shape[0]
+        return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=float(self.gamma))
+
+
+@dataclass
+class HinfCost:
+    """Classic H∞ (Beard & McLain 1998): ∫ hᵀQh + uᵀRu − γ²wᵀw dt (no ½)."""
+
+    h: Callable
+    Q: np.ndarray
+    R: np.ndarray
+    gamma: float
+    kind = "hinf"
+
+    def gamma_value(self):
+        return float(self.gamma)
+
+    def coefficients(self, X, F, G, nu):
+        Qn, m = X.shape[0], G.shape[2]
+        nz = np.atleast_2d(self.Q).shape[0]
+        Qw = _spd("Q", self.Q, nz)
+        R = _spd("R", self.R, nu)
+        h = _call("h", self.h, X, (Qn, nz))
+        q = np.einsum("qi,ij,qj->q", h, Qw, h)
+        s = np.zeros((Qn, m))
+        S = np.zeros((Qn, m, m))
+        S[:, :nu, :nu] = R
+        if m > nu:
+            S[:, nu:, nu:] = -float(self.gamma) ** 2 * np.eye(m - nu)
+        return q, s, S
+
+
+def _sobolev_coefficients(cost, X, F, G, nu, nz, gamma):
+    Qn, n = X.shape
+    m = G.shape[2]
+    s0 = _spd("sigma0", cost.sigma0, nz)
+    s1 = _spd("sigma1", cost.sigma1, nz)
+    h = _call("h", cost.h, X, (Qn, nz))
+    Dh = _call("dh", cost.dh, X, (Qn, nz, n))
+    B = np.einsum("qzi,zy,qyj->qij", Dh, s1, Dh)  # ∇hᵀσ₁∇h
+    BF = np.einsum("qij,qj->qi", B, F)
+    q = 0.5 * np.einsum("qi,ij,qj->q", h, s0, h) + 0.5 * np.einsum("qi,qi->q", F, BF)
+    s = 0.5 * np.einsum("qim,qi->qm", G, BF)
+    S = 0.5 * np.einsum("qim,qij,qjl->qml", G, B, G)
+    if m > nu:
+        if gamma is None:
+            raise ValueError("a disturbance channel needs gamma")
+        S[:, nu:, nu:] -= 0.5 * gamma ** 2 * np.eye(m - nu)
+    return q, s, S
+
+
+class NodeData:
+    """Everything evaluated once at a set of points: Φ, ∇Φ, F, G and the cost coefficients."""
+
+    def __init__(self, model: InputAffineModel, cost, basis, X, weights=None):
+        self.X = X
+        self.w = weights
+        self.nu, self.nw = model.nu, model.nw
+        self.Phi = basis.evaluate(X)
+        self.dPhi = basis.gradient(X)
+        self.F, self.G = model.evaluate(X)
+        self.q, self.s, self.S = cost.coefficients(X, self.F, self.G, model.nu)
+        # Gᵀ∇Φᵀ: (Q, m, N)
+        self.GtdPhi = bmm(self.G.transpose(0, 2, 1), self.dPhi.transpose(0, 2, 1))
+        nu = self.nu
+        Suu = self.S[:, :nu, :nu]
+        eig_uu = np.linalg.eigvalsh(Suu)
+        if eig_uu.min() <= 1e-12 * max(1.0, np.abs(eig_uu).max()):
+            raise SaddlePointError(
+                "the control weight (gᵀBg for W2/W∞, R for H∞) is not positive definite at "
+                f"some points of Ω (min eigenvalue {eig_uu.min():.3e}); Assumption 4 "
+                "(∇h and g of full column rank) fails there")
+        self.Sinv = np.linalg.inv(self.S)
+        self.v0_saddle = -bmv(self.Sinv, self.s)
+        self.L_saddle = -0.5 * bmm(self.Sinv, self.GtdPhi)  # (Q, m, N)
+        if self.nw:
+            self.Sww_inv = np.linalg.inv(self.S[:, nu:, nu:])
+
+    # policies ------------------------------------------------------------------------------
+    def saddle(self, c):
+        """v*(c) = −S⁻¹(½Gᵀ∇Φᵀc + s) at the nodes, shape (Q, m)."""
+        Qn, m, N = self.L_saddle.shape
+        return self.v0_saddle + (self.L_saddle.reshape(Qn * m, N) @ c).reshape(Qn, m)
+
+    def best_response_w(self, c, u):
+        """argmax_w of the Hamiltonian for V = cᵀΦ and the given control u (Q, nu)."""
+        nu = self.nu
+        Qn, m, N = self.GtdPhi.shape
+        kdV = (self.GtdPhi[:, nu:, :].reshape(-1, N) @ c).reshape(Qn, m - nu)
+        rhs = 0.5 * kdV + self.s[:, nu:] + bmv(self.S[:, nu:, :nu], u)
+        return -bmv(self.Sww_inv, rhs)
+
+    def running_cost(self, v):
+        Sv = bmv(self.S, v)
+        return self.q + np.sum((2.0 * self.s + Sv) * v, axis=1)
+
+    def hamiltonian(self, c, v):
+        """∇Vᵀ(F + Gv) + ℓ(x, v) for V = cᵀΦ (the GHJ residual of the policy v)."""
+        drift = self.F + bmv(self.G, v)
+        return bmv(self.dPhi, drift) @ c + self.running_cost(v)
+
+    # Galerkin system for an arbitrary policy evaluated at the nodes -----------------------
+    def system(self, v):
+        """(A, b) of (4.25)/(4.28) for the decision v (Q, m) at the nodes."""
+        drift = self.F + bmv(self.G, v)
+        D = bmv(self.dPhi, drift)
+        Wphi = self.Phi * self.w[:, None]
+        return Wphi.T @ D, Wphi.T @ self.running_cost(v)
+
+
+class AffineGalerkinSystem:
+    """Precomputed A(p) = A₀ + A₁·p for the affine policy v = v₀ + L p (tensor method).
+
+    A₀ (N, N), A₁ (N, N, P); b(p) is evaluated at the nodes (it is quadratic in p).
+    ``method="direct"`` skips the tensor and assembles A(p) from the nodes every call.
+    """
+
+    def __init__(self, nodes: NodeData, v0, L, *, method="tensor", chunk_entries=4_000_000):
+        self.nodes, self.v0, self.L, self.method = nodes, v0, L, method
+        Phi, dPhi, G, w = nodes.Phi, nodes.dPhi, nodes.G, nodes.w
+        Qn, N = Phi.shape
+        P = L.shape[2]
+        self.Wphi = Phi * w[:, None]
+        if method == "direct":
+            return
+        if method != "tensor":
+            raise ValueError(f"method must be 'tensor' or 'direct', got {method!r}")
+        self.A0 = self.Wphi.T @ bmv(dPhi, nodes.F + bmv(G, v0))
+        A1 = np.zeros((N, N * P))
+        step = max(1, chunk_entries // max(1, N * P))
+        for a in range(0, Qn, step):
+            sl = slice(a, min(Qn, a + step))
+            D1 = bmm(dPhi[sl], bmm(G[sl], L[sl])).reshape(-1, N * P)
+            A1 += self.Wphi[sl].T @ D1
+        self.A1 = A1.reshape(N, N, P)
+
+    def policy(self, p):
+        Qn, m, P = self.L.shape
+        return self.v0 + (self.L.reshape(Qn * m, P) @ p).reshape(Qn, m)
+
+    def solve(self, p):
+        v = self.policy(p)
+        if self.method == "tensor":
+            A = self.A0 + self.A1 @ p
+            b = self.Wphi.T @ self.nodes.running_cost(v)
+        else:
+            A, b = self.nodes.system(v)
+        return solve_galerkin(A, b)
+
+
+def solve_galerkin(A, b):
+    """c with A c = −b, refusing singular or non-finite systems."""
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise GalerkinDivergenceError("non-finite Galerkin system (the policy blew up)")
+    cond = np.linalg.cond(A)
+    if not np.isfinite(cond) or cond > 1e14:
+        raise GalerkinDivergenceError(
+            f"singular Galerkin matrix (condition number {cond:.2e}): the current policy is not "
+            "admissible on Ω for this basis, or the basis is degenerate")
+    return np.linalg.solve(A, -b)
+
+
+def box_test_points(box: Box, count: int, seed: int = 12345):
+    """Seeded uniform test points in Ω, used for residual and positivity diagnostics."""
+    return box.sample(count, seed=seed)
