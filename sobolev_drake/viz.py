@@ -108,13 +108,15 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
     meshcat.SetLine(f"/paths/{name}", P, line_width, Rgba(*map(float, rgba)))
 
 
-def save_figure(fig, path, *, dpi: int = 120) -> Path:
-    """Save a matplotlib figure as PNG (creating folders) and close it."""
+def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
+    """Save a matplotlib figure as PNG (creating folders) and close it.
+
+    ``tight=True`` crops to the drawn artists (``bbox_inches="tight"``, an extra draw pass)."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
     plt.close(fig)
     return path
 
@@ -158,4 +160,5 @@ def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t
     axes[-1, 0].set_xlabel(xlabel)
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
     return save_figure(fig, path)
