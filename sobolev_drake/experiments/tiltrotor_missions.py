@@ -328,13 +328,20 @@ def score(data, scenario, duration):
     effort = effort_metrics(t, data["tau_bar"], data["propeller_speed"], data["saturation"])
     land = float(np.linalg.norm(q[5:8, -1] - data["reference"][0:3, -1]))
     finite = bool(np.all(np.isfinite(data["x"])))
+    tau, dmax = data["tau_bar"], 5 * np.pi / 36
+    bounds_check = {
+        "tau_within_bounds": bool(np.all(tau[:2] >= -1e-9) and np.all(tau[:2] <= 100 + 1e-9)
+                                  and np.all(np.abs(tau[2:4]) <= 2 + 1e-9)
+                                  and np.all(np.abs(tau[4:]) <= dmax + 1e-9)),
+        "speeds_nonnegative": bool(np.all(data["propeller_speed"] >= 0)),
+        "max_speed_rev_s": float(np.max(data["propeller_speed"]))}
     return {"phases": rows, "effort": effort, "final_position_error_m": land,
             "max_abs_roll_deg": float(np.degrees(np.max(np.abs(q[2])))),
             "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(q[3])))),
             "tilt_range_deg": [float(np.degrees(np.min(q[:2]))), float(np.degrees(np.max(q[:2])))],
             "max_allocation_residual": float(np.max(data["allocation_residual"])),
             "rms_allocation_residual": float(np.sqrt(np.mean(data["allocation_residual"] ** 2))),
-            "finite": finite, "duration_s": float(t[-1])}
+            "finite": finite, "duration_s": float(t[-1]), "bounds_check": bounds_check}
 
 
 def _write_table(out_dir, stem, columns, rows, title):

@@ -317,10 +317,7 @@ def make_law(model, inner=None, *, schedule="data", allocate=None):
         spec = load("tiltrotor_missions")["scenario_2_full_envelope"]["tilt_reference_vs_forward_speed"]
         sched = tilt_schedule_polynomial(spec["coefficients"])
     elif schedule == "plant":
-        from sobolev_drake.models import tiltrotor as tr
-        if not hasattr(tr, "tilt_schedule"):
-            raise ValueError("the plant model exposes no tilt_schedule")
-        sched = _schedule_from_plant(tr.tilt_schedule)
+        sched = plant_trim_schedule(model)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
     allocate = bounded_least_squares if allocate is None else allocate
@@ -354,7 +351,7 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
     The previous sample's speeds are an excellent start (the demand changes little over one
     sample), so 2–3 Newton steps reach machine-level thrust residuals; the caller falls back to
     the bracketing solver of ``systems.allocation`` when this returns None (no warm start,
-    J clamped at J_max, zero thrust, or no convergence).
+    zero thrust, non-increasing thrust, or no convergence).
     """
     f = np.asarray(f, dtype=float)
     n = np.asarray(n_guess, dtype=float).copy()
@@ -362,31 +359,45 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
         return None
     k = coef.rho * coef.diameter ** 4
     d = coef.diameter
+
+    def thrust(nn):  # J clamped to the table range, as in the plant's propeller model
+        return k * nn**2 * coef.ct(np.minimum(v_xz / (nn * d), coef.J_max), phi)
+
     for _ in range(iterations):
-        J = v_xz / (n * d)
-        if np.any(J >= coef.J_max):
-            return None
         h = 1e-6 * n
-        g0 = k * n**2 * coef.ct(J, phi) - f
-        g1 = k * (n + h)**2 * coef.ct(v_xz / ((n + h) * d), phi) - f
-        dg = (g1 - g0) / h
+        g0 = thrust(n) - f
+        if np.all(np.abs(g0) <= rtol * (1.0 + f)):
+            return n
+        dg = (thrust(n + h) - f - g0) / h
         if np.any(dg <= 0):
             return None
         n = n - g0 / dg
         if np.any(n <= 0):
             return None
-        if np.all(np.abs(g0) <= rtol * (1.0 + f)):
-            break
-    J = v_xz / (n * d)
-    if np.any(J >= coef.J_max):
-        return None
-    resid = k * n**2 * coef.ct(J, phi) - f
-    return n if np.all(np.abs(resid) <= 1e-6 * (1.0 + f)) else None
+    return n if np.all(np.abs(thrust(n) - f) <= 1e-6 * (1.0 + f)) else None
 
 
-def _schedule_from_plant(tilt_schedule, h=0.05):
-    """Wrap the plant's α(U) as ``U -> (α, α', α'')`` by central differences (step h m/s)."""
+_TRIM_SCHEDULES: dict = {}
+
+
+def plant_trim_schedule(model=None):
+    """α(U) from the plant's level-flight trims (``models.tiltrotor_trim.tilt_schedule``,
+    0–34 m/s every 1 m/s) as a cubic spline ``U -> (α, α', α'')``, clamped like the polynomial.
+
+    The trims are computed once per process (a few seconds) and cached."""
+    from scipy.interpolate import CubicSpline
+    from sobolev_drake.models import tiltrotor_trim as tt
+
+    key = id(getattr(model, "params", None))
+    if key not in _TRIM_SCHEDULES:
+        trims = tt.tilt_schedule(model=model)
+        V = np.array([t.V for t in trims])
+        a = np.array([0.5 * (t.q[0] + t.q[1]) for t in trims])
+        _TRIM_SCHEDULES[key] = (CubicSpline(V, a), V[0], V[-1])
+    spline, lo, hi = _TRIM_SCHEDULES[key]
+
     def sched(U):
-        a0, ap, am = (float(np.mean(np.atleast_1d(tilt_schedule(U + d)))) for d in (0.0, h, -h))
-        return a0, (ap - am) / (2 * h), (ap - 2 * a0 + am) / h**2
+        if U < lo or U > hi:
+            return float(spline(min(max(U, lo), hi))), 0.0, 0.0
+        return float(spline(U)), float(spline(U, 1)), float(spline(U, 2))
     return sched

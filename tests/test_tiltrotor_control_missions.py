@@ -1,0 +1,136 @@
+"""Tilt-rotor W∞ + allocation on the real model: u* identity, allocation optimality, thrust
+round trip, and 10-second smoke versions of both missions (thesis §7.3.2)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from sobolev_drake.models.tiltrotor import TiltrotorModel
+from sobolev_drake.systems import tiltrotor_controller as tc
+from sobolev_drake.systems.input_affine import input_affine, thrust_inputs
+
+from test_tiltrotor_control import thesis_gains_by_care
+
+
+@pytest.fixture(scope="module")
+def law():
+    return tc.make_law(TiltrotorModel())
+
+
+def _random_case(rng):
+    q = np.r_[rng.uniform(-0.3, 0.3, 5), rng.normal(size=3)]
+    qd = np.r_[rng.normal(scale=0.2, size=5), rng.normal(scale=2.0, size=3)]
+    q[:2] -= 0.137
+    ref = np.r_[rng.normal(size=3), 0.1, rng.normal(size=3) * 2, 0.05, rng.normal(size=3) * 0.3, 0.0]
+    wind = np.r_[rng.normal(size=2) * 3, 0.0]
+    return q, qd, ref, wind, rng.normal(size=3)
+
+
+def test_u_star_is_inverse_dynamics_minus_passive(law):
+    """u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), recomputed from scratch."""
+    rng = np.random.default_rng(1)
+    g = thesis_gains_by_care()
+    model = TiltrotorModel()
+    for _ in range(3):
+        q, qd, ref, wind, ie = _random_case(rng)
+        n_prev = np.array([50.0, 53.0])
+        st = law.step(q, qd, ref, wind, ie, n_prev=n_prev)
+        qrr, qdrr, qddrr = st.ref_r
+        qdd = np.zeros(8)
+        qdd[[2, 3]] = -g.Ks @ qd[[2, 3]]
+        qdd[[0, 1, 4]] = qddrr - g.Kr @ np.r_[qd[[0, 1, 4]] - qdrr, q[[0, 1, 4]] - qrr]
+        qdd[5:] = ref[8:11] - g.Kc @ np.r_[qd[5:] - ref[4:7], q[5:] - ref[0:3], ie]
+        B, theta = input_affine(model, q, qd, wind, n=n_prev)
+        u = model.M(q) @ qdd + model.Cqdot(q, qd) + model.g(q) - theta
+        assert np.allclose(st.qdd_des, qdd, rtol=1e-9, atol=1e-9)
+        assert np.allclose(st.u_star, u, rtol=1e-9, atol=1e-8)
+        assert np.allclose(st.B, B)
+        # regulated references: ψ from the mission, tilt from the schedule (same for both)
+        assert qrr[2] == ref[3] and qrr[0] == qrr[1]
+
+
+def test_allocation_is_box_constrained_least_squares_optimum(law):
+    """KKT conditions of (7.84): gradient Bᵀ(Bτ̄ − u*) is ≥ 0 on lower bounds, ≤ 0 on upper
+    bounds and ≈ 0 on free variables; the reported residual is ‖u* − Bτ̄‖."""
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        q, qd, ref, wind, ie = _random_case(rng)
+        st = law.step(q, qd, ref, wind, ie)
+        tau, lo, up = st.tau_bar, st.lo, st.up
+        assert np.all(tau >= lo - 1e-12) and np.all(tau <= up + 1e-12)
+        grad = st.B.T @ (st.B @ tau - st.u_star)
+        scale = 1e-6 * (1 + np.linalg.norm(st.B.T @ st.u_star))
+        width = up - lo
+        free = (tau > lo + 1e-9 * (1 + width)) & (tau < up - 1e-9 * (1 + width)) & (width > 1e-9)
+        assert np.all(np.abs(grad[free]) <= scale)
+        assert np.all(grad[(tau <= lo + 1e-12) & (width > 1e-9)] >= -scale)
+        assert np.all(grad[(tau >= up - 1e-12) & (width > 1e-9)] <= scale)
+        assert np.isclose(st.residual, np.linalg.norm(st.u_star - st.B @ tau))
+
+
+def test_thrust_inversion_round_trip(law):
+    """Propeller speeds from the controller reproduce the allocated thrusts through the plant's
+    own thrust model f = ρ d⁴ n² Ct(J, φ) (7.90), with and without a warm start."""
+    rng = np.random.default_rng(3)
+    model = TiltrotorModel()
+    for k in range(4):
+        q, qd, ref, wind, ie = _random_case(rng)
+        qd[5] += 10.0 * k                       # include fast forward flight
+        st = law.step(q, qd, ref, wind, ie, n_prev=None if k % 2 else np.array([55.0, 55.0]))
+        f = thrust_inputs(model, q, qd, wind, st.propeller_speed)
+        pos = st.tau_bar[:2] > 1e-9
+        assert np.allclose(f[pos], st.tau_bar[:2][pos], rtol=1e-6, atol=1e-6)
+
+
+def test_newton_speed_matches_bracketing_solver():
+    from sobolev_drake.systems.allocation import propeller_speed_for_thrust
+    from sobolev_drake.systems.propulsion import PropellerCoefficients
+    c = PropellerCoefficients()
+    f, v, phi = np.array([20.0, 45.0]), np.array([3.0, 15.0]), np.array([0.2, 1.2])
+    n_ref = propeller_speed_for_thrust(f, v, phi, coefficients=c)
+    n = tc.newton_speed_for_thrust(c, f, v, phi, n_ref * 1.05)
+    assert n is not None and np.allclose(n, n_ref, rtol=1e-6)
+    assert tc.newton_speed_for_thrust(c, f, v, phi, np.zeros(2)) is None
+
+
+def test_law_rejects_bad_inputs(law):
+    q = np.zeros(8)
+    with pytest.raises(ValueError, match="reference"):
+        law.step(q, q, np.zeros(8), np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="wind"):
+        law.step(q, q, np.zeros(12), np.zeros(2), np.zeros(3))
+    with pytest.raises(ValueError, match="period"):
+        tc.TiltrotorWInfController(law, period=0.0)
+    with pytest.raises(ValueError, match="schedule"):
+        tc.make_law(TiltrotorModel(), schedule="nope")
+
+
+@pytest.fixture(scope="module", params=["tiltrotor-hover", "tiltrotor-envelope"])
+def smoke(request, tmp_path_factory):
+    from sobolev_drake.experiments import get
+    out = tmp_path_factory.mktemp(request.param)
+    return get(request.param).run(out, duration=None, record=False, smoke=True), out
+
+
+def test_smoke_mission_flies(smoke):
+    res, out = smoke
+    m = res.metrics
+    assert m["finite"] and abs(m["duration_s"] - 10.0) < 0.1
+    assert m["max_abs_roll_deg"] < 60 and m["max_abs_pitch_deg"] < 60
+    assert -100 < m["tilt_range_deg"][0] and m["tilt_range_deg"][1] < 100
+    saved = json.loads((out / f"{res.name}_metrics.json").read_text())
+    assert saved["phases"][0]["rms_m"] == pytest.approx(m["phases"][0]["rms_m"])
+    for key in ("report", "phases_md", "effort_json", "path_3d", "actuators", "errors"):
+        assert res.outputs[key].exists(), key
+    assert "RMS" in res.table_markdown
+
+
+def test_smoke_inputs_within_bounds(smoke):
+    res, _ = smoke
+    e = res.metrics["effort"]
+    assert 0 <= e["fPR"]["rms"] <= 100 and 0 <= e["fPL"]["rms"] <= 100
+    assert e["tauSR"]["rms"] <= 2 + 1e-9 and e["tauSL"]["rms"] <= 2 + 1e-9
+    assert e["nPR"]["max"] < 200 and e["nPL"]["max"] < 200
+    b = res.metrics["bounds_check"]
+    assert b["tau_within_bounds"] and b["speeds_nonnegative"]
