@@ -1,7 +1,8 @@
-"""Command line: ``sobolev-drake list | run NAME | demo | reproduce``.
+"""Command line: ``sobolev-drake list | run NAME | demo | reproduce | report``.
 
 Every experiment writes into ``<out>/<experiment-name>/`` (default ``out/``): PNG figures,
-markdown + JSON tables, Meshcat recordings as standalone HTML.
+markdown + JSON tables, Meshcat recordings as standalone HTML, and ``result.json`` (claims,
+metrics, file list) from which ``report`` rebuilds REPRODUCTION.md without rerunning.
 
 Exit codes: 0 success (a thesis claim that does not hold is a finding, not an error);
 1 an experiment crashed; 2 bad usage (unknown experiment, bad option).
@@ -38,6 +39,8 @@ def _parser() -> argparse.ArgumentParser:
     rp = sub.add_parser("reproduce", help="run every experiment and write REPRODUCTION.md")
     rp.add_argument("--out", default="out")
     rp.add_argument("--smoke", action="store_true", help="short versions (for testing the pipeline)")
+    rep = sub.add_parser("report", help="rebuild REPRODUCTION.md from OUT/*/result.json (no rerun)")
+    rep.add_argument("--out", default="out")
     return p
 
 
@@ -60,6 +63,9 @@ def _run(exp, out_root: Path, *, duration=None, record=True, smoke=False) -> Exp
     result = exp.run(out_dir, duration=duration, record=record, smoke=smoke)
     if not isinstance(result, ExperimentResult):
         raise TypeError(f"experiment {exp.name!r} returned {type(result).__name__}, not ExperimentResult")
+    from sobolev_drake.report import save_result
+
+    save_result(result, out_dir)
     print(f"== {exp.name} done in {time.perf_counter() - t0:.1f} s → {out_dir}", file=sys.stderr)
     return result
 
@@ -135,6 +141,21 @@ def _cmd_reproduce(args) -> int:
     return 0
 
 
+def _cmd_report(args) -> int:
+    from sobolev_drake.report import load_result, write_reproduction
+
+    out_root = Path(args.out)
+    files = sorted(out_root.glob("*/result.json"))
+    if not files:
+        print(f"sobolev-drake: no */result.json under {out_root}; run experiments first", file=sys.stderr)
+        return 2
+    results = [load_result(f) for f in files]
+    path = write_reproduction(results, out_root / "REPRODUCTION.md")
+    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md")
+    print(f"wrote {path} and {local.name} from {len(results)} result(s)")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = _parser()
     try:
@@ -149,6 +170,8 @@ def main(argv=None) -> int:
         return _cmd_demo(args)
     if args.command == "reproduce":
         return _cmd_reproduce(args)
+    if args.command == "report":
+        return _cmd_report(args)
     parser.error(f"unknown command {args.command!r}")  # unreachable (argparse validates)
     return 2
 

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["fmt", "markdown_table", "write_table", "write_reproduction"]
+__all__ = ["fmt", "markdown_table", "write_table", "write_reproduction", "save_result", "load_result"]
 
 DASH = "—"
 
@@ -147,3 +147,35 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
             lines.append("Outputs: " + ", ".join(f"[{label}]({_rel(p, base)})" for label, p in r.outputs.items()))
     path.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
     return path
+
+
+def save_result(result, out_dir) -> Path:
+    """Write ``<out_dir>/result.json`` (paths relative to ``out_dir``) so that reports can be
+    rebuilt later without rerunning (``sobolev-drake report``)."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = {"name": result.name,
+            "outputs": {k: _rel(v, out_dir) for k, v in result.outputs.items()},
+            "metrics": _jsonable(result.metrics),
+            "claims": [{"text": c.text, "held": bool(c.held), "detail": c.detail} for c in result.claims],
+            "table_markdown": result.table_markdown}
+    path = out_dir / "result.json"
+    path.write_text(json.dumps(data, indent=1, ensure_ascii=False), encoding="utf-8")
+    return path
+
+
+def load_result(path):
+    """Inverse of :func:`save_result` (output paths made relative to the current directory)."""
+    from sobolev_drake.experiments import Claim, ExperimentResult
+
+    path = Path(path)
+    data = json.loads(path.read_text(encoding="utf-8"))
+    try:
+        return ExperimentResult(
+            name=data["name"],
+            outputs={k: path.parent / v for k, v in data.get("outputs", {}).items()},
+            metrics=data.get("metrics", {}),
+            claims=[Claim(c["text"], bool(c["held"]), c.get("detail", "")) for c in data.get("claims", [])],
+            table_markdown=data.get("table_markdown", ""))
+    except (KeyError, TypeError) as err:
+        raise ValueError(f"{path} is not a result.json written by save_result: {err}") from None

@@ -71,7 +71,8 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
     accuracy : target accuracy of the error-controlled integrator.
     max_step : maximum step size (s); also bounds how far a time-profiled discontinuity can be
         overstepped before the error control notices it.
-    simulator : reuse an existing Simulator (e.g. in sweeps); it must own ``context``.
+    simulator : reuse an existing Simulator (e.g. in sweeps); its own context is advanced and
+        ``context`` is ignored.
 
     Returns the Simulator (its context holds the final state; logs are in the diagram's sinks).
     """
@@ -83,8 +84,8 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
         raise ValueError(f"accuracy and max_step must be positive, got {accuracy!r}, {max_step!r}")
     if simulator is None:
         simulator = Simulator(diagram, context)
-    elif not simulator.get_context() is context and simulator.get_context() != context:
-        raise ValueError("simulator does not own the given context")
+    else:  # reuse: the simulator's own context is advanced (``context`` may be None)
+        context = simulator.get_mutable_context()
     ResetIntegratorFromFlags(simulator, integrator, float(max_step))
     integ = simulator.get_mutable_integrator()
     if integrator not in _FIXED_STEP:  # fixed-step schemes use max_step as their step

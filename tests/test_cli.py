@@ -75,6 +75,16 @@ def test_demo_and_reproduce(tmp_path, monkeypatch, capsys):
     assert "o2/models-tour/arm.html" in local  # links relative to the current directory
 
 
+def test_report_rebuilds_from_result_json(tour_dir, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["report", "--out", str(tmp_path / "empty")]) == 2
+    assert (tour_dir / "result.json").is_file()
+    assert cli.main(["report", "--out", str(tour_dir.parent)]) == 0
+    rep = (tour_dir.parent / "REPRODUCTION.md").read_text()
+    assert "## models-tour" in rep and "arm without friction" in rep
+    assert "(models-tour/arm.html)" in rep
+
+
 def test_experiment_must_return_result(tmp_path, monkeypatch, capsys):
     fake = exps.Experiment("zz-bad", "returns None", lambda out_dir, **kw: None)
     monkeypatch.setattr(exps, "get", lambda name: fake)
