@@ -171,3 +171,17 @@ def test_bad_inputs_raise(model):
         input_affine(model, np.zeros(8), np.zeros(8), np.zeros(2))
     with pytest.raises(TypeError, match="TiltrotorModel"):
         input_affine(object(), np.zeros(8), np.zeros(8), np.zeros(3))
+
+
+def test_scalar_fast_paths_equal_vectorized(model):
+    prop, aero = PropulsionModel(model.params), AeroModel(model.params)
+    rng = np.random.default_rng(9)
+    for i in range(100):
+        q, qd, zeta = random_state(rng)
+        qd[5:8] *= rng.choice([-1.0, 1.0], 3)            # flows from behind and below too
+        n = rng.uniform(0, 70, 2) if i % 10 else np.array([0.0, 30.0])
+        de = rng.uniform(-0.4, 0.4, 4)
+        np.testing.assert_allclose(prop.propeller_force(q, qd, zeta, n),
+                                   prop.propeller_force_vectorized(q, qd, zeta, n), atol=1e-11)
+        np.testing.assert_allclose(aero.generalized_force_fast(q, qd, zeta, de),
+                                   aero.generalized_force_vectorized(q, qd, zeta, de), atol=1e-11)

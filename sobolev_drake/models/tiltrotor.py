@@ -181,6 +181,7 @@ class TiltrotorForces(LeafSystem):
         self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis)
         Tinv = model.T_inv
         self._P = np.block([[Tinv, np.zeros((8, 8))], [np.zeros((8, 8)), Tinv]])
+        self.evaluations = 0          # number of force evaluations (benchmarks)
 
     def _opt(self, name, context, size):
         port = self._ports[name]
@@ -190,6 +191,7 @@ class TiltrotorForces(LeafSystem):
         output.SetFromVector(self._P @ self._state.Eval(context))
 
     def thesis_force(self, context) -> np.ndarray:
+        self.evaluations += 1
         x = self._P @ self._state.Eval(context)
         q, qd = x[:8], x[8:]
         u = self._opt("u", context, 8)

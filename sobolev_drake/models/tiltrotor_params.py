@@ -14,6 +14,7 @@ obtained from the Jacobians of the thesis in closed form:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -135,3 +136,22 @@ def body_point_velocity(q, qdot, r_B) -> np.ndarray:
     R = R_IB(q)
     w = W_eta(q) @ qdot[2:5]
     return (R.T @ qdot[5:8])[None, :] + np.cross(w, np.atleast_2d(r_B))
+
+
+def R_W(q):
+    """(R_I^B, Wη) at q in one pass with scalar math (the hot path of the force systems)."""
+    sf, cf = math.sin(q[2]), math.cos(q[2])
+    st, ct = math.sin(q[3]), math.cos(q[3])
+    sp, cp = math.sin(q[4]), math.cos(q[4])
+    R = np.array([[cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
+                  [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
+                  [-st, ct * sf, ct * cf]])
+    W = np.array([[1.0, 0.0, -st], [0.0, cf, ct * sf], [0.0, -sf, cf * ct]])
+    return R, W
+
+
+def cross_rows(a, b) -> np.ndarray:
+    """Row-wise cross product of (k, 3) arrays (np.cross is slow for small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)

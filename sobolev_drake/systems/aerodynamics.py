@@ -23,11 +23,13 @@ wind-tunnel slopes say so):
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor_params import SURFACES, R_IB, W_eta, TiltrotorParams
+from sobolev_drake.models.tiltrotor_params import SURFACES, R_W, TiltrotorParams, cross_rows
 
 _COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
 
@@ -70,7 +72,11 @@ class AeroTables:
 
 
 class AeroModel:
-    """Numpy core of the aerodynamic generalized forces (affine in the surface deflections)."""
+    """Numpy core of the aerodynamic generalized forces (affine in the surface deflections).
+
+    Written for speed (it runs at every derivative evaluation): scalar-math rotations, hand-
+    written cross products, flattened tables; ``tests/test_tiltrotor_forces.py`` checks it
+    against Drake's Jacobians and a hand computation."""
 
     def __init__(self, params: TiltrotorParams | None = None, tables: AeroTables | None = None):
         self.params = TiltrotorParams() if params is None else params
@@ -78,14 +84,31 @@ class AeroModel:
         p = self.params
         self.points = p.aero_points()
         self.area = p.S * np.array([1.0, 0.5, 0.5, 0.5, 0.5, 1.0])
+        t = self.tables
+        # (6·N, 3) tables: row k·N + i holds the three coefficients of surface k at sample i
+        self._atab = np.ascontiguousarray(t.alpha_tab.transpose(0, 2, 1).reshape(-1, 3))
+        self._btab = np.ascontiguousarray(t.beta_tab.transpose(0, 2, 1).reshape(-1, 3))
+        self._base = np.arange(6) * t.samples
+        self._half_rho_s = 0.5 * p.rho * self.area
+        # points of the deflection columns: WR, WL, TR, TL, TR, TL
+        self._ctrl_pts = self.points[[1, 2, 3, 4, 3, 4]]
+        self._fast = None
+
+    def _lookup(self, tab, angle):
+        t = self.tables
+        x = (np.minimum(np.maximum(angle, t.start), -t.start) - t.start) / t.step
+        i = np.minimum(x.astype(np.int64), t.samples - 2)
+        fr = (x - i)[:, None]
+        idx = self._base + i
+        return tab[idx] * (1.0 - fr) + tab[idx + 1] * fr
 
     def surface_air_data(self, q, qdot, zeta):
         """(v_rel (6,3) body axes, V (6,), α (6,), β (6,)) of every surface (7.37)–(7.40)."""
-        R = R_IB(q)
-        w = W_eta(q) @ qdot[2:5]
-        v = (R.T @ (qdot[5:8] - zeta))[None, :] + np.cross(w, self.points)
-        V = np.sqrt(np.einsum("ij,ij->i", v, v))
-        alpha = np.clip(np.arctan2(v[:, 2], v[:, 0]), -np.pi / 2, np.pi / 2)
+        R, W = R_W(q)
+        w = W @ qdot[2:5]
+        v = (R.T @ (qdot[5:8] - zeta)) + cross_rows(w[None, :], self.points)
+        V = np.sqrt((v * v).sum(axis=1))
+        alpha = np.arctan2(v[:, 2], np.maximum(v[:, 0], 0.0))    # = clip(atan2(w, u), ±π/2)
         beta = np.arcsin(np.clip(v[:, 1] / np.where(V > 1e-12, V, 1.0), -1.0, 1.0))
         return v, V, alpha, beta
 
@@ -94,20 +117,21 @@ class AeroModel:
         M (6,3) body-axes moments, κs (6,), y_w (6,3), z_w (6,3)) (B.1)–(B.11) with δ = 0."""
         p = self.params
         _, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
-        ca = self.tables.lookup(self.tables.alpha_tab, -alpha)   # α_NED = −α
-        cb = self.tables.lookup(self.tables.beta_tab, -beta)     # β_NED = −β
-        ks = 0.5 * p.rho * V * V * self.area                     # κ s per surface
+        ca = self._lookup(self._atab, -alpha)      # α_NED = −α: [lift, drag_α, pitch moment]
+        cb = self._lookup(self._btab, -beta)       # β_NED = −β: [side, drag_β, yaw moment]
+        ks = self._half_rho_s * V * V              # κ s per surface
         sa, cal, sb, cbe = np.sin(alpha), np.cos(alpha), np.sin(beta), np.cos(beta)
-        xw = np.stack([cal * cbe, sb, sa * cbe], axis=1)         # columns of R_S^W = Ry(−α) Rz(β)
-        yw = np.stack([-cal * sb, cbe, -sa * sb], axis=1)
-        zw = np.stack([-sa, np.zeros(6), cal], axis=1)
         fd = -ks * (cb[:, 1] + ca[:, 1])
         fy = ks * cb[:, 0]
         fl = ks * ca[:, 0]
-        F = xw * fd[:, None] + yw * fy[:, None] + zw * fl[:, None]
-        M = np.zeros((6, 3))
-        M[:, 1] = -ks * p.chord * ca[:, 2]
-        M[:, 2] = -ks * p.span * cb[:, 2]
+        # R_S^W = Ry(−α) Rz(β): x_w = [cα cβ, sβ, sα cβ], y_w = [−cα sβ, cβ, −sα sβ], z_w = [−sα, 0, cα]
+        zero = np.zeros(6)
+        yw = np.stack([-cal * sb, cbe, -sa * sb], axis=1)
+        zw = np.stack([-sa, zero, cal], axis=1)
+        F = np.stack([cal * cbe * fd - cal * sb * fy - sa * fl,
+                      sb * fd + cbe * fy,
+                      sa * cbe * fd - sa * sb * fy + cal * fl], axis=1)
+        M = np.stack([zero, -ks * p.chord * ca[:, 2], -ks * p.span * cb[:, 2]], axis=1)
         return F, M, ks, yw, zw
 
     def terms(self, q, qdot, zeta):
@@ -115,29 +139,120 @@ class AeroModel:
         δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C)."""
         p = self.params
         F, M, ks, yw, zw = self.surface_loads(q, qdot, zeta)
-        # generalized force of main-body forces/moments: η ← Wηᵀ Σ(r × F + M), ξ ← R Σ F
-        Wt = W_eta(q).T
-        R = R_IB(q)
+        R, W = R_W(q)
+        # generalized force of main-body loads: η ← Wηᵀ Σ(r × F + M), ξ ← R Σ F  ((7.47)–(7.50))
         passive = np.zeros(8)
-        passive[2:5] = Wt @ (np.cross(self.points, F).sum(axis=0) + M.sum(axis=0))
+        passive[2:5] = W.T @ (cross_rows(self.points, F).sum(axis=0) + M.sum(axis=0))
         passive[5:8] = R @ F.sum(axis=0)
-        # control columns: unit δ gives a force at one or two surfaces
-        Fc = np.zeros((4, 2, 3))       # per input: force at surface a and b
-        Fc[0, 0] = ks[1] * p.c_delta_a * zw[1]
-        Fc[1, 0] = ks[2] * p.c_delta_a * zw[2]
-        for j, sgn in ((2, 1.0), (3, -1.0)):
-            Fc[j, 0] = 0.5 * ks[3] * (p.c_delta_e * zw[3] + sgn * p.c_delta_r * yw[3])
-            Fc[j, 1] = 0.5 * ks[4] * (p.c_delta_e * zw[4] + sgn * p.c_delta_r * yw[4])
-        pts = np.array([[self.points[1], self.points[1]], [self.points[2], self.points[2]],
-                        [self.points[3], self.points[4]], [self.points[3], self.points[4]]])
+        # unit-deflection forces: aileron lift at WR / WL; ruddervator lift (δe) and side (δr)
+        # force on both tail halves, δTR = +½ on δe and δr, δTL = +½ on δe and −½ on δr
+        e3, e4 = p.c_delta_e * zw[3] * ks[3], p.c_delta_e * zw[4] * ks[4]
+        r3, r4 = p.c_delta_r * yw[3] * ks[3], p.c_delta_r * yw[4] * ks[4]
+        G = np.array([p.c_delta_a * ks[1] * zw[1], p.c_delta_a * ks[2] * zw[2],
+                      0.5 * (e3 + r3), 0.5 * (e4 + r4), 0.5 * (e3 - r3), 0.5 * (e4 - r4)])
+        tau = W.T @ cross_rows(self._ctrl_pts, G).T     # (3, 6)
+        frc = R @ G.T
         Bd = np.zeros((8, 4))
-        Bd[2:5] = Wt @ np.cross(pts, Fc).sum(axis=1).T
-        Bd[5:8] = R @ Fc.sum(axis=1).T
+        Bd[2:5, 0:2] = tau[:, 0:2]
+        Bd[2:5, 2] = tau[:, 2] + tau[:, 3]
+        Bd[2:5, 3] = tau[:, 4] + tau[:, 5]
+        Bd[5:8, 0:2] = frc[:, 0:2]
+        Bd[5:8, 2] = frc[:, 2] + frc[:, 3]
+        Bd[5:8, 3] = frc[:, 4] + frc[:, 5]
         return passive, Bd
 
     def generalized_force(self, q, qdot, zeta, delta):
+        """ϑ_F + ϑ_W + ϑ_T + ϑ_I (thesis order) — scalar fast path, equal to
+        ``passive + B_delta δ`` of :meth:`terms` (tested)."""
+        return self.generalized_force_fast(q, qdot, zeta, delta)
+
+    def generalized_force_vectorized(self, q, qdot, zeta, delta):
         passive, Bd = self.terms(q, qdot, zeta)
         return passive + Bd @ delta
+
+    def generalized_force_fast(self, q, qdot, zeta, delta):
+        """Same as :meth:`generalized_force_vectorized` with Python scalar math: for 6 surfaces
+        the per-call overhead of small numpy operations dominates (≈10× slower)."""
+        if self._fast is None:
+            self._prepare_fast()
+        (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
+        imax = int(nmax) - 1
+        sin, cos, sqrt, atan2, asin = math.sin, math.cos, math.sqrt, math.atan2, math.asin
+        sf, cf = sin(q[2]), cos(q[2])
+        st, ct = sin(q[3]), cos(q[3])
+        sp, cp = sin(q[4]), cos(q[4])
+        r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
+        r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
+        r20, r21, r22 = -st, ct * sf, ct * cf
+        dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
+        wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
+        vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
+        vbx = r00 * vix + r10 * viy + r20 * viz
+        vby = r01 * vix + r11 * viy + r21 * viz
+        vbz = r02 * vix + r12 * viy + r22 * viz
+        de, dr = 0.5 * (delta[2] + delta[3]), 0.5 * (delta[2] - delta[3])
+        dlift = (0.0, cda * delta[0], cda * delta[1], cde * de, cde * de, 0.0)
+        dside = (0.0, 0.0, 0.0, cdr * dr, cdr * dr, 0.0)
+        Fx = Fy = Fz = Tx = Ty = Tz = 0.0
+        for k in range(6):
+            rx, ry, rz = pts[k]
+            u = vbx + wy * rz - wz * ry
+            v = vby + wz * rx - wx * rz
+            w = vbz + wx * ry - wy * rx
+            V2 = u * u + v * v + w * w
+            if V2 < 1e-24:
+                continue
+            V = sqrt(V2)
+            up = u if u > 0.0 else 0.0
+            h = sqrt(up * up + w * w)
+            alpha = atan2(w, up)
+            sa, ca = (w / h, up / h) if h > 0.0 else (0.0, 1.0)
+            sb = v / V
+            sb = 1.0 if sb > 1.0 else (-1.0 if sb < -1.0 else sb)
+            cb = sqrt(u * u + w * w) / V
+            beta = asin(sb)
+            x = (-alpha - start) / step
+            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
+            i = int(x)
+            i = i if i <= imax else imax
+            fr = x - i
+            a0, a1 = atab[k][i], atab[k][i + 1]
+            cl = a0[0] + fr * (a1[0] - a0[0])
+            cda_ = a0[1] + fr * (a1[1] - a0[1])
+            cm = a0[2] + fr * (a1[2] - a0[2])
+            x = (-beta - start) / step
+            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
+            i = int(x)
+            i = i if i <= imax else imax
+            fr = x - i
+            b0, b1 = btab[k][i], btab[k][i + 1]
+            cy = b0[0] + fr * (b1[0] - b0[0])
+            cdb = b0[1] + fr * (b1[1] - b0[1])
+            cn = b0[2] + fr * (b1[2] - b0[2])
+            ks = hrs[k] * V2
+            fd = -ks * (cdb + cda_)
+            fy = ks * (cy + dside[k])
+            fl = ks * (cl + dlift[k])
+            bx = ca * cb * fd - ca * sb * fy - sa * fl
+            by = sb * fd + cb * fy
+            bz = sa * cb * fd - sa * sb * fy + ca * fl
+            Fx += bx
+            Fy += by
+            Fz += bz
+            Tx += ry * bz - rz * by
+            Ty += rz * bx - rx * bz - ks * chord * cm
+            Tz += rx * by - ry * bx - ks * span * cn
+        return np.array([0.0, 0.0, Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
+                         r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
+                         r20 * Fx + r21 * Fy + r22 * Fz])
+
+    def _prepare_fast(self):
+        p, t = self.params, self.tables
+        atab = [[tuple(row) for row in t.alpha_tab[k].T.tolist()] for k in range(6)]
+        btab = [[tuple(row) for row in t.beta_tab[k].T.tolist()] for k in range(6)]
+        self._fast = ([tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(), atab, btab,
+                      float(t.start), float(t.step), float(t.samples - 1), p.chord, p.span,
+                      p.c_delta_a, p.c_delta_e, p.c_delta_r)
 
 
 class AerodynamicSurfaces(LeafSystem):

@@ -9,11 +9,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor_params import R_BA, R_IB, TiltrotorParams, W_eta
+from sobolev_drake.models.tiltrotor_params import R_W, TiltrotorParams, cross_rows
 
 
 class PropellerCoefficients:
@@ -45,15 +47,32 @@ class PropellerCoefficients:
             self._pw = np.array([self._POWERS[b] for b in self.basis], dtype=float)
         except KeyError as exc:  # pragma: no cover - data file is fixed
             raise ValueError(f"unknown basis term {exc} in propeller_coefficients.json") from None
+        self._pJ = self._pw[:, 0].astype(np.int64)
+        self._pP = self._pw[:, 1].astype(np.int64)
         self.ct_coef = np.asarray(data["Ct"], dtype=float)
         self.cq_coef = np.asarray(data["Cq"], dtype=float)
+        self._terms = [((int(i), int(j)), float(a), float(b)) for (i, j), a, b in
+                       zip(self._pw, self.ct_coef, self.cq_coef) if a != 0.0 or b != 0.0]
         if self.ct_coef.shape != (len(self.basis),) or self.cq_coef.shape != (len(self.basis),):
             raise ValueError("Ct/Cq coefficient vectors must match the basis length")
 
     # --- coefficients ------------------------------------------------------------------------
     def _features(self, J, phi):
-        J, phi = np.broadcast_arrays(np.asarray(J, dtype=float), np.asarray(phi, dtype=float))
-        return J[..., None] ** self._pw[:, 0] * phi[..., None] ** self._pw[:, 1]
+        J, phi = np.asarray(J, dtype=float), np.asarray(phi, dtype=float)
+        if J.shape != phi.shape:
+            J, phi = np.broadcast_arrays(J, phi)
+        return J[..., None] ** self._pJ * phi[..., None] ** self._pP
+
+    def ct_cq_scalar(self, J: float, phi: float):
+        """(Ct, Cq) at scalar (J, φ) with Python floats (fast path of the plant)."""
+        Jp = (1.0, J, J * J, J * J * J, J * J * J * J)
+        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
+        ct = cq = 0.0
+        for (i, j), a, b in self._terms:
+            f = Jp[i] * Pp[j]
+            ct += a * f
+            cq += b * f
+        return ct, cq
 
     def ct(self, J, phi):
         """Thrust coefficient Ct(J, φ) (vectorized over broadcast J, φ)."""
@@ -78,9 +97,8 @@ class PropellerCoefficients:
         u, w = vr[..., 0], vr[..., 2]
         v_xz = np.hypot(u, w)
         nd = n * self.diameter
-        with np.errstate(divide="ignore", invalid="ignore"):
-            J = np.where(nd > 0, v_xz / np.where(nd > 0, nd, 1.0), self.J_max)
-        J = np.clip(J, 0.0, self.J_max)
+        # n ≤ 0 → J = J_max (huge ratio clipped); the thrust ρd⁴n²Ct is 0 at n = 0 anyway
+        J = np.minimum(v_xz / np.maximum(nd, 1e-300), self.J_max)
         phi = np.abs(np.clip(np.arctan2(u, w), -np.pi / 2, np.pi / 2))
         return J, phi
 
@@ -118,17 +136,23 @@ class PropulsionModel:
 
     def rotor_frames(self, q):
         """(R_B^A (2,3,3), rotor centres in body axes r (2,3), R_B^A d_A,P (2,3))."""
-        RA = np.array(R_BA(self.params, q[0], q[1]))
+        sb, cb = math.sin(self.params.beta), math.cos(self.params.beta)
+        RA = np.empty((2, 3, 3))
+        for k, (a, s) in enumerate(((q[0], -sb), (q[1], sb))):   # Ry(α) Rx(∓β)
+            sa, ca = math.sin(a), math.cos(a)
+            RA[k] = ((ca, sa * s, sa * cb), (0.0, cb, -s), (-sa, ca * s, ca * cb))
         dA = RA @ self.params.d_A_P
         return RA, self.d_B_A + dA, dA
 
     def rotor_air_velocity(self, q, qdot, zeta):
         """Air-relative rotor velocities in the rotor frames (2, 3) (7.31)."""
         RA, r, dA = self.rotor_frames(q)
-        R = R_IB(q)
-        w = W_eta(q) @ qdot[2:5]
-        vb = (R.T @ (qdot[5:8] - zeta))[None, :] + np.cross(w, r)
-        vb += qdot[0:2, None] * np.cross(np.array([0.0, 1.0, 0.0]), dA)   # tilt rate about B's y
+        R, W = R_W(q)
+        w = W @ qdot[2:5]
+        vb = (R.T @ (qdot[5:8] - zeta)) + cross_rows(w[None, :], r)
+        # tilt rate about B's y axis through A: α̇ e_y × R_B^A d_A,P = α̇ [d_z, 0, −d_x]
+        vb[:, 0] += qdot[0:2] * dA[:, 2]
+        vb[:, 2] -= qdot[0:2] * dA[:, 0]
         return np.einsum("kji,kj->ki", RA, vb)
 
     def unit_columns(self, q):
@@ -136,11 +160,12 @@ class PropulsionModel:
         about each rotor axis (7.32)."""
         RA, r, dA = self.rotor_frames(q)
         z = RA[:, :, 2]                                     # rotor axes in body axes
-        Wt, R = W_eta(q).T, R_IB(q)
+        R, W = R_W(q)
+        Wt = W.T
         Gf = np.zeros((8, 2))
         Gt = np.zeros((8, 2))
-        Gf[[0, 1], [0, 1]] = np.cross(dA, z)[:, 1]          # e_y · (R_B^A d × z)
-        Gf[2:5] = Wt @ np.cross(r, z).T
+        Gf[[0, 1], [0, 1]] = dA[:, 2] * z[:, 0] - dA[:, 0] * z[:, 2]   # e_y · (R_B^A d × z)
+        Gf[2:5] = Wt @ cross_rows(r, z).T
         Gf[5:8] = R @ z.T
         Gt[[0, 1], [0, 1]] = z[:, 1]
         Gt[2:5] = Wt @ z.T
@@ -154,11 +179,77 @@ class PropulsionModel:
         t = self.lam * self.coef.torque(n, J, phi)
         return f, t, J, phi
 
-    def propeller_force(self, q, qdot, zeta, n):
-        """ϑ_P (7.32), thesis order."""
+    def propeller_force_vectorized(self, q, qdot, zeta, n):
+        """ϑ_P (7.32), thesis order (numpy version of :meth:`propeller_force`)."""
         f, t, _, _ = self.thrust_and_torque(q, qdot, zeta, n)
         Gf, Gt = self.unit_columns(q)
         return Gf @ f + Gt @ t
+
+    def propeller_force(self, q, qdot, zeta, n):
+        """ϑ_P (7.32), thesis order — Python scalar math (small numpy calls cost more than the
+        arithmetic); equal to :meth:`propeller_force_vectorized` (tested)."""
+        sin, cos, sqrt, atan2 = math.sin, math.cos, math.sqrt, math.atan2
+        p, c = self.params, self.coef
+        sf, cf = sin(q[2]), cos(q[2])
+        st, ct = sin(q[3]), cos(q[3])
+        sp, cp = sin(q[4]), cos(q[4])
+        r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
+        r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
+        r20, r21, r22 = -st, ct * sf, ct * cf
+        dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
+        wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
+        vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
+        vbx = r00 * vix + r10 * viy + r20 * viz
+        vby = r01 * vix + r11 * viy + r21 * viz
+        vbz = r02 * vix + r12 * viy + r22 * viz
+        sb, cb = sin(p.beta), cos(p.beta)
+        px, py, pz = p.d_A_P
+        d, Jmax = c.diameter, c.J_max
+        kf, kt = c.rho * d ** 4, c.rho * d ** 5
+        out = [0.0] * 8
+        Fx = Fy = Fz = Tx = Ty = Tz = 0.0
+        for k, (a, s, lam, A) in enumerate(((q[0], -sb, self.lam[0], p.d_B_A2), (q[1], sb, self.lam[1], p.d_B_A3))):
+            sa, ca = sin(a), cos(a)
+            # R_B^A = Ry(α) Rx(s) with s = ∓β
+            m00, m01, m02 = ca, sa * s, sa * cb
+            m11, m12 = cb, -s
+            m20, m21, m22 = -sa, ca * s, ca * cb
+            dx = m00 * px + m01 * py + m02 * pz
+            dy = m11 * py + m12 * pz
+            dz = m20 * px + m21 * py + m22 * pz
+            rx, ry, rz = A[0] + dx, A[1] + dy, A[2] + dz
+            ad = qdot[k]
+            ux = vbx + wy * rz - wz * ry + ad * dz
+            uy = vby + wz * rx - wx * rz
+            uz = vbz + wx * ry - wy * rx - ad * dx
+            u = m00 * ux + m20 * uz                       # rotor frame: R_B^Aᵀ v
+            w = m02 * ux + m12 * uy + m22 * uz
+            nk = n[k]
+            nd = nk * d
+            J = sqrt(u * u + w * w) / nd if nd > 0 else Jmax
+            J = Jmax if J > Jmax else J
+            phi = atan2(u, w)
+            phi = abs(1.5707963267948966 if phi > 1.5707963267948966 else
+                      (-1.5707963267948966 if phi < -1.5707963267948966 else phi))
+            cT, cQ = c.ct_cq_scalar(J, phi)
+            f = kf * nk * nk * cT
+            t = lam * kt * nk * nk * cQ
+            zx, zy, zz = m02, m12, m22                    # rotor axis in body axes
+            bx, by, bz = f * zx, f * zy, f * zz
+            out[k] = dz * bx - dx * bz + t * zy          # e_y · (R_B^A d × F + T)
+            Fx += bx
+            Fy += by
+            Fz += bz
+            Tx += ry * bz - rz * by + t * zx
+            Ty += rz * bx - rx * bz + t * zy
+            Tz += rx * by - ry * bx + t * zz
+        out[2] = Tx
+        out[3] = cf * Ty - sf * Tz
+        out[4] = -st * Tx + ct * sf * Ty + cf * ct * Tz
+        out[5] = r00 * Fx + r01 * Fy + r02 * Fz
+        out[6] = r10 * Fx + r11 * Fy + r12 * Fz
+        out[7] = r20 * Fx + r21 * Fy + r22 * Fz
+        return np.array(out)
 
     def servo_force(self, qdot, tau_s):
         """ϑ_s (7.33): τs acts about the inclined y axis of C2/C3, i.e. cos β τs on the tilt
