@@ -1,0 +1,214 @@
+"""Independent checks of linear synthesis results and input validation.
+
+Nothing here uses the LMI: a result is accepted only if
+
+* every closed-loop eigenvalue has negative real part (and lies in the requested LMI region),
+* the H-infinity norm of the closed-loop performance channel, computed by Hamiltonian
+  iteration (Bruinsma & Steinbuch 1990, own implementation, D != 0 handled), does not exceed
+  the claimed gamma by more than a relative tolerance (default 1e-4).
+
+Failures raise :class:`~sobolev_drake.synthesis.lmi.SynthesisError` naming the failed check and
+by how much. Input validation (shapes, weights, PBH stabilizability) lives here as well.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from .lmi import SynthesisError
+
+
+# --------------------------------------------------------------------------- validation
+def as_matrix(name, M, shape=None):
+    """Return M as a finite float 2-D array; check its shape (None entries = any size)."""
+    try:
+        A = np.atleast_2d(np.asarray(M, dtype=float))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must be a real matrix ({e})") from None
+    if A.ndim != 2:
+        raise ValueError(f"{name} must be 2-D, got shape {A.shape}")
+    if shape is not None:
+        for got, want in zip(A.shape, shape):
+            if want is not None and got != want:
+                raise ValueError(f"{name} must have shape {tuple('*' if s is None else s for s in shape)}, "
+                                 f"got {A.shape}")
+    if not np.all(np.isfinite(A)):
+        raise ValueError(f"{name} contains non-finite entries")
+    return A
+
+
+def check_weight(name, W, n, definite=True):
+    """Symmetric positive (semi)definite n x n weight; scalars / vectors mean diagonal."""
+    W = np.asarray(W, dtype=float)
+    if W.ndim == 0:
+        W = W * np.eye(n)
+    elif W.ndim == 1:
+        W = np.diag(W)
+    W = as_matrix(name, W, (n, n))
+    if not np.allclose(W, W.T, atol=1e-12 * max(1.0, np.abs(W).max())):
+        raise ValueError(f"{name} must be symmetric")
+    ev = np.linalg.eigvalsh(W)
+    tol = 1e-12 * max(1.0, np.abs(ev).max())
+    if (definite and ev.min() <= tol) or ev.min() < -tol:
+        kind = "positive definite" if definite else "positive semidefinite"
+        raise ValueError(f"{name} must be {kind}; smallest eigenvalue {ev.min():.3g}")
+    return 0.5 * (W + W.T)
+
+
+def sqrtm_psd(W):
+    """Symmetric square root of a PSD matrix."""
+    ev, V = np.linalg.eigh(W)
+    return (V * np.sqrt(np.clip(ev, 0, None))) @ V.T
+
+
+def uncontrollable_modes(A, B, tol=1e-8, stable_ok=True):
+    """PBH test: eigenvalues lam of A with rank[A - lam I, B] < n (only Re >= 0 if stable_ok)."""
+    n = A.shape[0]
+    bad = []
+    for lam in np.linalg.eigvals(A):
+        if stable_ok and lam.real < -tol:
+            continue
+        M = np.hstack([A - lam * np.eye(n), B])
+        s = np.linalg.svd(M, compute_uv=False)
+        if len(s) < n or s[n - 1] <= tol * max(1.0, s[0]):
+            bad.append(lam)
+    return bad
+
+
+def require_stabilizable(A, B, what="(A, B2)"):
+    bad = uncontrollable_modes(A, B)
+    if bad:
+        raise ValueError(f"{what} is not stabilizable: PBH rank test fails at eigenvalue(s) "
+                         f"{np.round(bad, 6).tolist()}")
+
+
+def require_detectable(A, C, what="(A, C2)"):
+    bad = uncontrollable_modes(A.T, C.T)
+    if bad:
+        raise ValueError(f"{what} is not detectable: PBH rank test fails at eigenvalue(s) "
+                         f"{np.round(bad, 6).tolist()}")
+
+
+def parrott_bound(D11, D12, D21):
+    """min over D_K of ||D11 + D12 D_K D21|| (Parrott): no gamma below it is achievable."""
+    def perp(M, side):  # orthonormal basis of the left (rows) / right kernel
+        U, s, Vt = np.linalg.svd(M)
+        r = int(np.sum(s > 1e-10 * max(1.0, s[0] if s.size else 1.0)))
+        return U[:, r:] if side == "left" else Vt[r:].T
+    a = perp(D12, "left").T @ D11 if D12.size else D11
+    b = D11 @ perp(D21, "right") if D21.size else D11
+    na = np.linalg.norm(a, 2) if a.size else 0.0
+    nb = np.linalg.norm(b, 2) if b.size else 0.0
+    return max(na, nb)
+
+
+# --------------------------------------------------------------------------- norms
+def _sigma_max(A, B, C, D, w):
+    n = A.shape[0]
+    G = C @ np.linalg.solve(1j * w * np.eye(n) - A, B) + D
+    return np.linalg.norm(G, 2)
+
+
+def hinf_norm(A, B, C, D, rtol=1e-7):
+    """H-infinity norm of C (sI-A)^-1 B + D by Hamiltonian iteration.
+
+    Returns ``(norm, peak_frequency)``; ``inf`` if A is not Hurwitz. Each iteration takes the
+    imaginary-axis eigenvalues of the Hamiltonian at gamma = (1+2 rtol) * lower bound and
+    evaluates the gain at the midpoints (Bruinsma & Steinbuch 1990); stops when none exist.
+    """
+    A, B, C, D = (np.atleast_2d(np.asarray(M, float)) for M in (A, B, C, D))
+    n = A.shape[0]
+    if n and np.max(np.linalg.eigvals(A).real) >= 0:
+        return np.inf, np.nan
+    if n == 0 or not B.size or not C.size:
+        return (np.linalg.norm(D, 2) if D.size else 0.0), np.inf
+    ev = np.linalg.eigvals(A)
+    cands = [0.0] + [abs(e.imag) for e in ev] + [abs(e) for e in ev]
+    lb, wpk = max((_sigma_max(A, B, C, D, w), w) for w in cands)
+    dn = np.linalg.norm(D, 2) if D.size else 0.0
+    if dn > lb:
+        lb, wpk = dn, np.inf
+    for _ in range(60):
+        g = (1 + 2 * rtol) * max(lb, 1e-300)
+        R = g * g * np.eye(D.shape[1]) - D.T @ D
+        S = g * g * np.eye(D.shape[0]) - D @ D.T
+        Ri = np.linalg.inv(R)
+        Ah = A + B @ Ri @ D.T @ C
+        # gamma is a singular value of G(jw) iff i*w is an eigenvalue of this Hamiltonian
+        H = np.block([[Ah, B @ Ri @ B.T], [-C.T @ np.linalg.solve(S, C) * g * g, -Ah.T]])
+        lam = np.linalg.eigvals(H)
+        scale = max(1.0, np.abs(lam).max())
+        im = np.sort(np.abs(lam[np.abs(lam.real) < 1e-8 * scale].imag))
+        im = np.unique(np.round(im, 12))
+        if im.size == 0:
+            return lb, wpk
+        if im.size == 1:
+            mids = im
+        else:
+            mids = 0.5 * (im[:-1] + im[1:])
+        new = max((_sigma_max(A, B, C, D, w), w) for w in np.concatenate([mids, im]))
+        if new[0] <= lb * (1 + rtol):
+            return lb, wpk
+        lb, wpk = new
+    return lb, wpk
+
+
+def hinf_norm_sweep(A, B, C, D, freqs=None):
+    """Frequency-sweep lower estimate of the H-infinity norm (for tests and plots)."""
+    if freqs is None:
+        freqs = np.concatenate([[0.0], np.logspace(-3, 5, 2000)])
+    vals = [_sigma_max(A, B, C, D, w) for w in freqs]
+    i = int(np.argmax(vals))
+    return float(vals[i]), float(freqs[i])
+
+
+# --------------------------------------------------------------------------- certificate
+@dataclass
+class Certificate:
+    """Outcome of the independent checks of one synthesis result."""
+
+    stable: bool
+    max_real_eig: float
+    achieved: float  # closed-loop performance-channel H-infinity norm (Hamiltonian)
+    gamma: float  # claimed bound
+    rtol: float
+    region_ok: bool = True
+    region_margin: float = -np.inf  # max over eigenvalues of the region function (< 0 inside)
+    solver_status: str = ""
+    eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    failures: list = field(default_factory=list)
+
+    @property
+    def ok(self):
+        return not self.failures
+
+    def raise_if_failed(self):
+        if self.failures:
+            raise SynthesisError("certificate failed: " + "; ".join(self.failures))
+
+
+def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, solver_status="",
+                        region_tol=1e-6):
+    """Check stability, region membership and ||T_zw||_inf <= gamma (1 + rtol)."""
+    ev = np.linalg.eigvals(Acl) if Acl.size else np.zeros(0)
+    mre = float(ev.real.max()) if ev.size else -np.inf
+    fails = []
+    stable = mre < 0
+    if not stable:
+        fails.append(f"closed loop unstable: max Re(eig) = {mre:.3g}")
+    achieved = hinf_norm(Acl, Bcl, Ccl, Dcl)[0] if stable else np.inf
+    if stable and achieved > gamma * (1 + rtol):
+        fails.append(f"H-infinity norm {achieved:.6g} exceeds gamma {gamma:.6g} by "
+                     f"{achieved / gamma - 1:.2e} (relative; tolerance {rtol:.0e})")
+    region_ok, margin = True, -np.inf
+    if region is not None and ev.size:
+        margin = float(region.margin(ev).max())
+        scale = max(1.0, float(np.abs(ev).max()))
+        region_ok = margin <= region_tol * scale
+        if not region_ok:
+            fails.append(f"closed-loop eigenvalue outside region {region}: margin {margin:.3g}")
+    return Certificate(stable, mre, float(achieved), float(gamma), rtol, region_ok, margin,
+                       solver_status, ev, fails)

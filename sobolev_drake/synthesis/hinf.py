@@ -1,0 +1,392 @@
+"""Bounded-real-lemma H-infinity synthesis for a continuous-time generalized plant.
+
+    xdot = A x + B1 w + B2 u,   z = C1 x + D11 w + D12 u,   y = C2 x + D21 w   (D22 = 0)
+
+* state feedback u = K x: variables X = P^-1 > 0, W = K X (the change of variables of (6.7));
+* full-order dynamic output feedback (A_K, B_K, C_K, D_K), D_K allowed: Scherer, Gahinet &
+  Chilali (1997) / Gahinet & Apkarian (1994) variables (X, Y, Ak, Bk, Ck, Dk), the linearized
+  form of (6.22); the controller is reconstructed from an SVD factorization M N^T = I - X Y.
+
+gamma^2 is minimized directly (as the thesis' gamma* in (6.7)/(6.22)). Every result is checked
+independently (``certificates.py``) before it is returned. When the optimum sits on the
+feedthrough (Parrott) bound the infimum is approached only with unbounded gains (DESIGN.md 4.4);
+the synthesis then re-solves at gamma = (1 + delta) gamma_opt minimizing a gain bound, and says
+so in ``result.warnings``. W-infinity problems are performance channels of this plant
+(``sobolev.py``); LMI regions come from ``regions.py``.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .certificates import (Certificate, as_matrix, certify_closed_loop, parrott_bound,
+                           require_detectable, require_stabilizable)
+from .lmi import Affine, InfeasibleLMIError, LMIProgram, SynthesisError, bmat
+from .regions import LMIRegion, region_lmi
+
+COUPLING_MARGIN = 1e-6  # [[X, I], [I, Y]] >= margin I keeps I - XY invertible (see reconstruct)
+EPS = 1e-7  # strictness margin of the LMIs (absolute, problems are scaled by the weights)
+
+
+class SynthesisWarning(UserWarning):
+    """The result is valid but degenerate (feedthrough infimum, regularized, large gains)."""
+
+
+@dataclass
+class GeneralizedPlant:
+    A: np.ndarray
+    B1: np.ndarray
+    B2: np.ndarray
+    C1: np.ndarray
+    D11: np.ndarray
+    D12: np.ndarray
+    C2: np.ndarray
+    D21: np.ndarray
+
+    @classmethod
+    def make(cls, A, B1, B2, C1, D11=None, D12=None, C2=None, D21=None):
+        """Validated plant; D11, D12, D21 default to zero, C2 to the identity (full state)."""
+        A = as_matrix("A", A)
+        n = A.shape[0]
+        as_matrix("A", A, (n, n))
+        B1 = as_matrix("B1", B1, (n, None))
+        B2 = as_matrix("B2", B2, (n, None))
+        C1 = as_matrix("C1", C1, (None, n))
+        nw, nu, nz = B1.shape[1], B2.shape[1], C1.shape[0]
+        D11 = np.zeros((nz, nw)) if D11 is None else as_matrix("D11", D11, (nz, nw))
+        D12 = np.zeros((nz, nu)) if D12 is None else as_matrix("D12", D12, (nz, nu))
+        C2 = np.eye(n) if C2 is None else as_matrix("C2", C2, (None, n))
+        D21 = np.zeros((C2.shape[0], nw)) if D21 is None else as_matrix("D21", D21, (C2.shape[0], nw))
+        return cls(A, B1, B2, C1, D11, D12, C2, D21)
+
+    n = property(lambda s: s.A.shape[0])
+    nw = property(lambda s: s.B1.shape[1])
+    nu = property(lambda s: s.B2.shape[1])
+    nz = property(lambda s: s.C1.shape[0])
+    ny = property(lambda s: s.C2.shape[0])
+
+    def closed_loop(self, K=None, controller=None):
+        """(A_cl, B_cl, C_cl, D_cl) of w -> z with u = K x or the dynamic controller."""
+        if K is not None:
+            K = as_matrix("K", K, (self.nu, self.n))
+            return (self.A + self.B2 @ K, self.B1, self.C1 + self.D12 @ K, self.D11)
+        AK, BK, CK, DK = controller
+        A = np.block([[self.A + self.B2 @ DK @ self.C2, self.B2 @ CK], [BK @ self.C2, AK]])
+        B = np.vstack([self.B1 + self.B2 @ DK @ self.D21, BK @ self.D21])
+        C = np.hstack([self.C1 + self.D12 @ DK @ self.C2, self.D12 @ CK])
+        D = self.D11 + self.D12 @ DK @ self.D21
+        return A, B, C, D
+
+    def convex_combination(self, other, t):
+        return GeneralizedPlant(*[(1 - t) * a + t * b for a, b in zip(self.as_tuple(), other.as_tuple())])
+
+    def as_tuple(self):
+        return (self.A, self.B1, self.B2, self.C1, self.D11, self.D12, self.C2, self.D21)
+
+
+@dataclass
+class DynamicController:
+    """x_K' = AK x_K + BK y,  u = CK x_K + DK y."""
+
+    AK: np.ndarray
+    BK: np.ndarray
+    CK: np.ndarray
+    DK: np.ndarray
+
+    def __iter__(self):
+        return iter((self.AK, self.BK, self.CK, self.DK))
+
+
+@dataclass
+class SynthesisResult:
+    kind: str  # "state_feedback" | "output_feedback"
+    gamma: float  # certified bound on the performance-channel H-infinity norm
+    K: np.ndarray | None = None
+    controller: DynamicController | None = None
+    P: np.ndarray | None = None  # closed-loop Lyapunov matrix
+    X: np.ndarray | None = None
+    Y: np.ndarray | None = None
+    gamma_opt: float = np.nan  # LMI optimum (before any regularization)
+    feedthrough_bound: float = 0.0
+    solver: str = ""
+    backend: str = ""
+    status: str = ""
+    timings: dict = field(default_factory=dict)
+    certificate: Certificate | None = None
+    certificates: list = field(default_factory=list)  # polytopic: one per vertex
+    region: LMIRegion | None = None
+    regularized: bool = False
+    warnings: list = field(default_factory=list)
+
+    @property
+    def well_posed(self):
+        return not self.warnings
+
+
+def _check_gamma_request(gamma, bound, what="gamma"):
+    if gamma is not None and gamma <= bound * (1 + 1e-9):
+        raise ValueError(f"{what}={gamma:g} is not achievable: it must exceed the feedthrough "
+                         f"(Parrott) bound {bound:.6g}")
+
+
+def _solve(prog, backend, options, timings, label):
+    out = prog.solve(backend, options)
+    timings[f"{label}_build"] = out.build_time
+    timings[f"{label}_solve"] = out.solve_time
+    if not out.success or not np.all(np.isfinite(out.x)):
+        raise InfeasibleLMIError(f"LMI problem ({label}) not solved by {out.backend}/{out.solver}: "
+                                 f"status {out.status}", out.status)
+    return out
+
+
+# --------------------------------------------------------------------------- state feedback
+def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS):
+    """BRL (gamma^2 form, Schur complement of (6.5)) for each vertex with a common X, W."""
+    p0 = plants[0]
+    n, nu = p0.n, p0.nu
+    prog = LMIProgram()
+    X = prog.sym(n)
+    W = prog.full(nu, n)
+    g2 = prog.scalar() if gamma2 is None else None
+    prog.add_pos(X, EPS)
+    for p in plants:
+        Ww = np.eye(p.nw) if input_weight is None else input_weight
+        gblk = (-g2 * Ww) if g2 is not None else -gamma2 * Ww
+        AX = p.A @ X + p.B2 @ W
+        CX = p.C1 @ X + p.D12 @ W
+        prog.add_lmi(bmat([[AX.sym(), p.B1, CX.T],
+                           [p.B1.T, gblk, p.D11.T],
+                           [CX, p.D11, -np.eye(p.nz)]]), margin)
+        if region is not None:
+            prog.add_lmi(region_lmi(region, X, AX), EPS)
+    if gain_bound:
+        kw, kx = prog.scalar(), prog.scalar()
+        prog.add_pos(bmat([[kw * np.eye(n), W.T], [W, np.eye(nu)]]))  # W^T W <= kw I
+        prog.add_pos(bmat([[X, np.eye(n)], [np.eye(n), kx * np.eye(n)]]))  # X^-1 <= kx I
+        prog.minimize(kw + kx)
+    else:
+        prog.minimize(g2)
+    return prog, X, W, g2
+
+
+def _finish(res, plants, region, rtol, verify, status):
+    certs = []
+    for p in plants:
+        cl = p.closed_loop(K=res.K) if res.kind == "state_feedback" else p.closed_loop(controller=res.controller)
+        certs.append(certify_closed_loop(*cl, res.gamma, region=region, rtol=rtol, solver_status=status))
+    res.certificates = certs
+    res.certificate = max(certs, key=lambda c: c.achieved) if certs else None
+    if verify:
+        for i, c in enumerate(certs):
+            if not c.ok:
+                where = f" (vertex {i})" if len(certs) > 1 else ""
+                raise SynthesisError(f"{res.kind} result from {res.backend}/{res.solver} rejected{where}: "
+                                     + "; ".join(c.failures) + f" [solver status: {status}]")
+    return res
+
+
+def _validate(plants, need_detectable):
+    p0 = plants[0]
+    for p in plants:
+        if tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in p0.as_tuple()):
+            raise ValueError("all vertex plants must have the same dimensions")
+        require_stabilizable(p.A, p.B2)
+        if need_detectable:
+            require_detectable(p.A, p.C2)
+
+
+def state_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
+                   regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
+                   vertices=None, margin=EPS):
+    """H-infinity state feedback u = K x minimizing gamma (or feasibility at a given gamma).
+
+    ``vertices``: optional list of extra plants sharing one Lyapunov matrix (polytopic,
+    Corollary 1). ``input_weight``: replaces I in the -gamma^2 I block (used by the thesis'
+    disturbance-model LMI (6.31)). ``regularize``: "auto" re-solves with a gain bound when the
+    optimum sits on the feedthrough bound or the certificate fails; True always; False never.
+    """
+    plants = [plant] + list(vertices or [])
+    _validate(plants, False)
+    fb = max(np.linalg.norm(p.D11, 2) if p.D11.size else 0.0 for p in plants)  # SF: D_cl = D11
+    _check_gamma_request(gamma, fb)
+    timings, warns = {}, []
+    t0 = time.perf_counter()
+    prog, X, W, g2 = _sf_program(plants, region=region, gamma2=None if gamma is None else gamma ** 2,
+                                 input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
+    out = _solve(prog, backend, solver_options, timings, "lmi")
+    g_opt = float(np.sqrt(max(g2.value(out.x)[0, 0], 0.0))) if gamma is None else float(gamma)
+
+    def build(out, g):
+        Xv = X.value(out.x)
+        Xv = 0.5 * (Xv + Xv.T)
+        K = np.linalg.solve(Xv, W.value(out.x).T).T  # K = W X^-1 (6.7)
+        return SynthesisResult("state_feedback", g, K=K, P=np.linalg.inv(Xv), X=Xv, gamma_opt=g_opt,
+                               feedthrough_bound=fb, solver=out.solver, backend=out.backend,
+                               status=out.status, timings=timings, region=region)
+
+    # the SDP optimum is approached from above: certify against the solver's gamma plus slack
+    res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+    on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
+    if on_bound:
+        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
+                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
+    _finish(res, plants, region, rtol, False, out.status)
+    need = regularize is True or (regularize == "auto" and gamma is None and (on_bound or not res.certificate.ok))
+    if need:
+        d = delta if (on_bound or regularize is True) else 1e-4
+        g_reg = (1 + d) * g_opt
+        prog2, X, W, _ = _sf_program(plants, region=region, gamma2=g_reg ** 2,
+                                     input_weight=input_weight, gain_bound=True, margin=margin)
+        out2 = _solve(prog2, backend, solver_options, timings, "regularize")
+        res = build(out2, g_reg)
+        res.regularized = True
+        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {g_reg:.6g} "
+                     f"minimizing a bound on the gain (|K| = {np.linalg.norm(res.K, 2):.4g})")
+    elif np.linalg.norm(res.K, 2) > 1e6:
+        warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
+    res.warnings = warns
+    res.timings["total"] = time.perf_counter() - t0
+    for w in warns:
+        warnings.warn(w, SynthesisWarning, stacklevel=2)
+    return _finish(res, plants, region, rtol, verify, res.status)
+
+
+# --------------------------------------------------------------------------- output feedback
+def _of_program(p, *, region, gamma2, input_weight, gain_bound, strictly_proper, margin=EPS):
+    n, nu, ny = p.n, p.nu, p.ny
+    prog = LMIProgram()
+    X, Y = prog.sym(n), prog.sym(n)
+    Ak, Bk, Ck = prog.full(n, n), prog.full(n, ny), prog.full(nu, n)
+    Dk = Affine.lift(np.zeros((nu, ny))) if strictly_proper else prog.full(nu, ny)
+    g2 = prog.scalar() if gamma2 is None else None
+    Ww = np.eye(p.nw) if input_weight is None else input_weight
+    gblk = (-g2 * Ww) if g2 is not None else -gamma2 * Ww
+    I = np.eye(n)
+    AX = p.A @ X + p.B2 @ Ck
+    AC = p.A + p.B2 @ Dk @ p.C2
+    YA = Y @ p.A + Bk @ p.C2
+    M21 = Ak + AC.T
+    M31 = (p.B1 + p.B2 @ Dk @ p.D21).T
+    M32 = (Y @ p.B1 + Bk @ p.D21).T
+    M41 = p.C1 @ X + p.D12 @ Ck
+    M42 = p.C1 + p.D12 @ Dk @ p.C2
+    M43 = p.D11 + p.D12 @ Dk @ p.D21
+    prog.add_lmi(bmat([[AX.sym(), M21.T, M31.T, M41.T],
+                       [M21, YA.sym(), M32.T, M42.T],
+                       [M31, M32, gblk, M43.T],
+                       [M41, M42, M43, -np.eye(p.nz)]]), margin)
+    XY = bmat([[X, I], [I, Y]])
+    prog.add_pos(XY, COUPLING_MARGIN)
+    if region is not None:
+        prog.add_lmi(region_lmi(region, XY, bmat([[AX, AC], [Ak, YA]])), EPS)
+    if gain_bound:
+        k = prog.scalar()
+        Th = bmat([[Ak, Bk], [Ck, Dk]])
+        m1, m2 = Th.shape
+        prog.add_pos(bmat([[k * np.eye(m2), Th.T], [Th, k * np.eye(m1)]]))
+        prog.add_lmi(X - k * I)
+        prog.add_lmi(Y - k * I)
+        prog.minimize(k)
+    else:
+        prog.minimize(g2)
+    return prog, (X, Y, Ak, Bk, Ck, Dk), g2
+
+
+def reconstruct_controller(p, X, Y, Ak, Bk, Ck, Dk, rank_tol=0.0):
+    """Controller from the linearizing variables; M N^T = I - X Y by SVD (balanced factors).
+
+    At the LMI optimum I - XY tends to be rank deficient (a lower-order controller suffices);
+    the synthesis keeps it invertible with a margin on [[X, I], [I, Y]] (``COUPLING_MARGIN``),
+    which costs ~1e-6 relative in gamma and avoids spurious huge/unstable controller modes.
+    Optional truncation of singular values below ``rank_tol * s_max`` gives a reduced-order
+    controller (approximate; the certificate decides). Returns (controller, P) with P the
+    closed-loop Lyapunov matrix (None when truncated).
+    """
+    n = p.n
+    U, s, Vt = np.linalg.svd(np.eye(n) - X @ Y)
+    r = int(np.sum(s > rank_tol * max(s.max(), 1e-300)))
+    if r == 0:
+        raise SynthesisError("I - XY vanishes: no controller can be reconstructed")
+    M = U[:, :r] * np.sqrt(s[:r])
+    N = Vt[:r].T * np.sqrt(s[:r])
+    Mp, Np = np.linalg.pinv(M), np.linalg.pinv(N)  # exact inverses when r = n
+    DK = Dk
+    CK = (Ck - DK @ p.C2 @ X) @ Mp.T
+    BK = Np @ (Bk - Y @ p.B2 @ DK)
+    rest = Ak - Y @ (p.A + p.B2 @ DK @ p.C2) @ X - N @ BK @ p.C2 @ X - Y @ p.B2 @ CK @ M.T
+    AK = Np @ rest @ Mp.T
+    P = None
+    if r == n:
+        Pi1 = np.block([[X, np.eye(n)], [M.T, np.zeros((n, n))]])
+        Pi2 = np.block([[np.eye(n), Y], [np.zeros((n, n)), N.T]])
+        P = np.linalg.solve(Pi1.T, Pi2.T).T  # P Pi1 = Pi2
+        P = 0.5 * (P + P.T)
+    return DynamicController(AK, BK, CK, DK), P
+
+
+def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
+                    regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
+                    strictly_proper=False, margin=EPS):
+    """Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed)."""
+    p = plant
+    _validate([p], True)
+    fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
+    if strictly_proper:
+        fb = np.linalg.norm(p.D11, 2)
+    _check_gamma_request(gamma, fb)
+    timings, warns = {}, []
+    t0 = time.perf_counter()
+    kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin)
+    prog, V, g2 = _of_program(p, gamma2=None if gamma is None else gamma ** 2, gain_bound=gamma is not None, **kw)
+    out = _solve(prog, backend, solver_options, timings, "lmi")
+    g_opt = float(np.sqrt(max(g2.value(out.x)[0, 0], 0.0))) if gamma is None else float(gamma)
+
+    def build(out, g):
+        vals = [v.value(out.x) for v in V]
+        vals[0], vals[1] = 0.5 * (vals[0] + vals[0].T), 0.5 * (vals[1] + vals[1].T)
+        ctrl, P = reconstruct_controller(p, *vals)
+        return SynthesisResult("output_feedback", g, controller=ctrl, P=P, X=vals[0], Y=vals[1],
+                               gamma_opt=g_opt, feedthrough_bound=fb, solver=out.solver,
+                               backend=out.backend, status=out.status, timings=timings, region=region)
+
+    res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+    _finish(res, [p], region, rtol, False, out.status)
+    on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
+    if on_bound:
+        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
+                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
+    if regularize is True or (regularize == "auto" and gamma is None and (on_bound or not res.certificate.ok)):
+        # on the bound: trade delta of gamma for bounded gains; numerical failure: tiny relaxation
+        d = delta if (on_bound or regularize is True) else 1e-4
+        g_reg = (1 + d) * g_opt
+        prog2, V, _ = _of_program(p, gamma2=g_reg ** 2, gain_bound=True, **kw)
+        out2 = _solve(prog2, backend, solver_options, timings, "regularize")
+        res = build(out2, g_reg)
+        res.regularized = True
+        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {g_reg:.6g} "
+                     "minimizing a bound on the controller matrices")
+    if res.controller.AK.shape[0] < p.n:
+        warns.append(f"I - XY numerically rank deficient: controller order reduced to "
+                     f"{res.controller.AK.shape[0]} (of {p.n})")
+    res.warnings = warns
+    res.timings["total"] = time.perf_counter() - t0
+    for w in warns:
+        warnings.warn(w, SynthesisWarning, stacklevel=2)
+    return _finish(res, [p], region, rtol, verify, res.status)
+
+
+# --------------------------------------------------------------------------- functional API
+def hinf_state_feedback(plant, **kwargs):
+    """python-control style: ``K, gamma, result = hinf_state_feedback(plant, ...)``."""
+    r = state_feedback(plant, **kwargs)
+    return r.K, r.gamma, r
+
+
+def hinfsyn(plant, **kwargs):
+    """python-control style: ``controller, gamma, result = hinfsyn(plant, ...)`` (AK, BK, CK, DK)."""
+    r = output_feedback(plant, **kwargs)
+    return r.controller, r.gamma, r

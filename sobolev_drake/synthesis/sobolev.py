@@ -1,0 +1,199 @@
+"""W-infinity (weighted Sobolev) performance channels on the generalized-plant synthesis.
+
+For xdot = A x + B u + D w (6.1) the W^{1,2,Gamma} cost ||x||^2_Gamma0 + ||xdot||^2_Gamma1 is the
+L2 norm of z = [Gamma0^1/2 x ; Gamma1^1/2 xdot], i.e. the generalized plant
+
+    C1 = [Gamma0^1/2 ; Gamma1^1/2 A],  D11 = [0 ; Gamma1^1/2 D],  D12 = [0 ; Gamma1^1/2 B],
+
+whose bounded-real-lemma LMI is (6.7) (state feedback) and (6.22) (output feedback, y = C x)
+after a Schur complement. Classic H-infinity is z = [Q^1/2 x ; R^1/2 u].
+
+Disturbance model (6.28)/(6.34): ddot = Ad d + Bd v, w = Cd d. The thesis' LMIs (6.31)/(6.36)
+keep V = x'Px and replace the -gamma^2 I block by -gamma^2 L' diag(Upsilon0, Upsilon1) L with
+L = [[Cd, 0], [Cd Ad, Cd Bd]] acting on (d, v); that block is singular whenever L has a kernel
+(always when n_d + n_v > 2 n_w), so the strict LMI is infeasible (DESIGN.md 4.4). They are
+implemented faithfully here (:func:`winf_disturbance_thesis`) together with a diagnosis
+(:func:`disturbance_model_degeneracy`), and a well-posed alternative
+(:func:`winf_disturbance_augmented`): filter states in the plant, Lyapunov function on (x, d),
+d not measured, synthesized with the output-feedback LMI; its gain is from v to z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .certificates import as_matrix, check_weight, sqrtm_psd
+from .hinf import GeneralizedPlant, output_feedback, state_feedback
+from .lmi import InfeasibleLMIError, LMIProgram, bmat
+
+
+def _abd(A, B, D):
+    A = as_matrix("A", A)
+    n = A.shape[0]
+    as_matrix("A", A, (n, n))
+    return A, as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
+
+
+def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
+    """Generalized plant of the W-infinity channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot]."""
+    A, B, D = _abd(A, B, D)
+    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
+    G0 = sqrtm_psd(check_weight("Gamma0", Gamma0, n, definite=False))
+    G1 = sqrtm_psd(check_weight("Gamma1", Gamma1, n, definite=False))
+    C1 = np.vstack([G0, G1 @ A])
+    D11 = np.vstack([np.zeros((n, nw)), G1 @ D])
+    D12 = np.vstack([np.zeros((n, nu)), G1 @ B])
+    C2 = np.eye(n) if C is None else as_matrix("C", C, (None, n))
+    return GeneralizedPlant.make(A, D, B, C1, D11, D12, C2, None)
+
+
+def hinf_plant(A, B, D, Q, R, C=None):
+    """Generalized plant of the classic H-infinity channel z = [Q^1/2 x ; R^1/2 u]."""
+    A, B, D = _abd(A, B, D)
+    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
+    Qh = sqrtm_psd(check_weight("Q", Q, n, definite=False))
+    Rh = sqrtm_psd(check_weight("R", R, nu, definite=True))
+    C1 = np.vstack([Qh, np.zeros((nu, n))])
+    D12 = np.vstack([np.zeros((n, nu)), Rh])
+    C2 = np.eye(n) if C is None else as_matrix("C", C, (None, n))
+    return GeneralizedPlant.make(A, D, B, C1, None, D12, C2, None)
+
+
+def winf_state_feedback(A, B, D, Gamma0, Gamma1, **kw):
+    """Full-state W-infinity controller (6.7); returns a SynthesisResult (u = K x)."""
+    return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **kw)
+
+
+def winf_output_feedback(A, B, C, D, Gamma0, Gamma1, **kw):
+    """Dynamic output-feedback W-infinity controller (6.22) with y = C x."""
+    return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **kw)
+
+
+def hinf_state_feedback_qr(A, B, D, Q, R, **kw):
+    return state_feedback(hinf_plant(A, B, D, Q, R), **kw)
+
+
+def hinf_output_feedback_qr(A, B, C, D, Q, R, **kw):
+    return output_feedback(hinf_plant(A, B, D, Q, R, C), **kw)
+
+
+def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
+    """(6.7) written out as in the thesis (variables S, R, gamma*); returns (gamma, K).
+
+    Used to cross-check the generalized-plant formulation (same optimal gamma).
+    """
+    A, B, D = _abd(A, B, D)
+    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
+    G0 = check_weight("Gamma0", Gamma0, n)
+    G1 = check_weight("Gamma1", Gamma1, n)
+    prog = LMIProgram()
+    S, R, g = prog.sym(n), prog.full(nu, n), prog.scalar()
+    prog.add_pos(S, 1e-7)
+    AS = A @ S + B @ R
+    prog.add_lmi(bmat([[AS.sym(), D, AS.T, S],
+                       [D.T, -g * np.eye(nw), D.T, None],
+                       [AS, D, -np.linalg.inv(G1), None],
+                       [S, None, None, -np.linalg.inv(G0)]]), 1e-7)
+    prog.minimize(g)
+    out = prog.solve(backend)
+    if not out.success:
+        raise InfeasibleLMIError(f"(6.7) not solved: {out.status}", out.status)
+    K = np.linalg.solve(S.value(out.x), R.value(out.x).T).T
+    return float(np.sqrt(g.value(out.x)[0, 0])), K
+
+
+# --------------------------------------------------------------------------- disturbance model
+@dataclass
+class DegeneracyReport:
+    kernel_dim: int  # dim ker L
+    singular: bool
+    weight: np.ndarray  # L' diag(Upsilon0, Upsilon1) L, the (d, v) weight of (6.31)/(6.36)
+    message: str
+
+
+def _dist(Ad, Bd, Cd, Ups0, Ups1):
+    Ad = as_matrix("Ad", Ad)
+    nd = Ad.shape[0]
+    as_matrix("Ad", Ad, (nd, nd))
+    Bd = as_matrix("Bd", Bd, (nd, None))
+    Cd = as_matrix("Cd", Cd, (None, nd))
+    nw = Cd.shape[0]
+    U0 = check_weight("Upsilon0", Ups0, nw, definite=False)
+    U1 = check_weight("Upsilon1", Ups1, nw, definite=False)
+    return Ad, Bd, Cd, U0, U1
+
+
+def disturbance_model_degeneracy(Ad, Bd, Cd, Upsilon0, Upsilon1):
+    """Diagnose the (d, v) block of (6.31)/(6.36): -gamma^2 L' diag(Ups0, Ups1) L."""
+    Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
+    nd, nv = Bd.shape
+    L = np.block([[Cd, np.zeros((Cd.shape[0], nv))], [Cd @ Ad, Cd @ Bd]])
+    Wt = L.T @ np.block([[U0, np.zeros_like(U0)], [np.zeros_like(U1), U1]]) @ L
+    ev = np.linalg.eigvalsh(Wt)
+    k = int(np.sum(ev <= 1e-10 * max(1.0, ev.max())))
+    msg = (f"L' diag(Ups0, Ups1) L is {nd + nv}x{nd + nv} with a {k}-dimensional kernel: the strict "
+           f"LMI (6.31)/(6.36) is infeasible and its non-strict version degenerates"
+           if k else "the (d, v) weight is positive definite: (6.31)/(6.36) are well posed")
+    return DegeneracyReport(k, k > 0, Wt, msg)
+
+
+def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsilon1, *, C=None,
+                            strict=True, **kw):
+    """(6.31) (C None: state feedback) or (6.36) (output feedback y = C x) as written.
+
+    The exogenous input is (d, v) entering through B1 = [D Cd, 0]; the -gamma^2 I block is
+    replaced by -gamma^2 L' diag(Ups0, Ups1) L. With ``strict=True`` (the thesis' "< 0") the
+    problem is infeasible whenever that weight is singular; an InfeasibleLMIError carrying the
+    degeneracy report is raised. ``strict=False`` solves the non-strict problem and returns the
+    (uncertified) result; its gamma is not a verified bound.
+    """
+    A, B, D = _abd(A, B, D)
+    Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
+    rep = disturbance_model_degeneracy(Ad, Bd, Cd, U0, U1)
+    n, nv = A.shape[0], Bd.shape[1]
+    DCd = np.hstack([D @ Cd, np.zeros((n, nv))])
+    plant = winf_plant(A, B, DCd, Gamma0, Gamma1, C)
+    fn = state_feedback if C is None else output_feedback
+    Wt = rep.weight
+    if strict and rep.singular:
+        # strictness: the (d, v) diagonal block must itself be < 0, impossible on ker L;
+        # we still ask the solver, so the infeasibility is demonstrated, not assumed
+        try:
+            r = fn(plant, input_weight=Wt, regularize=False, verify=False, **kw)
+        except InfeasibleLMIError as e:
+            raise InfeasibleLMIError(f"{e}; {rep.message}", e.status) from None
+        worst = max(np.linalg.eigvalsh(-r.gamma ** 2 * Wt))
+        raise InfeasibleLMIError(f"strict LMI not satisfiable: (d, v) block has eigenvalue {worst:.3g} "
+                                 f">= 0 (solver returned status {r.status}); {rep.message}", "infeasible")
+    r = fn(plant, input_weight=Wt, regularize=False, verify=False, margin=0.0, **kw)
+    r.warnings.append(rep.message)
+    return r, rep
+
+
+def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):
+    """Plant with state (x, d), input v, z = [Gamma0^1/2 x; Gamma1^1/2 xdot], y = C x (d unmeasured)."""
+    A, B, D = _abd(A, B, D)
+    nw_ = as_matrix("Cd", Cd).shape[0]
+    Ad, Bd, Cd, _, _ = _dist(Ad, Bd, Cd, np.zeros((nw_, nw_)), np.zeros((nw_, nw_)))
+    n, nd, nu, nv = A.shape[0], Ad.shape[0], B.shape[1], Bd.shape[1]
+    G0 = sqrtm_psd(check_weight("Gamma0", Gamma0, n, definite=False))
+    G1 = sqrtm_psd(check_weight("Gamma1", Gamma1, n, definite=False))
+    Aa = np.block([[A, D @ Cd], [np.zeros((nd, n)), Ad]])
+    B1 = np.vstack([np.zeros((n, nv)), Bd])
+    B2 = np.vstack([B, np.zeros((nd, nu))])
+    C1 = np.vstack([np.hstack([G0, np.zeros((n, nd))]), G1 @ np.hstack([A, D @ Cd])])
+    D12 = np.vstack([np.zeros((n, nu)), G1 @ B])
+    Cm = np.eye(n) if C is None else as_matrix("C", C, (None, n))
+    C2 = np.hstack([Cm, np.zeros((Cm.shape[0], nd))])
+    return GeneralizedPlant.make(Aa, B1, B2, C1, None, D12, C2, None)
+
+
+def winf_disturbance_augmented(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None, **kw):
+    """Well-posed disturbance-model W-infinity design (output-feedback LMI on (x, d)).
+
+    The gain certified is from v (L2) to z = [Gamma0^1/2 x; Gamma1^1/2 xdot]; the controller
+    is dynamic (it estimates d from the measured x or y = C x).
+    """
+    return output_feedback(augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C), **kw)
