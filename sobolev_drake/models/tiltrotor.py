@@ -179,38 +179,51 @@ class TiltrotorForces(LeafSystem):
         self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
         self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake)
         self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis)
-        Tinv = model.T_inv
-        self._P = np.block([[Tinv, np.zeros((8, 8))], [np.zeros((8, 8)), Tinv]])
+        # T is a permutation (q_drake = T q_thesis): index arrays instead of matrix products
+        perm = np.argmax(model.T, axis=0)          # q_thesis[j] = q_drake[perm[j]]
+        self._perm16 = np.concatenate([perm, perm + 8])
+        self._perm8_inv = np.argsort(perm)         # τ_drake[i] = τ_thesis[perm⁻¹[i]]
+        self._zero3 = np.zeros(3)
+        self._cosb, self._nu = np.cos(model.params.beta), model.params.nu
         self.evaluations = 0          # number of force evaluations (benchmarks)
 
-    def _opt(self, name, context, size):
+    def _opt(self, name, context):
         port = self._ports[name]
-        return np.asarray(port.Eval(context)) if port.HasValue(context) else np.zeros(size)
+        return port.Eval(context) if port.HasValue(context) else None
 
     def _calc_x(self, context, output) -> None:
-        output.SetFromVector(self._P @ self._state.Eval(context))
+        output.SetFromVector(self._state.Eval(context)[self._perm16])
 
     def thesis_force(self, context) -> np.ndarray:
+        """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
+        touches each port once and skips unconnected ones."""
         self.evaluations += 1
-        x = self._P @ self._state.Eval(context)
+        x = self._state.Eval(context)[self._perm16]
         q, qd = x[:8], x[8:]
-        u = self._opt("u", context, 8)
-        n = u[0:2] + self._opt("propeller_speed", context, 2)
-        ts = u[2:4] + self._opt("servo_torque", context, 2)
-        de = u[4:8] + self._opt("surface_deflection", context, 4)
-        zeta = self._opt("wind", context, 3)
-        tau = (self.prop.propeller_force(q, qd, zeta, n) + self.prop.servo_force(qd, ts)
-               + self.aero.generalized_force(q, qd, zeta, de) + self._opt("disturbance", context, 8))
-        fd = self._ports["force_disturbance"]
-        if fd.HasValue(context):
-            tau += body_generalized_force(q, self.model.params.d_B_C1, R_IB(q).T @ np.asarray(fd.Eval(context)))
+        u = self._opt("u", context)
+        u = np.zeros(8) if u is None else np.array(u)
+        for name, sl in (("propeller_speed", slice(0, 2)), ("servo_torque", slice(2, 4)),
+                         ("surface_deflection", slice(4, 8))):
+            v = self._opt(name, context)
+            if v is not None:
+                u[sl] += v
+        zeta = self._opt("wind", context)
+        zeta = self._zero3 if zeta is None else zeta
+        tau = self.prop.propeller_force(q, qd, zeta, u[0:2]) + self.aero.generalized_force(q, qd, zeta, u[4:8])
+        tau[0:2] += self._cosb * u[2:4] - self._nu * qd[0:2]          # servos (7.33)
+        w = self._opt("disturbance", context)
+        if w is not None:
+            tau += w
+        fd = self._opt("force_disturbance", context)
+        if fd is not None:
+            tau += body_generalized_force(q, self.model.params.d_B_C1, R_IB(q).T @ fd)
         return tau
 
     def _calc_thesis(self, context, output) -> None:
         output.SetFromVector(self.thesis_force(context))
 
     def _calc_drake(self, context, output) -> None:
-        output.SetFromVector(self.model.force_to_drake(self.thesis_force(context)))
+        output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
 
 
 class TiltrotorHandles(PlantHandles):
