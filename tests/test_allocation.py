@@ -241,3 +241,30 @@ def test_thrust_inversion_errors_and_clipping():
         propeller_speed_for_thrust(1.0, on_unreachable="ignore")
     with pytest.raises(ValueError):
         propeller_speed_for_thrust([1.0, 2.0], [0.0, 0.0, 0.0])  # shapes do not broadcast
+    with pytest.raises(ValueError, match="v_rel_rotor_frame"):
+        al.rotor_inflow(np.zeros((2, 2)))
+    v_xz, phi = al.rotor_inflow([[3.0, 9.0, 4.0], [-1.0, 0.0, -1.0]])
+    assert np.allclose(v_xz, [5.0, math.sqrt(2)]) and np.allclose(phi, [math.atan2(3, 4), math.pi / 2])
+
+
+@pytest.mark.parametrize("speed", [0.0, 20.0])
+def test_allocation_and_inversion_reproduce_tiltrotor_trim(speed):
+    """End to end with the plant's input-affine map: at a level-flight trim (q̈ = 0) the
+    generalized input u* = C q̇ + g − ϑ_passive must be allocated back to the trim's thrusts,
+    servo torques and δ = 0 (hover: B has rank 4, the surface columns vanish), and (7.90) must
+    return the trim's propeller speeds."""
+    trim_mod = pytest.importorskip("sobolev_drake.models.tiltrotor_trim")
+    ia = pytest.importorskip("sobolev_drake.systems.input_affine")
+    model = trim_mod._model(None)
+    tr = trim_mod.trim_hover() if speed == 0 else trim_mod.trim_level_flight(speed)
+    assert tr.success
+    B, passive = ia.input_affine(model, tr.q, tr.qdot, tr.zeta, n=tr.n)
+    u = model.Cqdot(tr.q, tr.qdot) + model.g(tr.q) - passive
+    tau, info = bounded_least_squares(B, u, *tiltrotor_bounds(speed), return_info=True)
+    assert info["residual"] < 1e-9
+    assert np.allclose(tau[:2], tr.thrust, rtol=1e-9)
+    assert np.allclose(tau[2:4], tr.tau_s, atol=1e-9)
+    assert np.allclose(tau[4:], tr.delta, atol=1e-9)
+    prop, _ = ia.cores(model.params)
+    v_xz, phi = al.rotor_inflow(prop.rotor_air_velocity(tr.q, tr.qdot, tr.zeta))
+    assert np.allclose(propeller_speed_for_thrust(tau[:2], v_xz, phi), tr.n, rtol=1e-8)

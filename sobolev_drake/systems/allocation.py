@@ -7,7 +7,8 @@
 * :func:`tiltrotor_bounds` — thrust 0–100 N, servo torque ±2 N m, surfaces
   ±(5π/36)·sigmf(V_air; s = 2, c = 12) (7.87)–(7.89) (``tiltrotor_missions.json``).
 * :class:`ControlAllocator` — LeafSystem wrapping the two.
-* :func:`propeller_speed_for_thrust` — solve f = ρd⁴n²Ct(J, φ), J = V_xz/(n d) for n (7.90).
+* :func:`propeller_speed_for_thrust` — solve f = ρd⁴n²Ct(J, φ), J = V_xz/(n d) for n (7.90);
+  :func:`rotor_inflow` gives (V_xz, φ) from the rotor-frame air-relative velocity.
 
 Rank deficiency.  At low airspeed the surface columns of B are (nearly) zero, so the LS problem
 has no unique minimizer.  We solve it in scaled variables s = (τ̄ − τ̄_p)/D, D = (hi − lo)/2,
@@ -401,14 +402,25 @@ def _thrust(coef, n, v_xz, phi):
     return coef.rho * d ** 4 * n ** 2 * coef.ct(J, phi)
 
 
+def rotor_inflow(v_rel_rotor_frame):
+    """(V_xz, φ) of (7.90) from the rotor-frame air-relative velocity (..., 3) = (u, v, w).
+
+    Same conventions as ``PropellerCoefficients.advance_ratio_and_inflow``: V_xz = ‖(u, w)‖,
+    φ = |clip(atan2(u, w), −π/2, π/2)|.
+    """
+    v = np.asarray(v_rel_rotor_frame, dtype=float)
+    if v.shape[-1:] != (3,):
+        raise ValueError(f"v_rel_rotor_frame must have shape (..., 3), got {v.shape}")
+    return np.hypot(v[..., 0], v[..., 2]), np.abs(np.clip(np.arctan2(v[..., 0], v[..., 2]), -np.pi / 2, np.pi / 2))
+
+
 def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, n_max: float | None = None,
                                on_unreachable: str = "raise", grid: int = 16, tol: float = 1e-10):
     """Propeller speed n ≥ 0 (rev/s) with f = ρ d⁴ n² Ct(J, φ), J = V_xz/(n d) (7.90).
 
     ``thrust``, ``v_xz`` (air-relative speed in the rotor's x–z plane, m/s) and ``phi``
-    (inflow angle, rad) broadcast (vectorized over the rotors).  Use
-    ``PropellerCoefficients.advance_ratio_and_inflow``'s conventions: V_xz = ‖(u, w)‖ of the
-    rotor-frame relative air velocity and φ = |atan2(u, w)|.  J depends on n, so this is a 1-D
+    (inflow angle, rad) broadcast (vectorized over the rotors); :func:`rotor_inflow` computes
+    them from the rotor-frame air-relative velocity.  J depends on n, so this is a 1-D
     root search: a grid on [0, n_max] (n_max from the json ``n_range_rev_s``) brackets the
     smallest n where the thrust reaches f, then safeguarded regula falsi (Illinois) refines it to
     |f(n) − f| ≤ tol·max(1, f).  Thrust outside [0, f(n_max)] raises
