@@ -53,6 +53,14 @@ from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
 __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
 
 
+def _vec(name: str, value, size: int) -> np.ndarray:
+    """Fast float-vector check (called at every integrator stage)."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        return check_vector(name, value, size)  # raises the descriptive error
+    return arr
+
+
 @dataclass(frozen=True)
 class Partition:
     """DOF partition by thesis indices (0-based, thesis order).
@@ -150,6 +158,9 @@ class MechanicalLaw:
         self.model, self.partition, self.law = model, partition, law
         self.n = model.n
         self.allocation = allocation
+        from sobolev_drake.models.base import MechanicalModel
+        cls = type(model)
+        self._fast = all(getattr(cls, k) is getattr(MechanicalModel, k) for k in ("M", "Cqdot", "g"))
         p = partition
         self.ic = np.array(p.controlled, dtype=int)
         self.ir = np.array(p.regulated, dtype=int)
@@ -186,7 +197,7 @@ class MechanicalLaw:
 
     # --- errors ----------------------------------------------------------------------------
     def split_reference(self, reference):
-        r = check_vector("reference", reference, 3 * self.n_ref)
+        r = _vec("reference", reference, 3 * self.n_ref)
         return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
 
     def integral_derivative(self, q, reference) -> np.ndarray:
@@ -200,13 +211,24 @@ class MechanicalLaw:
         return q[tr] - qr, qdot[tr] - qdr, qddr
 
     def _h(self, q, qdot):
-        return self.model.Cqdot(q, qdot) + self.model.g(q) + self.model.friction(qdot)
+        return self._dynamics(q, qdot)[1]
+
+    def _dynamics(self, q, qdot):
+        """(M(q), h = C q̇ + g + friction): one context update when the model uses the base
+        class' Drake evaluations (the common case), else the model's own methods."""
+        m = self.model
+        if self._fast:
+            plant, ctx, T = m.plant, m.context, m.T
+            plant.SetPositions(ctx, T @ q)
+            plant.SetVelocities(ctx, T @ qdot)
+            M = T.T @ plant.CalcMassMatrix(ctx) @ T
+            h = T.T @ (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))
+        else:
+            M, h = m.M(q), m.Cqdot(q, qdot) + m.g(q)
+        return M, h + m.friction(qdot)
 
     def _parse(self, q, qdot, e_int):
-        q = check_vector("q", q, self.n)
-        qdot = check_vector("qdot", qdot, self.n)
-        e_int = check_vector("e_int", e_int, self.nc)
-        return q, qdot, e_int
+        return _vec("q", q, self.n), _vec("qdot", qdot, self.n), _vec("e_int", e_int, self.nc)
 
     # --- W laws ------------------------------------------------------------------------------
     def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
@@ -226,14 +248,13 @@ class MechanicalLaw:
 
     def reduced_model(self, q, qdot):
         """(M̄, B̄, h̄) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u."""
-        M = self.model.M(q)
+        M, h = self._dynamics(q, qdot)
         ic, iu = self.ic, self.iu
         Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
         X = np.linalg.solve(Muu, np.eye(len(iu)))
         Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
         B = np.asarray(self.model.B(q))
         Bbar = B[ic] - Mcu @ X @ B[iu]
-        h = self._h(q, qdot)
         hbar = h[ic] - Mcu @ X @ h[iu]
         return Mbar, Bbar, hbar, Mcu @ X
 
@@ -264,7 +285,8 @@ class MechanicalLaw:
                 Mbar, _, hbar, _ = self.reduced_model(q, qdot)
                 out = Mbar @ acc[self.ic] + hbar
             else:
-                out = self.model.M(q) @ acc + self._h(q, qdot)
+                M, h = self._dynamics(q, qdot)
+                out = M @ acc + h
         else:
             out = self._hinf_force(q, qdot, e_int, reference)
         if extra is not None:
@@ -277,8 +299,7 @@ class MechanicalLaw:
         w = np.zeros(self.n)
         w[idx] = sigma / g.T11                      # q̇ − v = T11⁻¹σ
         Cw = self.model.C_times(q, qdot, w)
-        h = self._h(q, qdot)
-        M = self.model.M(q)
+        M, h = self._dynamics(q, qdot)
         acc = np.zeros(self.n)
         acc[idx] = a
         extra = np.zeros(self.n)
