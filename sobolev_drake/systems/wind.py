@@ -18,8 +18,8 @@ noise n with two-sided intensity N (E[n(t)n(t+τ)] = N δ(τ)) the output varian
 A zero-order-held sequence of independent samples of variance q over intervals Δt has spectrum
 qΔt·sinc²(ωΔt/2) ≈ qΔt in the filter band, hence the samples must have variance **π/Δt**.
 (The thesis says "unit variance, sampling time 0.01 s"; read literally that gives intensity 0.01
-and gusts √(0.01/π) ≈ 6 % of the stated σ, which contradicts its Figure 7.10, so we use the
-normalisation above.)  Quadrature of the rational forms gives ∫_0^∞|H|²dω = 0.9687 σ² (u) and
+and gusts of √(0.01/π) ≈ 6 % of the stated σ (≤ 0.3 m/s), hard to reconcile with the several
+m/s excursions on the ±10 m/s axis of its Figure 7.10, so we use the normalisation above.)  Quadrature of the rational forms gives ∫_0^∞|H|²dω = 0.9687 σ² (u) and
 0.9623 σ² (v, w): the generated standard deviations are 0.984 σ and 0.981 σ, not exactly σ;
 :meth:`VonKarmanTurbulence.stationary_std` returns the exact values (Lyapunov equation).
 
@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import linalg, signal
 from pydrake.common import RandomDistribution, RandomGenerator
-from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import RandomSource
 
 from sobolev_drake.models.base import check_vector
