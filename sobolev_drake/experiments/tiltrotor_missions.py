@@ -205,37 +205,32 @@ def build_mission(scenario, duration, *, period=0.01, schedule="data", meshcat=N
 
 
 # --- run, score, plot ----------------------------------------------------------------------------
-def simulate_mission(scenario, duration, *, schedule="data", record=False):
-    """Build, initialise (q(0) = q̇(0) = 0) and simulate; returns (built dict, logs dict)."""
+def simulate_mission(scenario, duration, *, schedule="data", record=False, progress=False,
+                     integrator="runge_kutta3", accuracy=1e-3, period=0.01):
+    """Build, initialise (q(0) = q̇(0) = 0) and simulate; returns (built dict, logs dict).
+
+    The integrator's maximum step is the controller period (the sampled controller's events
+    bound the steps anyway)."""
     from pydrake.systems.analysis import Simulator
+    from sobolev_drake.simulation import simulate
 
     meshcat = None
     if record:
         from sobolev_drake import viz
         meshcat = viz.start_meshcat()
-    built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat)
+    built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
     built["handles"].set_state(ctx, diagram, np.zeros(8), np.zeros(8))
-    integ = sim.get_mutable_integrator()
-    integ.set_target_accuracy(1e-3)
-    integ.set_maximum_step_size(built["controller"].period)
-    sim.Initialize()
-    if built["recorder"] is not None:
-        built["recorder"].StartRecording()
-    sim.AdvanceTo(duration)
-    logs = {k: sink.FindLog(ctx) for k, sink in built["logs"].items()}
-    data = {"t": logs["x"].sample_times().copy()}
-    for k, lg in logs.items():
-        data[k] = lg.data().copy()
+    simulate(diagram, ctx, duration, progress=progress, label=f"tilt-rotor scenario {scenario}",
+             integrator=integrator, accuracy=accuracy, max_step=period, simulator=sim)
+    data = {"t": built["logs"]["x"].FindLog(ctx).sample_times().copy()}
+    for k, sink in built["logs"].items():
+        data[k] = sink.FindLog(ctx).data().copy()
     n = min(v.shape[-1] for v in data.values())
     data = {k: v[..., :n] for k, v in data.items()}
-    built["simulator"] = sim
-    if built["recorder"] is not None:
-        built["recorder"].StopRecording()
-        built["recorder"].PublishRecording()
-        built["meshcat"] = meshcat
+    built["simulator"], built["meshcat"] = sim, meshcat
     return built, data
 
 
@@ -312,12 +307,13 @@ def plot_mission(data, out_dir, stem):
     return out
 
 
-def draw_reference_path(meshcat, traj_ref, duration, name="reference_path"):
-    """Draw the mission's reference path as a line in Meshcat."""
-    from pydrake.geometry import Rgba
+def draw_paths(meshcat, traj_ref, duration, flown):
+    """Draw the mission's reference path (black) and the flown path (blue) in Meshcat."""
+    from sobolev_drake.viz import draw_path
     ts = np.linspace(0.0, duration, max(int(duration * 5), 50))
-    pts = np.array([traj_ref.evaluate(t)[0][:3] for t in ts]).T
-    meshcat.SetLine(f"/{name}", pts, 2.0, Rgba(0.1, 0.1, 0.1, 1.0))
+    pts = np.array([traj_ref.evaluate(t)[0][:3] for t in ts])
+    draw_path(meshcat, "reference", pts, rgba=(0.05, 0.05, 0.05, 1.0))
+    draw_path(meshcat, "flown", np.asarray(flown).T, rgba=(0.1, 0.4, 1.0, 1.0))
 
 
 def score(data, scenario, duration):
@@ -370,7 +366,8 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
     out_dir.mkdir(parents=True, exist_ok=True)
     if duration is None:
         duration = SMOKE_DURATION if smoke else DURATIONS[scenario]
-    built, data = simulate_mission(scenario, duration, schedule=schedule, record=record)
+    built, data = simulate_mission(scenario, duration, schedule=schedule, record=record,
+                                   progress=not smoke)
     metrics = score(data, scenario, duration)
     res = ExperimentResult(name=name, metrics=metrics)
     res.outputs.update(plot_mission(data, out_dir, name))
@@ -411,7 +408,7 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
                                                       metrics["max_abs_pitch_deg"]) < 60, ""))
     if record and built.get("meshcat") is not None:
         from sobolev_drake import viz
-        draw_reference_path(built["meshcat"], built["reference"], duration)
+        draw_paths(built["meshcat"], built["reference"], duration, data["x"][5:8])
         html = out_dir / f"{name}.html"
         viz.save_recording_html(built["meshcat"], built["recorder"], html)
         res.outputs["recording"] = html
