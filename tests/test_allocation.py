@@ -268,3 +268,16 @@ def test_allocation_and_inversion_reproduce_tiltrotor_trim(speed):
     prop, _ = ia.cores(model.params)
     v_xz, phi = al.rotor_inflow(prop.rotor_air_velocity(tr.q, tr.qdot, tr.zeta))
     assert np.allclose(propeller_speed_for_thrust(tau[:2], v_xz, phi), tr.n, rtol=1e-8)
+
+
+def test_underdetermined_picks_range_scaled_minimum_norm():
+    # n < m with no active bound: the exact solution of minimum norm in the scaled variables
+    # s = (τ̄ − clip(0, lo, hi)) / ((hi − lo)/2) (module docstring of allocation).
+    rng = np.random.default_rng(0)
+    B = rng.standard_normal((4, 8))
+    u = 0.3 * rng.standard_normal(4)
+    lo, hi = -2.0 * np.ones(8), np.r_[3.0 * np.ones(4), 1.0 * np.ones(4)]
+    tau, info = bounded_least_squares(B, u, lo, hi, return_info=True)
+    D = np.diag((hi - lo) / 2)
+    assert info["residual"] < 1e-12
+    assert np.max(np.abs(tau - D @ np.linalg.pinv(B @ D) @ u)) < 1e-12
