@@ -1,0 +1,87 @@
+"""Tilt-rotor linear hover experiment (thesis §7.3.1): controller wiring and indices (no LMI
+solves here — those are exercised by the experiment itself and by the synthesis tests)."""
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from sobolev_drake.experiments import tiltrotor_hover_linear as hl
+
+
+class _Trim:
+    q = np.array([-0.137, -0.137, 0, 0.137, 0, 0, 0, 0])
+    n = np.array([51.9, 51.9])
+    tau_s = np.array([-0.127, -0.127])
+
+
+def _build(ctrl, x, ref, integrals=None):
+    b = DiagramBuilder()
+    c = b.AddSystem(hl.LinearHoverController(ctrl, _Trim()))
+    sx = b.AddSystem(ConstantVectorSource(x))
+    sr = b.AddSystem(ConstantVectorSource(ref))
+    b.Connect(sx.get_output_port(), c.GetInputPort("x"))
+    b.Connect(sr.get_output_port(), c.GetInputPort("reference"))
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    cc = c.GetMyMutableContextFromRoot(ctx)
+    if integrals is not None:
+        v = cc.get_mutable_continuous_state_vector().CopyToVector()
+        v[:len(integrals)] = integrals
+        cc.get_mutable_continuous_state_vector().SetFromVector(v)
+    return c, cc
+
+
+def test_state_feedback_output_and_integrators():
+    rng = np.random.default_rng(0)
+    K = rng.normal(scale=0.01, size=(4, 20))
+    x = np.r_[_Trim.q + rng.normal(scale=0.01, size=8), rng.normal(scale=0.1, size=8)]
+    ref = np.r_[1.0, 2.0, 3.0, 0.1, 0.5, -0.5, 0.2, 0.0, 0, 0, 0, 0]
+    ints = np.array([0.1, -0.2, 0.3, 0.05])
+    c, cc = _build({"kind": "sf", "K": K}, x, ref, ints)
+    qr = _Trim.q.copy()
+    qr[4:8] = [0.1, 1.0, 2.0, 3.0]
+    qdr = np.zeros(8)
+    qdr[4:8] = [0.0, 0.5, -0.5, 0.2]
+    dx = np.r_[x[:8] - qr, x[8:] - qdr, ints]
+    du = K @ dx
+    assert np.allclose(c.GetOutputPort("delta_u").Eval(cc), du)
+    assert np.allclose(c.GetOutputPort("propeller_speed").Eval(cc), np.maximum(51.9 + du[:2], 0))
+    assert np.allclose(c.GetOutputPort("servo_torque").Eval(cc), np.clip(-0.127 + du[2:], -2, 2))
+    der = c.AllocateTimeDerivatives()
+    c.CalcTimeDerivatives(cc, der)
+    assert np.allclose(der.CopyToVector(), dx[[4, 5, 6, 7]])   # d/dt ∫[Δψ Δx Δy Δz]
+
+
+def test_dynamic_controller_output():
+    rng = np.random.default_rng(1)
+    nk = 3
+    C = hl.output_matrix()
+    assert C.shape == (18, 20) and np.all(C[:, 13] == 0) and np.all(C[:, 14] == 0)
+    ctrl = {"kind": "dyn", "AK": -np.eye(nk), "BK": rng.normal(size=(nk, 18)),
+            "CK": rng.normal(size=(4, nk)), "DK": rng.normal(scale=0.01, size=(4, 18)), "C": C}
+    x = np.r_[_Trim.q, np.zeros(8)]
+    ref = np.zeros(12)
+    c, cc = _build(ctrl, x, ref, np.r_[0, 0, 0, 0, 1.0, 2.0, 3.0])
+    dx = np.zeros(20)
+    xk = np.array([1.0, 2.0, 3.0])
+    assert np.allclose(c.GetOutputPort("delta_u").Eval(cc), ctrl["CK"] @ xk + ctrl["DK"] @ (C @ dx))
+    der = c.AllocateTimeDerivatives()
+    c.CalcTimeDerivatives(cc, der)
+    assert np.allclose(der.CopyToVector()[4:], -xk)
+
+
+def test_indices_ise_and_iadu_closed_form():
+    """Δx = a constant offset in x only → ISE = a²T + ∫(a t)² dt of the integral state;
+    Δu a ramp of slope s → IADU = |s| T per channel."""
+    T, a, s = 10.0, 0.5, 0.2
+    t = np.linspace(0, T, 2001)
+    x = np.zeros((16, t.size))
+    x[:8] = _Trim.q[:, None]
+    x[5] += a
+    data = {"t": t, "x": x, "reference": np.zeros((12, t.size)),
+            "du": np.vstack([s * t] * 4)}
+    idx = hl.indices(data, _Trim())
+    assert idx["ise"] == pytest.approx(a**2 * T + a**2 * T**3 / 3, rel=1e-4)
+    assert idx["iadu"] == pytest.approx(4 * s * T, rel=1e-9)
+    assert idx["final_pos_err_m"] == pytest.approx(a)
