@@ -197,3 +197,11 @@ def test_constant_wind_sum_and_mission_helper():
     s.GetInputPort("wind_0").FixValue(sc, [1, 2, 3])
     s.GetInputPort("wind_1").FixValue(sc, [1, 0, -3])
     assert np.allclose(s.GetOutputPort("wind").Eval(sc), [2, 2, 0])
+
+
+@pytest.mark.parametrize("length,airspeed", [(5.0, 2.0), (150.0, 33.0), (533.0, 5.1)])
+def test_normalisation_is_independent_of_scale_length_and_speed(length, airspeed):
+    # s → (L/V) s only rescales frequency, so ∫|H|²dω/σ² and hence std/σ do not depend on L, V.
+    p = VonKarmanParameters(sigma=(2.0, 0.5, 7.0), length=(length,) * 3, airspeed=airspeed)
+    ratio = VonKarmanTurbulence(p).stationary_std() / np.array(p.sigma)
+    assert ratio == pytest.approx([math.sqrt(0.96871), math.sqrt(0.96234), math.sqrt(0.96234)], rel=1e-4)

@@ -223,7 +223,9 @@ class VonKarmanTurbulence(Diagram):
 
     Reproducibility: the default context uses Drake's default seed; call
     ``turbulence.seed(root_context, seed)`` (or ``SetRandomContext`` on the root diagram) for a
-    chosen realization.  Each sample instant is a discrete event for the simulator.
+    chosen realization.  Each sample instant is a discrete event for the simulator (the
+    RandomSource draws at t = 0, Δt, 2Δt, …; the value held on [kΔt, (k+1)Δt) is the one drawn
+    at kΔt, so :func:`simulate_discrete` reproduces the output at the sample instants).
     """
 
     def __init__(self, params: VonKarmanParameters | None = None, **overrides):
