@@ -121,3 +121,16 @@ def test_gravity_drop_is_half_g_t_squared():
     q = model.to_thesis(plant.GetPositions(pc))
     assert q[7] == pytest.approx(10.0 - 0.5 * 9.8, abs=1e-8)
     np.testing.assert_allclose(q[:7], q0[:7], atol=1e-8)
+
+
+def test_visual_geometry_for_meshcat():
+    from pydrake.geometry import Role
+    from sobolev_drake.models.tiltrotor import add_tiltrotor
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    inspector = h.scene_graph.model_inspector()
+    counts = {}
+    for name in ("body", "thruster_right", "thruster_left"):
+        fid = h.plant.GetBodyFrameIdOrThrow(h.plant.GetBodyByName(name).index())
+        counts[name] = len(inspector.GetGeometries(fid, Role.kIllustration))
+    assert counts["body"] >= 6 and counts["thruster_right"] == counts["thruster_left"] >= 2

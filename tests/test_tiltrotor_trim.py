@@ -83,3 +83,20 @@ def test_linearization_matches_numpy_model(hover):
         if lam.real >= -1e-9:
             rank = np.linalg.matrix_rank(np.hstack([A - lam * np.eye(20), B]), tol=1e-7)
             assert rank == 20, lam
+
+
+def test_airplane_mode_trim_on_the_polynomial_tilt():
+    """At 33 m/s the mission tilt (1.55 rad, rotors forward) trims with a nose-up attitude,
+    n ≈ 77 rev/s and an elevator close to (slightly beyond) the ±25° limit."""
+    t = trim_level_flight(33.0, alpha=float(tilt_reference_polynomial(33.0)))
+    assert t.success and t.residual_norm < 1e-8
+    assert -0.3 < t.q[3] < -0.1 and 60 < t.n[0] < 90
+    assert abs(t.delta[2] - t.delta[3]) < 1e-8 and -0.6 < t.delta[2] < -0.4
+
+
+def test_linearization_unpacks(hover):
+    A, B, D = linearize(hover)
+    assert A.shape == (20, 20) and B.shape == (20, 4) and D.shape == (20, 3)
+    lin = linearize(hover, include_surfaces=True)
+    assert lin.B.shape == (20, 8) and len(lin.input_names) == 8
+    assert np.abs(lin.B[:, 4:]).max() < 1e-9          # no air speed at hover: surfaces inert

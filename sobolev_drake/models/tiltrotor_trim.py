@@ -77,13 +77,16 @@ def balance(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
             - model.Cqdot(q, qdot) - model.g(q))
 
 
-def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, alpha=None) -> Trim:
+def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, alpha=None,
+                      restarts=True) -> Trim:
     """Trim at constant inertial velocity [V, 0, 0] (V ≥ 0, m/s) with wind ``zeta``.
 
     Default: δ = 0, unknowns z = [αR αL φ θ nR nL τsR τsL].  With ``alpha`` given (tilt angle,
     rad, both sides) the tilt is prescribed and the ruddervators become unknowns instead:
     z = [δTR δTL φ θ nR nL τsR τsL].  Solved by ``scipy.optimize.least_squares`` (trust-region
-    reflective, xtol = ftol = gtol = ``tol``); ``guess`` is a previous z.
+    reflective, xtol = ftol = gtol = ``tol``); ``guess`` is a previous z.  If that start fails
+    and ``restarts`` is true, a coarse grid of starts is tried and the best solution returned.
+    ``Trim.success`` means max |residual| < 1e-8 with n > 0.
     """
     model = _model(model)
     V = float(V)
@@ -111,8 +114,29 @@ def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, al
         q, n, ts, d = unpack(z)
         return balance(model, q, qdot, zeta, n, ts, d)
 
-    sol = least_squares(fun, z0, method="trf", xtol=tol, ftol=tol, gtol=tol,
-                        x_scale=np.array([0.1, 0.1, 0.1, 0.1, 10, 10, 0.1, 0.1]), max_nfev=400)
+    def solve(z_init):
+        return least_squares(fun, z_init, method="trf", xtol=tol, ftol=tol, gtol=tol,
+                             x_scale=np.array([0.1, 0.1, 0.1, 0.1, 10, 10, 0.1, 0.1]), max_nfev=400)
+
+    def ok(sol):
+        return np.max(np.abs(sol.fun)) < 1e-8 and np.all(sol.x[4:6] > 0)
+
+    sol = solve(z0)
+    if not ok(sol) and restarts:
+        # multi-start over a coarse grid (the airplane-mode branch needs n ≈ 80 rev/s and a
+        # nose-up attitude, far from the hover guess)
+        for n0 in (40.0, 60.0, 80.0):
+            for th0 in (-0.15, 0.05):
+                for a0 in ((-0.3, 0.3) if alpha is not None else (0.0, 0.6, 1.2)):
+                    cand = solve(np.array([a0, a0, 0.0, th0, n0, n0, -0.1, -0.1]))
+                    if ok(cand) or np.max(np.abs(cand.fun)) < np.max(np.abs(sol.fun)):
+                        sol = cand
+                    if ok(sol):
+                        break
+                if ok(sol):
+                    break
+            if ok(sol):
+                break
     q, n, ts, delta = unpack(sol.x)
     res = fun(sol.x)
     return Trim(V=V, q=q, qdot=qdot, n=n, tau_s=ts, delta=delta, zeta=zeta, residual=res,
@@ -161,24 +185,43 @@ def write_tilt_schedule_report(out_dir, trims=None):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     trims = tilt_schedule() if trims is None else trims
-    rows = []
+    rows, guess = [], None
     for t in trims:
-        rows.append({"V": t.V, "alpha_trim": float(t.q[0]), "alpha_poly": float(tilt_reference_polynomial(t.V)),
+        a_poly = float(tilt_reference_polynomial(t.V))
+        # the same speed with the tilt prescribed by the polynomial: ruddervators trim pitch
+        tp = trim_level_flight(t.V, model=t.info["model"], alpha=a_poly, guess=guess) if t.V > 0 else None
+        guess = tp.info["z"] if tp is not None and tp.success else None
+        rows.append({"V": t.V, "alpha_trim": float(t.q[0]), "alpha_poly": a_poly,
                      "theta": float(t.q[3]), "n": float(t.n[0]), "tau_s": float(t.tau_s[0]),
-                     "thrust": float(t.thrust[0]), "residual": t.residual_norm, "success": t.success})
-    md = ["| V [m/s] | α trim [rad] | α polynomial [rad] | θ [rad] | n [rev/s] | τs [N m] | f [N] | residual |",
-          "|---|---|---|---|---|---|---|---|"]
-    md += [f"| {r['V']:.0f} | {r['alpha_trim']:.4f} | {r['alpha_poly']:.4f} | {r['theta']:.4f} | "
-           f"{r['n']:.2f} | {r['tau_s']:.4f} | {r['thrust']:.2f} | {r['residual']:.1e} |" for r in rows]
+                     "thrust": float(t.thrust[0]), "residual": t.residual_norm, "success": t.success,
+                     "poly_trim_success": bool(tp is not None and tp.success),
+                     "poly_trim_delta_e": float(tp.delta[2]) if tp is not None and tp.success else None,
+                     "poly_trim_theta": float(tp.q[3]) if tp is not None and tp.success else None,
+                     "poly_trim_n": float(tp.n[0]) if tp is not None and tp.success else None})
+
+    def fmt(v, f):
+        return "–" if v is None else format(v, f)
+    md = ["| V [m/s] | α trim [rad] | θ [rad] | n [rev/s] | τs [N m] | f [N] | residual "
+          "| α polynomial [rad] | δe on polynomial tilt [rad] | θ there | n there |",
+          "|---|---|---|---|---|---|---|---|---|---|---|"]
+    md += [f"| {r['V']:.0f} | {r['alpha_trim']:.4f} | {r['theta']:.4f} | {r['n']:.2f} | {r['tau_s']:.4f} | "
+           f"{r['thrust']:.2f} | {r['residual']:.1e} | {r['alpha_poly']:.4f} | "
+           f"{fmt(r['poly_trim_delta_e'], '.3f')} | {fmt(r['poly_trim_theta'], '.3f')} | "
+           f"{fmt(r['poly_trim_n'], '.1f')} |" for r in rows]
     md_path, json_path, png_path = out / "tilt_schedule.md", out / "tilt_schedule.json", out / "tilt_schedule.png"
-    md_path.write_text("# Tilt-rotor level-flight trims (δ = 0) vs the mission tilt polynomial\n\n"
-                       + "\n".join(md) + "\n")
+    md_path.write_text("# Tilt-rotor level-flight trims vs the mission tilt polynomial\n\n"
+                       "Left: trims with δ = 0 (unknowns α, φ, θ, n, τs). Right: trims with the tilt "
+                       "prescribed by `tilt_reference_vs_forward_speed` (unknowns δTR, δTL, φ, θ, n, τs); "
+                       "the ruddervator limit is ±0.436 rad.\n\n" + "\n".join(md) + "\n")
     json_path.write_text(json.dumps(rows, indent=1))
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
     V = np.array([r["V"] for r in rows])
     ax[0].plot(V, [r["alpha_trim"] for r in rows], "o-", label="α trim (ours)")
     ax[0].plot(V, [r["alpha_poly"] for r in rows], "--", label="mission polynomial")
     ax[0].plot(V, [r["theta"] for r in rows], ":", label="θ trim")
+    ax[0].plot(V, [np.nan if r["poly_trim_delta_e"] is None else r["poly_trim_delta_e"] for r in rows],
+               "s-", ms=3, label="δe needed on polynomial tilt")
+    ax[0].axhline(-0.4363, color="grey", lw=0.8)
     ax[0].set_xlabel("forward speed V [m/s]")
     ax[0].set_ylabel("angle [rad]")
     ax[0].legend()
@@ -206,6 +249,10 @@ class Linearization:
     trim: Trim
     state_names: list
     input_names: list
+
+    def __iter__(self):
+        """``A, B, D = linearize(...)`` unpacks the matrices."""
+        return iter((self.A, self.B, self.D))
 
 
 class _DerivativeEvaluator:
@@ -277,3 +324,14 @@ def linearize(trim: Trim | None = None, *, params=None, include_surfaces=False, 
     states = list(DOF_NAMES) + [f"d{n}" for n in DOF_NAMES] + ["int_psi", "int_x", "int_y", "int_z"]
     inputs = ["n_PR", "n_PL", "tau_sR", "tau_sL"] + (list(ACTUATOR_NAMES[4:]) if include_surfaces else [])
     return Linearization(A=A, B=B, D=D, trim=trim, state_names=states, input_names=inputs)
+
+
+if __name__ == "__main__":  # python -m sobolev_drake.models.tiltrotor_trim OUT_DIR
+    import sys
+
+    _trims = tilt_schedule()
+    _h = _trims[0]
+    print(f"hover trim: θ = {_h.q[3]:.5f}, αR = αL = {_h.q[0]:.5f}, n = {_h.n[0]:.3f} rev/s, "
+          f"τs = {_h.tau_s[0]:.5f} N m, residual {_h.residual_norm:.1e}  (thesis {THESIS_HOVER})")
+    for path in write_tilt_schedule_report(sys.argv[1] if len(sys.argv) > 1 else "tiltrotor_trim_out", _trims):
+        print("wrote", path)
