@@ -1,9 +1,12 @@
 """Control allocation (thesis (7.84)–(7.89)) and thrust → propeller-speed inversion (7.90).
 
 * :func:`bounded_least_squares` — min ‖u − Bτ̄‖² s.t. lo ≤ τ̄ ≤ hi (7.84)–(7.86), solved by a
-  primal active-set method on the (≤ 8-variable) box QP; chosen by measurement
-  (``benchmarks/allocation.py``: it matches a tight Clarabel reference to < 1e-6 and is the
-  fastest of scipy ``lsq_linear`` (bvls/trf), OSQP and Clarabel on 8×8 problems).
+  primal–dual active-set method (fallbacks: primal active set, scipy BVLS) on the small box QP.
+  Chosen by measurement (``benchmarks/allocation.py``): it matches a tight Clarabel reference
+  to ~1e-9, is faster than scipy ``lsq_linear`` (bvls/trf), OSQP and Clarabel called directly,
+  and warm-started from the previous active set needs a single linear solve.  Raw Drake OSQP
+  is faster cold (~2×) but returns no exact active-set solution; ``method="osqp"`` uses it
+  followed by the exact re-solve and KKT check.
 * :func:`tiltrotor_bounds` — thrust 0–100 N, servo torque ±2 N m, surfaces
   ±(5π/36)·sigmf(V_air; s = 2, c = 12) (7.87)–(7.89) (``tiltrotor_missions.json``).
 * :class:`ControlAllocator` — LeafSystem wrapping the two.
