@@ -6,7 +6,9 @@ Usage: ``python benchmarks/tiltrotor_plant.py [--duration 60] [--accuracy 1e-3] 
 The LQR (scipy CARE on the linearization (7.57) about the hover trim in the mean wind) is a
 C++ ``AffineSystem`` so the timing is dominated by the plant side.  The force-path comparison
 times one diagram derivative evaluation with the generalized-force path (what ``add_tiltrotor``
-uses) against the same loads sent as a Python list of ``ExternallyAppliedSpatialForce``.
+uses, scalar Python cores) against the numpy-vectorized cores sent either as a generalized force
+or as a Python list of ``ExternallyAppliedSpatialForce``.  Times are process CPU time where
+noted: on a shared machine wall time mostly measures the other processes.
 """
 
 from __future__ import annotations
@@ -98,20 +100,40 @@ def run_hover(duration=60.0, accuracy=1e-3, turbulence=True, seed=7, sample_time
             "integrator": type(integ).__name__, "accuracy": accuracy}
 
 
-class _SpatialForceLoads(LeafSystem):
-    """Same propeller + aerodynamic loads as a list of ExternallyAppliedSpatialForce (for timing)."""
+class _LoadsBase(LeafSystem):
+    """Input ``x`` (thesis state); constant propeller speeds and wind (timing only)."""
 
-    def __init__(self, h):
+    def __init__(self, model, n, zeta):
         super().__init__()
         from sobolev_drake.systems.input_affine import cores
-        self.h = h
-        self.prop, self.aero = cores(h.model.params)
-        plant = h.plant
+        self.model, self.n, self.zeta = model, np.asarray(n, float), np.asarray(zeta, float)
+        self.prop, self.aero = cores(model.params)
+        self._x = self.DeclareVectorInputPort("x", 16)
+
+
+class _VectorizedGeneralized(_LoadsBase):
+    """Propeller + aerodynamic generalized force with the numpy-vectorized cores (Drake order)."""
+
+    def __init__(self, model, n, zeta):
+        super().__init__(model, n, zeta)
+        self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc)
+
+    def _calc(self, context, output):
+        x = self._x.Eval(context)
+        q, qd = x[:8], x[8:]
+        tau = (self.prop.propeller_force_vectorized(q, qd, self.zeta, self.n)
+               + self.aero.generalized_force_vectorized(q, qd, self.zeta, np.zeros(4)))
+        output.SetFromVector(self.model.force_to_drake(tau))
+
+
+class _SpatialForceLoads(_LoadsBase):
+    """Same loads (numpy-vectorized cores) as a list of ExternallyAppliedSpatialForce."""
+
+    def __init__(self, model, n, zeta):
+        super().__init__(model, n, zeta)
+        plant = model.plant
         self.body = plant.GetBodyByName("body").index()
         self.thr = [plant.GetBodyByName("thruster_right").index(), plant.GetBodyByName("thruster_left").index()]
-        self._x = self.DeclareVectorInputPort("x", 16)
-        self._n = self.DeclareVectorInputPort("propeller_speed", 2)
-        self._w = self.DeclareVectorInputPort("wind", 3)
         self.DeclareAbstractOutputPort("spatial_forces", lambda: Value([ExternallyAppliedSpatialForce()]),
                                        self._calc)
 
@@ -119,9 +141,8 @@ class _SpatialForceLoads(LeafSystem):
         from sobolev_drake.models.tiltrotor_params import R_IB
         x = self._x.Eval(context)
         q, qd = x[:8], x[8:]
-        zeta, n = self._w.Eval(context), self._n.Eval(context)
         R = R_IB(q)
-        F, M, *_ = self.aero.surface_loads(q, qd, zeta)
+        F, M, *_ = self.aero.surface_loads(q, qd, self.zeta)
         forces = []
         for k in range(6):
             f = ExternallyAppliedSpatialForce()
@@ -129,55 +150,67 @@ class _SpatialForceLoads(LeafSystem):
             f.p_BoBq_B = self.aero.points[k]
             f.F_Bq_W = SpatialForce(R @ M[k], R @ F[k])
             forces.append(f)
-        fth, t, _, _ = self.prop.thrust_and_torque(q, qd, zeta, n)
+        fth, t, _, _ = self.prop.thrust_and_torque(q, qd, self.zeta, self.n)
         RA, _, _ = self.prop.rotor_frames(q)
         for k in range(2):
             z = R @ RA[k][:, 2]
             f = ExternallyAppliedSpatialForce()
             f.body_index = self.thr[k]
-            f.p_BoBq_B = self.h.model.params.d_A_P
+            f.p_BoBq_B = self.model.params.d_A_P
             f.F_Bq_W = SpatialForce(t[k] * z, fth[k] * z)
             forces.append(f)
         output.set_value(forces)
 
 
 def force_path_comparison(reps=2000):
-    """Wall time per diagram derivative evaluation: generalized-force path vs spatial-force list."""
+    """Process-CPU µs per diagram derivative evaluation (plant + loads) for three force paths:
+    ``scalar_generalized`` (what add_tiltrotor uses), ``vectorized_generalized`` and
+    ``vectorized_spatial_list`` (same numpy cores, loads sent as ExternallyAppliedSpatialForce)."""
+    from pydrake.systems.primitives import MatrixGain
+    from sobolev_drake.models.tiltrotor import TiltrotorModel, _build_plant
+    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    trim = trim_hover(zeta=MEAN_WIND)
     out = {}
-    for variant in ("generalized", "spatial"):
+    for variant in ("scalar_generalized", "vectorized_generalized", "vectorized_spatial_list"):
         b = DiagramBuilder()
-        h = add_tiltrotor(b)
-        if variant == "spatial":
-            sf = b.AddSystem(_SpatialForceLoads(h))
-            b.Connect(h.x, sf.GetInputPort("x"))
-            b.Connect(sf.get_output_port(), h.plant.get_applied_spatial_force_input_port())
+        if variant == "scalar_generalized":
+            h = add_tiltrotor(b)
+            plant, model = h.plant, h.model
+        else:
+            plant, _ = _build_plant(TiltrotorParams(), b)
+            model = TiltrotorModel(plant=plant)
+            P = np.kron(np.eye(2), model.T_inv)
+            perm = b.AddSystem(MatrixGain(P))
+            b.Connect(plant.get_state_output_port(), perm.get_input_port())
+            cls = _VectorizedGeneralized if variant == "vectorized_generalized" else _SpatialForceLoads
+            loads = b.AddSystem(cls(model, trim.n, MEAN_WIND))
+            b.Connect(perm.get_output_port(), loads.GetInputPort("x"))
+            target = (plant.get_applied_generalized_force_input_port() if cls is _VectorizedGeneralized
+                      else plant.get_applied_spatial_force_input_port())
+            b.Connect(loads.get_output_port(0), target)
         d = b.Build()
         ctx = d.CreateDefaultContext()
-        trim = trim_hover(zeta=MEAN_WIND)
-        h.set_state(ctx, d, trim.q, trim.qdot + 0.01)
-        fctx = h.forces.GetMyMutableContextFromRoot(ctx)
-        if variant == "spatial":
-            # the loads come from the spatial-force system; the combined system only adds servos
-            sctx = sf.GetMyMutableContextFromRoot(ctx)
-            sf.GetInputPort("propeller_speed").FixValue(sctx, trim.n)
-            sf.GetInputPort("wind").FixValue(sctx, MEAN_WIND)
-        else:
+        pc = plant.GetMyMutableContextFromRoot(ctx)
+        if variant == "scalar_generalized":
+            fctx = h.forces.GetMyMutableContextFromRoot(ctx)
             h.propeller_speed.FixValue(fctx, trim.n)
             h.wind.FixValue(fctx, MEAN_WIND)
-        h.servo_torque.FixValue(fctx, trim.tau_s)
+        elif variant == "vectorized_spatial_list":
+            plant.get_applied_generalized_force_input_port().FixValue(pc, np.zeros(8))
+        plant.SetPositions(pc, model.to_drake(trim.q))
+        plant.SetVelocities(pc, model.to_drake(trim.qdot + 0.01))
         deriv = d.AllocateTimeDerivatives()
-        pc = h.plant.GetMyMutableContextFromRoot(ctx)
-        q0 = h.plant.GetPositions(pc)
-        t0 = time.perf_counter()
+        q0 = plant.GetPositions(pc)
+        t0 = time.process_time()
         for i in range(reps):
-            h.plant.SetPositions(pc, q0 + 1e-9 * (i % 2))   # invalidate caches
+            plant.SetPositions(pc, q0 + 1e-9 * (i % 2))   # invalidate caches
             d.CalcTimeDerivatives(ctx, deriv)
-        out[variant] = (time.perf_counter() - t0) / reps
+        out[variant] = (time.process_time() - t0) / reps
     return out
 
 
 def evaluations_per_second(reps=3000):
-    """Evaluations per second of each force LeafSystem's output (cache invalidated each time)."""
+    """Evaluations per second (process CPU) of each force LeafSystem's output, cache invalidated."""
     trim = trim_hover(zeta=MEAN_WIND)
     x = np.concatenate([trim.q, trim.qdot])
     res = {}
@@ -190,11 +223,11 @@ def evaluations_per_second(reps=3000):
         sys.GetInputPort("wind").FixValue(ctx, MEAN_WIND)
         xport = sys.GetInputPort("x")
         out = sys.GetOutputPort("generalized_force")
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for i in range(reps):
             xport.FixValue(ctx, x + 1e-9 * (i % 2))
             out.Eval(ctx)
-        res[name] = reps / (time.perf_counter() - t0)
+        res[name] = reps / (time.process_time() - t0)
     b = DiagramBuilder()
     h = add_tiltrotor(b)
     d = b.Build()
@@ -205,11 +238,11 @@ def evaluations_per_second(reps=3000):
     pc = h.plant.GetMyMutableContextFromRoot(ctx)
     q0 = h.plant.GetPositions(pc)
     port = h.forces.GetOutputPort("applied_generalized_force")
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     for i in range(reps):
         h.plant.SetPositions(pc, q0 + 1e-9 * (i % 2))
         port.Eval(fctx)
-    res["TiltrotorForces (all, plant input)"] = reps / (time.perf_counter() - t0)
+    res["TiltrotorForces (all, plant input)"] = reps / (time.process_time() - t0)
     return res
 
 
@@ -225,8 +258,8 @@ def main(argv=None):
     for name, rate in evaluations_per_second().items():
         print(f"{name:40s} {rate:10.0f} evaluations/s")
     cmp = force_path_comparison()
-    print(f"diagram derivative, generalized-force path: {1e6 * cmp['generalized']:.1f} µs; "
-          f"spatial-force list path: {1e6 * cmp['spatial']:.1f} µs")
+    print("diagram derivative (plant + loads), process CPU per evaluation: "
+          + ", ".join(f"{k} {1e6 * v:.0f} µs" for k, v in cmp.items()))
     r = run_hover(args.duration, args.accuracy, not args.no_turbulence, sample_time=args.sample_time)
     print(f"hover {r['duration']:.0f} s: wall {r['wall_s']:.2f} s, real-time factor {r['real_time_factor']:.1f}x "
           f"(process CPU {r['cpu_s']:.2f} s, {r['cpu_real_time_factor']:.1f}x; turbulence Δt {r['sample_time']} s), "
