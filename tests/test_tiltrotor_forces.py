@@ -101,6 +101,8 @@ def test_input_affine_identity(model):
         tau_bar = np.concatenate([thrust_inputs(model, q, qd, zeta, n), ts, de])
         theta = generalized_force(model, q, qd, zeta, n, ts, de)
         np.testing.assert_allclose(B @ tau_bar + passive, theta, rtol=0, atol=1e-9)
+    # the model's B() is the same map (default n: the thesis hover speed)
+    np.testing.assert_allclose(model.B(q, qd, zeta), input_affine(model, q, qd, zeta)[0], atol=0)
 
 
 def test_forces_agree_with_drake_jacobians(model):
@@ -162,6 +164,14 @@ def test_leaf_systems_match_combined_plant_forces(model):
              + force_disturbance_generalized(model, q, fdist))
     np.testing.assert_allclose(h.generalized_force.Eval(fc), total, atol=1e-12)
     np.testing.assert_allclose(h.x.Eval(fc), np.concatenate([q, qd]), atol=0)
+    # separate command ports add to u; the generalized disturbance w adds to ϑ
+    w = rng.normal(size=8)
+    h.u.FixValue(fc, np.concatenate([n - 5.0, ts, de]))
+    h.propeller_speed.FixValue(fc, [5.0, 5.0])
+    h.disturbance.FixValue(fc, w)
+    np.testing.assert_allclose(h.generalized_force.Eval(fc), total + w, atol=1e-12)
+    drake_tau = h.forces.GetOutputPort("applied_generalized_force").Eval(fc)
+    np.testing.assert_allclose(drake_tau, model.force_to_drake(total + w), atol=1e-12)
 
 
 def test_bad_inputs_raise(model):
