@@ -178,6 +178,9 @@ class AeroModel:
         (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
         imax = int(nmax) - 1
         sin, cos, sqrt, atan2, asin = math.sin, math.cos, math.sqrt, math.atan2, math.asin
+        # Python floats: arithmetic on numpy scalars is several times slower
+        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
+        zeta, delta = [float(v) for v in zeta], [float(v) for v in delta]
         sf, cf = sin(q[2]), cos(q[2])
         st, ct = sin(q[3]), cos(q[3])
         sp, cp = sin(q[4]), cos(q[4])

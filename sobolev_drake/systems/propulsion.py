@@ -133,6 +133,9 @@ class PropulsionModel:
         self.lam = np.array([p.lambda_R, p.lambda_L])
         self.d_B_A = np.array([p.d_B_A2, p.d_B_A3])
         self.cosb = np.cos(p.beta)
+        self._lam_f = [float(v) for v in self.lam]
+        self._dBA_f = [[float(v) for v in A] for A in self.d_B_A]
+        self._dAP_f = [float(v) for v in p.d_A_P]
 
     def rotor_frames(self, q):
         """(R_B^A (2,3,3), rotor centres in body axes r (2,3), R_B^A d_A,P (2,3))."""
@@ -190,6 +193,9 @@ class PropulsionModel:
         arithmetic); equal to :meth:`propeller_force_vectorized` (tested)."""
         sin, cos, sqrt, atan2 = math.sin, math.cos, math.sqrt, math.atan2
         p, c = self.params, self.coef
+        # Python floats: arithmetic on numpy scalars is several times slower
+        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
+        zeta, n = [float(v) for v in zeta], [float(v) for v in n]
         sf, cf = sin(q[2]), cos(q[2])
         st, ct = sin(q[3]), cos(q[3])
         sp, cp = sin(q[4]), cos(q[4])
@@ -203,12 +209,13 @@ class PropulsionModel:
         vby = r01 * vix + r11 * viy + r21 * viz
         vbz = r02 * vix + r12 * viy + r22 * viz
         sb, cb = sin(p.beta), cos(p.beta)
-        px, py, pz = p.d_A_P
+        px, py, pz = self._dAP_f
         d, Jmax = c.diameter, c.J_max
         kf, kt = c.rho * d ** 4, c.rho * d ** 5
         out = [0.0] * 8
         Fx = Fy = Fz = Tx = Ty = Tz = 0.0
-        for k, (a, s, lam, A) in enumerate(((q[0], -sb, self.lam[0], p.d_B_A2), (q[1], sb, self.lam[1], p.d_B_A3))):
+        for k, (a, s, lam, A) in enumerate(((q[0], -sb, self._lam_f[0], self._dBA_f[0]),
+                                            (q[1], sb, self._lam_f[1], self._dBA_f[1]))):
             sa, ca = sin(a), cos(a)
             # R_B^A = Ry(α) Rx(s) with s = ∓β
             m00, m01, m02 = ca, sa * s, sa * cb
