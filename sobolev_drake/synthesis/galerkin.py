@@ -145,10 +145,14 @@ class GalerkinResult:
         return np.tensordot(dPhi, self.coefficients, axes=(1, 0))
 
     def decision(self, X):
-        """Saddle decision [u*; w*] at X (shape (Q, nu + nw))."""
-        X = check_points("X", X, self.problem.model.n)
-        nodes = self.problem.nodes_at(X)
-        return nodes.saddle(self.coefficients)
+        """Saddle decision v* = [u*; w*] = −S⁻¹(½Gᵀ∇V + s) at X (shape (Q, nu + nw))."""
+        prob = self.problem
+        X = check_points("X", X, prob.model.n)
+        dV = self.coefficients @ self.basis.gradient(X)  # (Q, n)
+        F, G = prob.model.evaluate(X)
+        _, s, S = prob.cost.coefficients(X, F, G, prob.model.nu)
+        rhs = 0.5 * bmv(G.transpose(0, 2, 1), dV) + s
+        return -np.linalg.solve(S, rhs[:, :, None])[:, :, 0]
 
     def control(self, X):
         """u*(X) of (4.8) / (4.20) / H∞, shape (Q, nu)."""

@@ -203,12 +203,15 @@ class PolynomialBasis:
         X = check_points("X", X, self.n)
         P = self._powers(X)
         E = self.exponents
-        factors = np.stack([P[:, i, E[:, i]] for i in range(self.n)], axis=2)  # (Q, N, n)
+        Em1 = np.maximum(E - 1, 0)
+        factors = [P[:, i, E[:, i]] for i in range(self.n)]  # (Q, N) each
         grad = np.empty((X.shape[0], len(self), self.n))
-        for i in range(self.n):
-            d = E[:, i] * P[:, i, np.maximum(E[:, i] - 1, 0)] / self.scale[i]
-            others = np.prod(np.delete(factors, i, axis=2), axis=2) if self.n > 1 else 1.0
-            grad[:, :, i] = d * others
+        for i in range(self.n):  # loops over coordinates only, vectorized over terms
+            d = (E[:, i] / self.scale[i]) * P[:, i, Em1[:, i]]
+            for j in range(self.n):
+                if j != i:
+                    d = d * factors[j]
+            grad[:, :, i] = d
         return grad
 
     def names(self) -> list[str]:

@@ -158,6 +158,11 @@ class W2Cost:
     sigma1: np.ndarray
     kind = "w2"
 
+    def __post_init__(self):
+        nz = np.atleast_2d(np.asarray(self.sigma0, dtype=float)).shape[0]
+        self.sigma0 = _spd("sigma0", self.sigma0, nz)
+        self.sigma1 = _spd("sigma1", self.sigma1, nz)
+
     def gamma_value(self):
         return None
 
@@ -177,6 +182,9 @@ class WinfCost:
     gamma: float
     kind = "winf"
 
+    def __post_init__(self):
+        W2Cost.__post_init__(self)
+
     def gamma_value(self):
         return float(self.gamma)
 
@@ -195,14 +203,21 @@ class HinfCost:
     gamma: float
     kind = "hinf"
 
+    def __post_init__(self):
+        nz = np.atleast_2d(np.asarray(self.Q, dtype=float)).shape[0]
+        self.Q = _spd("Q", self.Q, nz)
+        self.R = np.atleast_2d(np.asarray(self.R, dtype=float))
+        self.R = _spd("R", self.R, self.R.shape[0])
+
     def gamma_value(self):
         return float(self.gamma)
 
     def coefficients(self, X, F, G, nu):
         Qn, m = X.shape[0], G.shape[2]
-        nz = np.atleast_2d(self.Q).shape[0]
-        Qw = _spd("Q", self.Q, nz)
-        R = _spd("R", self.R, nu)
+        Qw, R = self.Q, self.R
+        nz = Qw.shape[0]
+        if R.shape != (nu, nu):
+            raise ValueError(f"R must be a {nu}x{nu} matrix (nu = {nu}), got shape {R.shape}")
         h = _call("h", self.h, X, (Qn, nz))
         q = np.einsum("qi,ij,qj->q", h, Qw, h)
         s = np.zeros((Qn, m))
@@ -216,15 +231,16 @@ class HinfCost:
 def _sobolev_coefficients(cost, X, F, G, nu, nz, gamma):
     Qn, n = X.shape
     m = G.shape[2]
-    s0 = _spd("sigma0", cost.sigma0, nz)
-    s1 = _spd("sigma1", cost.sigma1, nz)
+    s0, s1 = cost.sigma0, cost.sigma1
     h = _call("h", cost.h, X, (Qn, nz))
     Dh = _call("dh", cost.dh, X, (Qn, nz, n))
-    B = np.einsum("qzi,zy,qyj->qij", Dh, s1, Dh)  # ∇hᵀσ₁∇h
-    BF = np.einsum("qij,qj->qi", B, F)
-    q = 0.5 * np.einsum("qi,ij,qj->q", h, s0, h) + 0.5 * np.einsum("qi,qi->q", F, BF)
-    s = 0.5 * np.einsum("qim,qi->qm", G, BF)
-    S = 0.5 * np.einsum("qim,qij,qjl->qml", G, B, G)
+    s1Dh = np.tensordot(Dh, s1, axes=(1, 0))  # (Q, n, nz) = ∇hᵀσ₁
+    B = bmm(s1Dh, Dh)  # ∇hᵀσ₁∇h
+    BF = bmv(B, F)
+    q = 0.5 * np.sum((h @ s0) * h, axis=1) + 0.5 * np.sum(F * BF, axis=1)
+    Gt = G.transpose(0, 2, 1)
+    s = 0.5 * bmv(Gt, BF)
+    S = 0.5 * bmm(Gt, bmm(B, G))
     if m > nu:
         if gamma is None:
             raise ValueError("a disturbance channel needs gamma")
