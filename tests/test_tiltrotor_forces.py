@@ -101,6 +101,9 @@ def test_input_affine_identity(model):
         tau_bar = np.concatenate([thrust_inputs(model, q, qd, zeta, n), ts, de])
         theta = generalized_force(model, q, qd, zeta, n, ts, de)
         np.testing.assert_allclose(B @ tau_bar + passive, theta, rtol=0, atol=1e-9)
+        B2, passive2 = input_affine(model, q, qd, zeta, n=n, torque="passive")
+        np.testing.assert_allclose(B2 @ tau_bar + passive2, theta, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(B2[:, 2:], B[:, 2:], atol=0)
     # the model's B() is the same map (default n: the thesis hover speed)
     np.testing.assert_allclose(model.B(q, qd, zeta), input_affine(model, q, qd, zeta)[0], atol=0)
 
@@ -179,6 +182,8 @@ def test_bad_inputs_raise(model):
         input_affine(model, np.zeros(7), np.zeros(8), np.zeros(3))
     with pytest.raises(ValueError, match="zeta"):
         input_affine(model, np.zeros(8), np.zeros(8), np.zeros(2))
+    with pytest.raises(ValueError, match="torque must be"):
+        input_affine(model, np.zeros(8), np.zeros(8), np.zeros(3), torque="x")
     with pytest.raises(TypeError, match="TiltrotorModel"):
         input_affine(object(), np.zeros(8), np.zeros(8), np.zeros(3))
 

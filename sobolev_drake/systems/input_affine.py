@@ -49,12 +49,20 @@ def _params_of(model_or_params):
     return params
 
 
-def input_affine(model, q, qdot, zeta, n=None):
+def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
     """(B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
 
     ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
     torque/thrust ratio Cq/Ct(J, φ) (default ``N_REF``).  Columns of B follow ``ACTUATOR_NAMES``.
+
+    ``torque``: ``"through_thrust"`` (Appendix C, default) puts the drag torque in the thrust
+    columns via t = λ d (Cq/Ct) f.  Ct(J, φ) crosses zero near J = 0.75 (windmilling, min Ct ≈
+    −0.0025) where that ratio blows up; ``"passive"`` instead puts the torque
+    λ ρ d⁵ n² Cq(J, φ) of the given ``n`` into ϑ_passive and keeps B's thrust columns pure thrust.
+    Both satisfy ϑ = B τ̄ + ϑ_passive exactly for the given n.
     """
+    if torque not in ("through_thrust", "passive"):
+        raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
     p = _params_of(model)
     q = check_vector("q", q, 8)
     qdot = check_vector("qdot", qdot, 8)
@@ -63,13 +71,17 @@ def input_affine(model, q, qdot, zeta, n=None):
     prop, aero = cores(p)
     Gf, Gt = prop.unit_columns(q)
     J, phi = prop.coef.advance_ratio_and_inflow(prop.rotor_air_velocity(q, qdot, zeta), n)
-    ratio = prop.lam * prop.coef.torque_per_thrust(J, phi)
     B = np.zeros((8, 8))
-    B[:, 0:2] = Gf + Gt * ratio[None, :]
-    B[0, 2] = B[1, 3] = prop.cosb
     passive, Bd = aero.terms(q, qdot, zeta)
-    B[:, 4:8] = Bd
     passive = passive.copy()
+    if torque == "through_thrust":
+        ratio = prop.lam * prop.coef.torque_per_thrust(J, phi)
+        B[:, 0:2] = Gf + Gt * ratio[None, :]
+    else:
+        B[:, 0:2] = Gf
+        passive += Gt @ (prop.lam * prop.coef.torque(n, J, phi))
+    B[0, 2] = B[1, 3] = prop.cosb
+    B[:, 4:8] = Bd
     passive[0:2] -= p.nu * qdot[0:2]
     return B, passive
 
