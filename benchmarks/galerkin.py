@@ -1,0 +1,73 @@
+"""Timing of the balance-sgaa W∞ design (successive Galerkin approximation, thesis 4.4).
+
+    python benchmarks/galerkin.py [--nodes 20 40] [--repeat 1] [--json out.json]
+
+For each Gauss–Legendre rule (nodes³ points on Ω) it times the full W∞ design (Algorithm 4.2,
+degree-4 basis, 34 terms, γ = 5, tol 1e-8): problem set-up (basis, model and cost at the
+nodes, checks), tensor precomputation and the iterations, with the ``tensor`` method (A(p) =
+A₀ + A₁·p precomputed once) and the ``direct`` method (A assembled from the nodes at every
+Galerkin solve).  It prints wall and process-CPU seconds and the 40³/20³ ratios, and the
+largest coefficient difference between rules (quadrature convergence).  Target: full W∞ design
+< 10 s.  Nothing here is asserted; the machine may be shared, so CPU time is the fairer number.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from sobolev_drake.experiments.balance_sgaa import _problem, u0
+
+
+def time_design(nodes: int, method: str) -> dict:
+    w0, c0 = time.perf_counter(), time.process_time()
+    prob = _problem("W∞", nodes)
+    w1, c1 = time.perf_counter(), time.process_time()
+    res = prob.solve(u0, tol=1e-8, method=method, check_u0="simulate")
+    w2, c2 = time.perf_counter(), time.process_time()
+    return {"nodes": nodes, "points": nodes ** 3, "method": method,
+            "setup_wall": w1 - w0, "setup_cpu": c1 - c0,
+            "tensor_wall": res.diagnostics.get("tensor_time", np.nan),
+            "solve_wall": w2 - w1, "solve_cpu": c2 - c1,
+            "total_wall": w2 - w0, "total_cpu": c2 - c0,
+            "iterations": res.iterations,
+            "inner": [h["inner_iterations"] for h in res.history],
+            "residual_rel": res.history[-1]["residual_rel"],
+            "coefficients": res.coefficients.tolist()}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--nodes", type=int, nargs="+", default=[20, 40])
+    ap.add_argument("--methods", nargs="+", default=["tensor", "direct"])
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    rows = []
+    print(f"{'nodes':>6} {'points':>7} {'method':>7} {'setup':>7} {'tensor':>7} {'solve':>7} "
+          f"{'total':>7} {'cpu':>7} {'iters':>5}  inner")
+    for n in args.nodes:
+        for m in args.methods:
+            r = time_design(n, m)
+            rows.append(r)
+            print(f"{n:>6} {r['points']:>7} {m:>7} {r['setup_wall']:7.2f} {r['tensor_wall']:7.2f} "
+                  f"{r['solve_wall']:7.2f} {r['total_wall']:7.2f} {r['total_cpu']:7.2f} "
+                  f"{r['iterations']:>5}  {r['inner']}")
+    for m in args.methods:
+        sel = [r for r in rows if r["method"] == m]
+        for a, b in zip(sel, sel[1:]):
+            print(f"{m}: {b['nodes']}³/{a['nodes']}³ ratio: wall {b['total_wall'] / a['total_wall']:.2f}, "
+                  f"cpu {b['total_cpu'] / a['total_cpu']:.2f} (points ×{b['points'] / a['points']:.0f})")
+            dc = np.abs(np.subtract(b["coefficients"], a["coefficients"])).max()
+            print(f"{m}: max coefficient change {a['nodes']}³ → {b['nodes']}³: {dc:.2e}")
+    best = min(r["total_wall"] for r in rows)
+    print(f"fastest full W∞ design: {best:.2f} s wall (target < 10 s)")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
