@@ -200,3 +200,22 @@ def test_scalar_fast_paths_equal_vectorized(model):
                                    prop.propeller_force_vectorized(q, qd, zeta, n), atol=1e-11)
         np.testing.assert_allclose(aero.generalized_force_fast(q, qd, zeta, de),
                                    aero.generalized_force_vectorized(q, qd, zeta, de), atol=1e-11)
+
+
+def test_aerodynamic_static_stability_signs(model):
+    """The NED → z-up conversions give the textbook signs in forward flight at 15 m/s:
+    side force opposes sideslip, weathercock yaw, stable dihedral roll, nose-down pitch and more
+    lift when the angle of attack grows."""
+    aero = AeroModel(model.params)
+    q, zeta = np.zeros(8), np.zeros(3)
+
+    def force(v):
+        qd = np.zeros(8)
+        qd[5:8] = v
+        return aero.generalized_force(q, qd, zeta, np.zeros(4))
+    base = force([15.0, 0, 0])
+    slip = force([15.0, 1.5, 0]) - base          # moving left: relative wind from the left
+    assert slip[6] < 0 and slip[4] > 0 and slip[2] > 0
+    aoa = force([15.0, 0, -1.5]) - base          # moving down: α_NED grows
+    assert aoa[7] > 0 and aoa[3] > 0              # more lift, nose-down moment (θ > 0 is nose down)
+    assert base[5] < 0                            # drag
