@@ -7,8 +7,9 @@ wind-tunnel slopes say so):
 * surfaces ``SURFACES = (F, WR, WL, TR, TL, I)`` at the body points of Table B.1 (I at C1);
   every surface frame has the body orientation (Appendix B: R_I^S = R_I^B);
 * air-relative velocity (u, v, w) = R_Bᵀ(ṗ_S − ζ) (7.37); V = |(u, v, w)| (7.38);
-  α = atan2(w, u) clipped to [−π/2, π/2] ((7.39) with a sign-safe arctangent, continuous through
-  u = 0 when w ≠ 0, e.g. vertical climb in hover), β = asin(v / V) (7.40);
+  α = atan2(w, max(u, 0)), i.e. atan2(w, u) clipped to [−π/2, π/2] ((7.39) with a sign-safe
+  arctangent, continuous through u = 0 when w ≠ 0, e.g. vertical climb in hover; pure backward
+  flow w = 0, u < 0 gives α = 0), β = asin(v / V) (7.40);
 * table arguments α_NED = −α, β_NED = −β (App. B), linear interpolation on the 0.5° grid;
 * wind-axes forces (after the NED → z-up rotation Rx(π) of (B.1)–(B.4)):
   f_d = −κ s (c_d^xy(β_NED) + c_d^xz(α_NED)), f_y = κ s (c_y(β_NED) [+ c_δr δr]),
@@ -108,7 +109,7 @@ class AeroModel:
         w = W @ qdot[2:5]
         v = (R.T @ (qdot[5:8] - zeta)) + cross_rows(w[None, :], self.points)
         V = np.sqrt((v * v).sum(axis=1))
-        alpha = np.arctan2(v[:, 2], np.maximum(v[:, 0], 0.0))    # = clip(atan2(w, u), ±π/2)
+        alpha = np.arctan2(v[:, 2], np.maximum(v[:, 0], 0.0))    # clip(atan2(w, u), ±π/2), see module doc
         beta = np.arcsin(np.clip(v[:, 1] / np.where(V > 1e-12, V, 1.0), -1.0, 1.0))
         return v, V, alpha, beta
 

@@ -6,7 +6,8 @@
 * propellers (C.1)–(C.2): the drag torque is written through the thrust, t = λ d (Cq/Ct)(J, φ) f,
   so each thrust column is J_Pᵀ R a_z + λ d (Cq/Ct) W_Pᵀ R a_z.  Cq/Ct depends on the advance ratio
   J = V/(n d), i.e. on the propeller speed: pass ``n`` (rev/s) for an exact identity; by default
-  the thesis' hover speed 51.9 rev/s is used (Cq/Ct varies by ~1 % over the hover range);
+  the thesis' hover speed 51.9 rev/s is used (exact whenever J = 0, i.e. no axial/in-plane air
+  speed at the rotors; Cq/Ct grows by ~8 % at J = 0.06, e.g. 2 m/s axial at hover speed);
 * servomotors (C.3): cos β on the tilt joints (the torque acts about the inclined y axis of
   C2/C3), the viscous friction −ν α̇ is passive;
 * surfaces (C.4)–(C.8): the deflection terms of the wing and tail lift / tail side force are the
