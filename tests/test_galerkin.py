@@ -292,3 +292,29 @@ def test_bases_and_quadrature():
     assert np.isclose(rule.integrate(rule.points[:, 0] ** 6 * rule.points[:, 1] ** 3),
                       (2 ** 7 / 7) * ((3 ** 4 - 1) / 4))
     assert np.isclose(midpoint(box, 0.1).weights.sum(), box.volume)
+
+
+def test_divergence_is_reported_without_coefficients():
+    """Basis {x} on ẋ = x + u: the first Galerkin value is V = 0·x, whose W2 control
+    u = −R⁻¹gᵀ(∇V + Bf) = −x leaves ẋ = 0 — not stabilizing; the run must stop with an error."""
+    from sobolev_drake.synthesis.galerkin import GalerkinDivergenceError
+
+    lin = FunctionBasis(1, 1, lambda X: X[:, :1], lambda X: np.ones((X.shape[0], 1, 1)))
+    one = lambda X: np.ones((X.shape[0], 1, 1))
+    with pytest.raises(GalerkinDivergenceError, match="not stabilizing") as err:
+        sgaa_w2(lambda X: X, one, lambda X: X, one, [[1.0]], [[1.0]], lambda X: -2 * X, lin,
+                Box([-1.0], [1.0]), quadrature=4)
+    assert len(err.value.history) == 1 and "coefficients" not in err.value.history[0]
+
+
+def test_thesis_initial_gain_is_the_lqr_of_the_linearized_design_model():
+    """(4.34) is reproduced (to 0.1 %) by LQR with Q = diag(10, 1, 2), R = 1 on the linearization
+    of our f, g, with u = +Kx: a check of the model, the state order and the sign convention."""
+    from sobolev_drake.experiments.balance_sgaa import K_THESIS, design_model
+    from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
+
+    f, g, _ = design_model()
+    Al = closed_loop_jacobian(f, 3)
+    Bl = g(np.zeros((1, 3)))[0]
+    P = sla.solve_continuous_are(Al, Bl, np.diag([10.0, 1.0, 2.0]), [[1.0]])
+    assert np.allclose(-(Bl.T @ P).ravel(), K_THESIS, rtol=1.5e-3)

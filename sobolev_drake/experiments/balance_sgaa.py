@@ -9,7 +9,9 @@ Thesis settings: degree-4 complete basis (4.31) (34 terms), Ω = [−π/4, π/4]
 
 Sign convention: with F = [1, −1]ᵀ (torque on the wheel, reaction on the body) the initial
 control is u0 = +[11.3132 1.0022 3.2589] x (closed-loop linearization eigenvalues ≈ −9.43,
-−2.51, −1.54); u0 = −K x is unstable (an eigenvalue ≈ +17.8).
+−2.51, −1.54); u0 = −K x is unstable (an eigenvalue ≈ +17.8).  The thesis calls (4.34) an LQR
+design: it is reproduced to 0.1 % by LQR with Q = diag(10, 1, 2), R = 1 on the linearization of
+this design model (a check of model, state order and sign).
 
 H∞ baseline (Beard & McLain): cost ‖x‖² + ρu² − γ²‖w‖², γ = 5, Q = I.  The thesis only says the
 controllers were tuned for "almost the same settling time (5 %)"; we choose ρ automatically by
