@@ -143,6 +143,28 @@ def _solve(prog, backend, options, timings, label):
     return out
 
 
+def _ladder(solve_at, g_opt, delta, deliberate, res):
+    """Re-solve at gamma = (1+d) g_opt minimizing a gain bound.
+
+    ``deliberate`` (feedthrough bound / user request): d = delta. Otherwise the first result
+    failed its certificate for numerical reasons: try d = 1e-4, 1e-3, 1e-2 until one passes.
+    """
+    steps = [delta] if deliberate else [1e-4, 1e-3, 1e-2]
+    last = None
+    for d in steps:
+        try:
+            r = solve_at((1 + d) * g_opt)
+        except SynthesisError as e:
+            last = e
+            continue
+        r.regularized = True
+        if r.certificate.ok or d == steps[-1]:
+            return r, d
+    if last is not None:
+        raise last
+    return res, steps[-1]
+
+
 # --------------------------------------------------------------------------- state feedback
 def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS):
     """BRL (gamma^2 form, Schur complement of (6.5)) for each vertex with a common X, W."""
@@ -223,30 +245,40 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     def build(out, g):
         Xv = X.value(out.x)
         Xv = 0.5 * (Xv + Xv.T)
+        if np.linalg.eigvalsh(Xv).min() <= 0:
+            raise SynthesisError(f"solver returned X not positive definite (status {out.status})")
         K = np.linalg.solve(Xv, W.value(out.x).T).T  # K = W X^-1 (6.7)
         return SynthesisResult("state_feedback", g, K=K, P=np.linalg.inv(Xv), X=Xv, gamma_opt=g_opt,
                                feedthrough_bound=fb, solver=out.solver, backend=out.backend,
                                status=out.status, timings=timings, region=region)
 
     # the SDP optimum is approached from above: certify against the solver's gamma plus slack
-    res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+    first_error = None
+    try:
+        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+        _finish(res, plants, region, rtol, False, out.status)
+    except SynthesisError as e:
+        first_error, res = e, None
     on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
     if on_bound:
         warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
                      f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
-    _finish(res, plants, region, rtol, False, out.status)
-    need = regularize is True or (regularize == "auto" and gamma is None and (on_bound or not res.certificate.ok))
+    need = regularize is True or (regularize == "auto" and gamma is None
+                                  and (on_bound or res is None or not res.certificate.ok))
+    if res is None and not need:
+        raise first_error
     if need:
-        d = delta if (on_bound or regularize is True) else 1e-4
-        g_reg = (1 + d) * g_opt
-        prog2, X, W, _ = _sf_program(plants, region=region, gamma2=g_reg ** 2,
-                                     input_weight=input_weight, gain_bound=True, margin=margin)
-        out2 = _solve(prog2, backend, solver_options, timings, "regularize")
-        res = build(out2, g_reg)
-        res.regularized = True
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {g_reg:.6g} "
+        def solve_at(g):
+            prog2, X2, W2, _ = _sf_program(plants, region=region, gamma2=g ** 2, input_weight=input_weight,
+                                           gain_bound=True, margin=margin)
+            nonlocal X, W
+            X, W = X2, W2
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
+            return _finish(r, plants, region, rtol, False, r.status)
+        res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
                      f"minimizing a bound on the gain (|K| = {np.linalg.norm(res.K, 2):.4g})")
-    elif np.linalg.norm(res.K, 2) > 1e6:
+    if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
     res.warnings = warns
     res.timings["total"] = time.perf_counter() - t0
@@ -353,21 +385,29 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
                                gamma_opt=g_opt, feedthrough_bound=fb, solver=out.solver,
                                backend=out.backend, status=out.status, timings=timings, region=region)
 
-    res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
-    _finish(res, [p], region, rtol, False, out.status)
+    first_error = None
+    try:
+        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+        _finish(res, [p], region, rtol, False, out.status)
+    except SynthesisError as e:
+        first_error, res = e, None
     on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
     if on_bound:
         warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
                      f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
-    if regularize is True or (regularize == "auto" and gamma is None and (on_bound or not res.certificate.ok)):
-        # on the bound: trade delta of gamma for bounded gains; numerical failure: tiny relaxation
-        d = delta if (on_bound or regularize is True) else 1e-4
-        g_reg = (1 + d) * g_opt
-        prog2, V, _ = _of_program(p, gamma2=g_reg ** 2, gain_bound=True, **kw)
-        out2 = _solve(prog2, backend, solver_options, timings, "regularize")
-        res = build(out2, g_reg)
-        res.regularized = True
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {g_reg:.6g} "
+    need = regularize is True or (regularize == "auto" and gamma is None
+                                  and (on_bound or res is None or not res.certificate.ok))
+    if res is None and not need:
+        raise first_error
+    if need:
+        def solve_at(g):
+            prog2, V2, _ = _of_program(p, gamma2=g ** 2, gain_bound=True, **kw)
+            V[:] = V2
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
+            return _finish(r, [p], region, rtol, False, r.status)
+        V = list(V)
+        res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
                      "minimizing a bound on the controller matrices")
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
