@@ -359,6 +359,20 @@ def _fmt(v, nd=2):
     return "-" if v is None else (f"{v:.{nd}f}" if isinstance(v, float) else str(v))
 
 
+def schedule_table(out_dir, speeds=(0, 5, 10, 15, 20, 24, 27, 30, 33, 34)):
+    """Tilt reference α(V): the plant's level-flight trims beside the mission file's polynomial."""
+    from sobolev_drake.models.tiltrotor_trim import tilt_reference_polynomial, tilt_schedule
+    rows = []
+    for tr in tilt_schedule(np.asarray(speeds, dtype=float)):
+        a_poly = float(tilt_reference_polynomial(tr.V))
+        rows.append([f"{tr.V:g}", f"{tr.q[0]:.4f}", f"{a_poly:.4f}", f"{a_poly - tr.q[0]:+.4f}",
+                     f"{tr.q[3]:.4f}", f"{tr.n[0]:.2f}"])
+    return _write_table(out_dir, "tiltrotor-tilt-schedule",
+                        ["V [m/s]", "α trim (plant) [rad]", "α polynomial (data) [rad]",
+                         "difference [rad]", "θ trim [rad]", "n trim [rev/s]"], rows,
+                        "Tilt reference: plant level-flight trims vs mission-file polynomial")
+
+
 def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
                 schedule="data"):
     name = "tiltrotor-hover" if scenario == 1 else "tiltrotor-envelope"
@@ -389,6 +403,10 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
                f"max |θ| {metrics['max_abs_pitch_deg']:.1f}°, allocation residual RMS "
                f"{metrics['rms_allocation_residual']:.3g} (max {metrics['max_allocation_residual']:.3g})\n")
     res.table_markdown = text + "\n" + text2 + summary
+    if scenario == 2 and not smoke:
+        md3, js3, text3 = schedule_table(out_dir)
+        res.outputs.update({"schedule_md": md3, "schedule_json": js3})
+        res.table_markdown += (f"\ntilt reference used: {schedule!r} schedule\n\n" + text3)
     report = out_dir / f"{name}_report.md"
     report.write_text(f"# {name}\n\n" + res.table_markdown)
     (out_dir / f"{name}_metrics.json").write_text(json.dumps(metrics, indent=1))
@@ -425,5 +443,8 @@ def run_hover(out_dir, *, duration=None, record=False, smoke=False):
 @register("tiltrotor-envelope", "Tilt-rotor full flight envelope: take-off, transition, 33 m/s "
           "cruise, turn, transition, landing; nonlinear W∞ + allocation with wind gusts",
           default_duration=250.0, flagship=10, thesis_ref="7.3.2 scenario 2, Figs 7.21-7.27")
-def run_envelope(out_dir, *, duration=None, record=False, smoke=False):
-    return run_mission(2, out_dir, duration=duration, record=record, smoke=smoke)
+def run_envelope(out_dir, *, duration=None, record=False, smoke=False, schedule="data"):
+    """``schedule``: "data" (mission-file polynomial, as the thesis author's simulator) or
+    "plant" (our level-flight trims) for the tilt references."""
+    return run_mission(2, out_dir, duration=duration, record=record, smoke=smoke,
+                       schedule=schedule)
