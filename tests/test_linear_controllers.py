@@ -1,0 +1,79 @@
+"""Closed loops of a Drake LinearSystem plant with the linear controller LeafSystems."""
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LinearSystem
+
+from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
+
+A = np.array([[0.0, 1], [2, -1]])
+B = np.array([[0.0], [1]])
+C = np.array([[1.0, 0]])
+
+
+
+
+def test_state_feedback_closed_loop_matrix():
+    K = np.array([[-6.0, -3.0]])
+    b = DiagramBuilder()
+    plant = b.AddSystem(LinearSystem(A, B, np.eye(2), np.zeros((2, 1))))
+    ctrl = b.AddSystem(LinearStateFeedback(K))
+    b.Connect(plant.get_output_port(), ctrl.get_input_port(0))
+    b.Connect(ctrl.get_output_port(0), plant.get_input_port())
+    b.ExportOutput(plant.get_output_port())
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    x0 = np.array([1.0, -0.5])
+    d.GetMutableSubsystemContext(plant, ctx).SetContinuousState(x0)
+    sim = Simulator(d, ctx)
+    sim.get_mutable_integrator().set_target_accuracy(1e-10)
+    sim.AdvanceTo(1.0)
+    from scipy.linalg import expm
+    expected = expm((A + B @ K) * 1.0) @ x0
+    assert np.allclose(d.GetSubsystemContext(plant, ctx).get_continuous_state_vector().CopyToVector(),
+                       expected, atol=1e-6)
+
+
+def test_state_feedback_reference_port_and_operating_point():
+    K = np.array([[-2.0, -1.0]])
+    sys = LinearStateFeedback(K, u_r=[0.5], reference_port=True)
+    ctx = sys.CreateDefaultContext()
+    sys.get_input_port(0).FixValue(ctx, [1.0, 2.0])
+    sys.GetInputPort("x_r").FixValue(ctx, [0.5, 1.0])
+    assert np.allclose(sys.GetOutputPort("u").Eval(ctx), 0.5 + K @ np.array([0.5, 1.0]))
+
+
+@pytest.mark.parametrize("DK", [np.zeros((1, 1)), np.array([[-1.5]])])
+def test_dynamic_output_feedback_closed_loop_matrix(DK):
+    AK = np.array([[-5.0, 1], [-20, -6]])
+    BK = np.array([[4.0], [18]])
+    CK = np.array([[-8.0, -2.0]])
+    b = DiagramBuilder()
+    plant = b.AddSystem(LinearSystem(A, B, C, np.zeros((1, 1))))
+    ctrl = b.AddSystem(LinearDynamicOutputFeedback(AK, BK, CK, DK))
+    b.Connect(plant.get_output_port(), ctrl.GetInputPort("y"))
+    b.Connect(ctrl.GetOutputPort("u"), plant.get_input_port())
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    x = np.array([1.0, -0.5, 0.2, 0.1])
+    # the diagram state is [plant; controller]; compare derivatives with the analytic matrix
+    ctx.SetContinuousState(x)
+    xdot = d.EvalTimeDerivatives(ctx).CopyToVector()
+    Acl = np.block([[A + B @ DK @ C, B @ CK], [BK @ C, AK]])
+    assert np.allclose(xdot, Acl @ x)
+
+
+def test_strictly_proper_controller_has_no_feedthrough():
+    sys = LinearDynamicOutputFeedback(-np.eye(2), np.ones((2, 1)), np.ones((1, 2)))
+    assert not sys.HasDirectFeedthrough(0, 0)
+    sys2 = LinearDynamicOutputFeedback(-np.eye(2), np.ones((2, 1)), np.ones((1, 2)), [[1.0]])
+    assert sys2.HasDirectFeedthrough(0, 0)
+
+
+def test_bad_shapes():
+    with pytest.raises(ValueError, match="BK must have shape"):
+        LinearDynamicOutputFeedback(-np.eye(2), np.ones((3, 1)), np.ones((1, 2)))
+    with pytest.raises(ValueError, match="x_r must have shape"):
+        LinearStateFeedback(np.ones((1, 2)), x_r=[1.0, 2.0, 3.0])
