@@ -227,9 +227,18 @@ def _indices(sim):
 
     t, x, u = sim["t"], sim["x"], sim["u"]
     th, phid, thd = x[:, 1], x[:, 2], x[:, 3]
-    return {"IADU": float(np.sum(iadu(t, u))), "ISE θ": float(ise(t, th)),
-            "ISE ϕ̇": float(ise(t, phid)), "ISE θ̇": float(ise(t, thd)),
-            "settling θ (5 %)": settling_time(t[t < 7.0], th[t < 7.0])}
+    out = {"IADU": float(np.sum(iadu(t, u))), "ISE θ": float(ise(t, th)),
+           "ISE ϕ̇": float(ise(t, phid)), "ISE θ̇": float(ise(t, thd)),
+           "settling θ (5 %)": settling_time(t[t < 7.0], th[t < 7.0]),
+           "max |ϕ̇|": float(np.abs(phid).max())}
+    # wheel speed at the end of each disturbance window: under a constant torque the vehicle
+    # settles where u ≈ K_θ θ + K_ϕ̇ ϕ̇ balances it, so the ISE of ϕ̇ is mostly set by the
+    # ratio of the θ and ϕ̇ gains of the (nonlinear) law
+    for p in PULSES:
+        sel = (t > p["to"] - 0.5) & (t < p["to"])
+        if sel.any():
+            out[f"ϕ̇ before t = {p['to']:g} s"] = float(phid[sel].mean())
+    return out
 
 
 @register("balance-sgaa", "Two-wheeled vehicle: W2, W∞, H∞ by successive Galerkin approximation",
@@ -294,6 +303,17 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
     outputs["states_png"] = viz.plot_time_series(t, series, out_dir / "balance_sgaa_states.png",
                                                  labels=labels, vlines=(7, 14, 22, 32),
                                                  title="Two-wheeled vehicle (Figs. 4.4, 4.5)")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.2))
+    for c in CONTROLLERS:
+        sel = sims[c]["t"] <= 4.0
+        ax.plot(sims[c]["t"][sel], sims[c]["x"][sel, 1], label=f"{c} (t_s = {idx[c]['settling θ (5 %)']:.2f} s)")
+    for y in (0.05 * X0[0], -0.05 * X0[0]):
+        ax.axhline(y, color="0.6", lw=0.7, ls="--")
+    ax.set_xlabel("t [s]"), ax.set_ylabel("θ [rad]"), ax.legend(), ax.grid(alpha=0.3)
+    ax.set_title("5 % settling time of θ (Fig. 4.3)")
+    outputs["settling_png"] = viz.save_figure(fig, out_dir / "balance_sgaa_settling.png", tight=True)
     if "html" in sims["W∞"]:
         outputs["recording_winf"] = sims["W∞"]["html"]
     if not smoke:
@@ -304,7 +324,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
         claims.append(Claim("W∞ uses less control variation (IADU) than H∞ (thesis: 95 %)",
                             ours["W∞"]["IADU"] < ours["H∞"]["IADU"],
                             f"{100 * ours['W∞']['IADU'] / ours['H∞']['IADU']:.0f} %"))
-        claims.append(Claim("ISE of θ about equal for the three controllers (thesis: within 1 %)",
+        claims.append(Claim("ISE of θ about equal for the three controllers (within 10 %; thesis: 1 %)",
                             max(o["ISE θ"] for o in ours.values())
                             < 1.1 * min(o["ISE θ"] for o in ours.values()),
                             ", ".join(f"{c} {ours[c]['ISE θ']:.3g}" for c in CONTROLLERS)))
