@@ -378,7 +378,7 @@ class GalerkinProblem:
                 L[:, nu:, N:] = -0.5 * bmm(Sww_inv, nodes.GtdPhi[:, nu:, :])
                 L[:, nu:, :N] = -bmm(bmm(Sww_inv, Swu), nodes.L_saddle[:, :nu, :])
             t_pre = time.perf_counter()
-            sysA = AffineGalerkinSystem(nodes, v0, L, method=method)
+            sysA = AffineGalerkinSystem(nodes, v0, L, method=method, slow=N)
             diag["tensor_time"] = time.perf_counter() - t_pre
             for it in range(1, max_iter + 1):
                 self._check_policy(history, c, f"iteration {it}")

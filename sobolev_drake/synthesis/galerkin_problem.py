@@ -308,39 +308,62 @@ class NodeData:
 
 
 class AffineGalerkinSystem:
-    """Precomputed A(p) = A₀ + A₁·p for the affine policy v = v₀ + L p (tensor method).
+    """Galerkin system (A(p), b(p)) for the affine policy v = v₀ + L p, p = [p_slow; p_fast].
 
-    A₀ (N, N), A₁ (N, N, P); b(p) is evaluated at the nodes (it is quadratic in p).
-    ``method="direct"`` skips the tensor and assembles A(p) from the nodes every call.
+    The first ``slow`` entries of p (the outer control coefficients of the W∞/H∞ loop) change
+    once per outer iteration: their contribution to v and A is assembled from the nodes and
+    cached.  For the remaining ``fast`` entries (the disturbance loop, or the W2 control) the
+    tensor method precomputes A₁ (N, N, P_fast) once, A = A_slow + A₁·p_fast; b(p) is evaluated
+    at the nodes (it is quadratic in p).  ``method="direct"`` assembles A from the nodes at
+    every call instead of using the tensor.
     """
 
-    def __init__(self, nodes: NodeData, v0, L, *, method="tensor", chunk_entries=4_000_000):
-        self.nodes, self.v0, self.L, self.method = nodes, v0, L, method
+    def __init__(self, nodes: NodeData, v0, L, *, method="tensor", slow=0,
+                 chunk_entries=4_000_000):
+        if method not in ("tensor", "direct"):
+            raise ValueError(f"method must be 'tensor' or 'direct', got {method!r}")
+        self.nodes, self.v0, self.method, self.slow = nodes, v0, method, int(slow)
+        self.L_slow, self.L_fast = L[:, :, :self.slow], L[:, :, self.slow:]
         Phi, dPhi, G, w = nodes.Phi, nodes.dPhi, nodes.G, nodes.w
         Qn, N = Phi.shape
-        P = L.shape[2]
+        P = self.L_fast.shape[2]
         self.Wphi = Phi * w[:, None]
+        self._cache_key, self._v_slow, self._A_slow = None, None, None
         if method == "direct":
             return
-        if method != "tensor":
-            raise ValueError(f"method must be 'tensor' or 'direct', got {method!r}")
-        self.A0 = self.Wphi.T @ bmv(dPhi, nodes.F + bmv(G, v0))
         A1 = np.zeros((N, N * P))
         step = max(1, chunk_entries // max(1, N * P))
         for a in range(0, Qn, step):
             sl = slice(a, min(Qn, a + step))
-            D1 = bmm(dPhi[sl], bmm(G[sl], L[sl])).reshape(-1, N * P)
+            D1 = bmm(dPhi[sl], bmm(G[sl], self.L_fast[sl])).reshape(-1, N * P)
             A1 += self.Wphi[sl].T @ D1
         self.A1 = A1.reshape(N, N, P)
 
+    @staticmethod
+    def _apply(L, p):
+        Qn, m, P = L.shape
+        return (L.reshape(Qn * m, P) @ p).reshape(Qn, m)
+
+    def _slow_part(self, p_slow):
+        key = p_slow.tobytes()
+        if key != self._cache_key:
+            v = self.v0 + self._apply(self.L_slow, p_slow) if self.slow else self.v0
+            nodes = self.nodes
+            self._A_slow = None if self.method == "direct" else \
+                self.Wphi.T @ bmv(nodes.dPhi, nodes.F + bmv(nodes.G, v))
+            self._cache_key, self._v_slow = key, v
+        return self._v_slow, self._A_slow
+
     def policy(self, p):
-        Qn, m, P = self.L.shape
-        return self.v0 + (self.L.reshape(Qn * m, P) @ p).reshape(Qn, m)
+        v_slow, _ = self._slow_part(np.asarray(p[:self.slow], dtype=float))
+        return v_slow + self._apply(self.L_fast, p[self.slow:])
 
     def solve(self, p):
-        v = self.policy(p)
+        p = np.asarray(p, dtype=float)
+        v_slow, A_slow = self._slow_part(p[:self.slow])
+        v = v_slow + self._apply(self.L_fast, p[self.slow:])
         if self.method == "tensor":
-            A = self.A0 + self.A1 @ p
+            A = A_slow + self.A1 @ p[self.slow:]
             b = self.Wphi.T @ self.nodes.running_cost(v)
         else:
             A, b = self.nodes.system(v)
