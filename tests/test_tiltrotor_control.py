@@ -48,6 +48,9 @@ def test_care_gains_satisfy_theorem_12_riccati_set():
     S2i = np.linalg.inv(W["Sigma2"])
     assert np.allclose(-B @ S2i @ B + W["Sigma0"], 0, atol=1e-8)            # (7.71)
     assert np.allclose(-A @ S2i @ A + 2 * B + W["Sigma1"], 0, atol=1e-6)     # (7.73)
+    # (7.76) reads C = BΓ2⁻¹A in the thesis; the CARE gives C = BΣ2⁻¹A (Γ2 is a typo)
+    assert np.allclose(Pr[3:, 3:], B @ S2i @ A, atol=1e-8)
+    assert not np.allclose(Pr[3:, 3:], B @ np.linalg.inv(W["Gamma2"]) @ A, atol=1e-3)
     _, Pc = _chain_gain([W["Gamma2"], W["Gamma1"], W["Gamma0"]], W["Gamma3"])
     Q, K, T = Pc[:3, :3], Pc[:3, 3:6], Pc[:3, 6:]
     G3i = np.linalg.inv(W["Gamma3"])

@@ -198,7 +198,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="data", meshcat=N
     recorder = None
     if meshcat is not None and handles.scene_graph is not None:
         from sobolev_drake import viz
-        recorder = viz.add_meshcat_recorder(builder, handles.scene_graph, meshcat)
+        recorder = viz.add_meshcat_recorder(builder, handles.scene_graph, meshcat, publish_period=0.1)
     diagram = builder.Build()
     return {"diagram": diagram, "handles": handles, "controller": ctrl, "logs": logs,
             "reference": ref, "recorder": recorder, "law": law}
