@@ -318,3 +318,25 @@ def test_thesis_initial_gain_is_the_lqr_of_the_linearized_design_model():
     Bl = g(np.zeros((1, 3)))[0]
     P = sla.solve_continuous_are(Al, Bl, np.diag([10.0, 1.0, 2.0]), [[1.0]])
     assert np.allclose(-(Bl.T @ P).ravel(), K_THESIS, rtol=1.5e-3)
+
+
+@pytest.mark.parametrize("kind", ["w2", "winf"])
+def test_balance_design_linear_part_matches_riccati_of_linearization(kind):
+    """Near the origin the HJB/HJBI solution is the Riccati solution of the linearized problem,
+    so the SGAA control's Jacobian at 0 must match the (independently computed) Riccati gain."""
+    from sobolev_drake.experiments.balance_sgaa import design_model
+    from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
+
+    f, g, k = design_model()
+    Al = closed_loop_jacobian(f, 3)
+    Bl, Kl = g(np.zeros((1, 3)))[0], k(np.zeros((1, 3)))[0]
+    s0, s1 = np.eye(3), np.diag([0.64, 0.1, 0.1])
+    G = Bl if kind == "w2" else np.hstack([Bl, Kl])
+    S = G.T @ s1 @ G
+    if kind == "winf":
+        S[1:, 1:] -= 25.0 * np.eye(2)
+    P = sla.solve_continuous_are(Al, G, s0 + Al.T @ s1 @ Al, S, s=Al.T @ s1 @ G)
+    K_are = -np.linalg.solve(S, G.T @ P + G.T @ s1 @ Al)[0]
+    res = balance_problem(kind, degree=4, nodes=8).solve(lambda X: (X @ K_THESIS)[:, None],
+                                                         check_u0="none")
+    assert np.allclose(res.feedback_gain().ravel(), K_are, rtol=2e-3)

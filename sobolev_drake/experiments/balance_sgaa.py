@@ -20,6 +20,17 @@ w = 0) equals the W∞ one.
 
 Simulation: the nonlinear Drake model ``add_two_wheeled`` (friction in the adapter), x(0) =
 [π/4, 0, 0], wϕ = 1 N·m on 7 ≤ t < 14 s, wθ = 1 N·m on 22 ≤ t < 32 s, 40 s.
+
+Outcome (full run, 20³ Gauss–Legendre nodes, ρ ≈ 1.63): the H∞ row is close to the thesis
+(IADU 16.75 vs 16.81, ISE θ 1.21 vs 1.20, ϕ̇ 92.9 vs 85.3, θ̇ 1.59 vs 1.60) and W∞ again needs
+less control variation (93 %, thesis 95 %), but the thesis' large reduction of the wheel-speed
+ISE by W∞ (58 %) is *not* reproduced (ours 115 %).  Under a constant torque the vehicle settles
+where the control balances it, so ∫ϕ̇² is dominated by the steady wheel speed ≈ 0.26·K_θ/K_ϕ̇
+(from sin θ = −1/(m g l)); the linear part of our W∞ law equals, to 1e-3, the game-Riccati
+gain of the linearized problem with the stated weights ([7.77, 0.668, 2.06], ratio 11.6,
+H∞ ratio 10.5), so any solution of the stated HJBI gives the larger ϕ̇ ISE.  The thesis'
+numbers must come from a different effective problem (its separable quadrature (4.33) or other
+unstated details); the midpoint rule on the full grid changes our coefficients by < 2e-3.
 """
 
 from __future__ import annotations
@@ -107,6 +118,27 @@ def cross_check_design_model(points=None) -> float:
                   np.abs(Gi[1:] - np.linalg.solve(M, model.B(q))).max(),
                   np.abs(Ki[1:] - np.linalg.inv(M)).max())
     return float(err)
+
+
+def riccati_gain(kind, rho=None):
+    """Gain of the *linearized* problem (game/LQR Riccati equation) — the linear part that any
+    solution of the stated HJB/HJBI must have.  W2/W∞: cost ½(xᵀσ₀x + ẋᵀσ₁ẋ − γ²wᵀw) is an LQR
+    cost with cross term N = Aᵀσ₁G and R = Gᵀσ₁G − diag(0, γ²I); H∞: Q = I, R = diag(ρ, −γ²I)."""
+    import scipy.linalg as sla
+
+    from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
+
+    f, g, k = design_model()
+    A = closed_loop_jacobian(f, 3)
+    B, K = g(np.zeros((1, 3)))[0], k(np.zeros((1, 3)))[0]
+    G = B if kind == "W2" else np.hstack([B, K])
+    if kind == "H∞":
+        S, N, Q = np.diag([rho, -GAMMA ** 2, -GAMMA ** 2]), np.zeros((3, 3)), np.eye(3)
+    else:
+        S, N, Q = G.T @ SIGMA1 @ G, A.T @ SIGMA1 @ G, SIGMA0 + A.T @ SIGMA1 @ A
+        S[1:, 1:] -= GAMMA ** 2 * np.eye(G.shape[1] - 1)
+    P = sla.solve_continuous_are(A, G, Q, S, s=N)
+    return -np.linalg.solve(S, G.T @ P + N.T)[0]
 
 
 def _problem(kind, nodes, rho=None):
@@ -272,6 +304,12 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
         metrics[f"{name} iterations"] = res.iterations
         metrics[f"{name} residual_rel"] = res.history[-1]["residual_rel"]
         metrics[f"{name} linear gain"] = res.feedback_gain().ravel().tolist()
+        K_are = riccati_gain(name, rho)
+        metrics[f"{name} Riccati gain of the linearization"] = K_are.tolist()
+        rel = np.abs(res.feedback_gain().ravel() - K_are).max() / np.abs(K_are).max()
+        claims.append(Claim(f"{name}: linear part of the SGAA law equals the Riccati gain of the "
+                            "linearized problem (independent check)", bool(rel < 1e-2),
+                            f"relative difference {rel:.1e}"))
         claims.append(Claim(f"{name}: SGAA converged with a stabilizing control",
                             bool(res.diagnostics["closed_loop_eigenvalues"].real.max() < 0),
                             f"{res.iterations} iterations, relative HJ residual "
