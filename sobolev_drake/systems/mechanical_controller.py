@@ -379,6 +379,15 @@ class MechanicalController(LeafSystem):
         self.DeclareVectorOutputPort("error_integral", nc, self._calc_int,
                                      prerequisites_of_calc={self.xc_ticket()})
 
+    def set_inner(self, inner) -> None:
+        """Swap the inner law (same model, partition, allocation and bounds) so one diagram can
+        serve a tuning sweep (Python LeafSystems are not garbage-collected in drake 1.51).
+        Re-initialize the context (time, state) before the next run so no cached output is
+        reused."""
+        old = self.law
+        self.law = MechanicalLaw(old.model, old.partition, inner, allocation=old.allocation,
+                                 lower=old.lower, upper=old.upper)
+
     def _read(self, context):
         x = np.asarray(self._x.Eval(context), dtype=float)
         n = self.law.n

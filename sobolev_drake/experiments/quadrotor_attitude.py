@@ -1,0 +1,125 @@
+"""Thesis 5.3.1, Table 5.6: quadrotor altitude and attitude with the reduced model (5.5).
+
+Plant (5.123), Table 5.4 (rotors tilted 5°, inputs Ω_i²); controller model = a separate
+QuadrotorModel with the same parameters.  Partition qc = [z ϕ θ ψ], qu = [x y] (reduced
+underactuated, Assumption 5).  Tuning Y0 = Y1 = diag(1, 1, 1, 1), Y2 = diag(0.61, 0.6, 0.6, 0.6),
+Y3 = diag(2e-3, 1e-7, 1e-7, 1e-7) (W2 ≡ W∞, Remark 30).  qc(0) = [4.5, π/4, −π/4, π/4],
+everything else 0; reference Table 5.5 (``table_5_5``, discontinuous at t = 8 s as printed);
+disturbances δz = −10 N on 10 ≤ t ≤ 15 s and δϕ = −3 sin(2πt) N m on 16 ≤ t ≤ 20 s; 30 s.
+IADU = ∫Σ|dΩ_i/dt| with Ω_i = √(Ω_i²) as in Table 5.6.  Actuator limits Ω² ∈ [0, 4 × hover]
+(DESIGN §4.2; none printed in the thesis) enforced by bounded least squares; ``limits=False``
+reproduces the unconstrained law.  H∞ baseline: same IADU (``_mechanical_common``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sobolev_drake import norms, report, viz
+from sobolev_drake.experiments import Claim, ExperimentResult, register
+from sobolev_drake.experiments._mechanical_common import (build_loop, compare_plot, hinf_inner,
+                                                          hinf_surface, omega_u_guess, pct,
+                                                          run_loop, sobolev_bound,
+                                                          tracked_errors, tune)
+from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
+from sobolev_drake.synthesis.mechanical import controlled_gains
+from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
+from sobolev_drake.systems.references import table_5_5
+
+WEIGHTS = ([1, 1, 1, 1], [1, 1, 1, 1], [0.61, 0.6, 0.6, 0.6], [2e-3, 1e-7, 1e-7, 1e-7])
+PARTITION = Partition(controlled=[5, 0, 1, 2], uncontrolled=[3, 4])  # z ϕ θ ψ | x y
+Q0 = np.array([np.pi / 4, -np.pi / 4, np.pi / 4, 0.0, 0.0, 4.5])     # [ϕ θ ψ x y z]
+NAMES = ["z", "ϕ", "θ", "ψ"]
+THESIS = {"W2/W∞": {"IADU": 5.4e4, "ISE z": 0.093, "ISE ϕ": 0.202, "ISE θ": 0.153, "ISE ψ": 0.151},
+          "H∞": {"IADU": 5.4e4, "ISE z": 0.097, "ISE ϕ": 0.243, "ISE θ": 0.181, "ISE ψ": 0.178}}
+COLS = ["IADU", "ISE z", "ISE ϕ", "ISE θ", "ISE ψ"]
+
+
+def disturbance() -> TimeProfiledForce:
+    return TimeProfiledForce(6, [
+        {"index": 5, "value": -10.0, "from": 10.0, "to": 15.0},
+        {"index": 0, "value": lambda t: -3.0 * np.sin(2 * np.pi * t), "from": 16.0, "to": 20.0},
+    ])
+
+
+def rotor_speed(u):
+    return np.sqrt(np.clip(u, 0.0, None))
+
+
+def indices(run, law):
+    e, _ = tracked_errors(run, law)
+    out = {"IADU": float(norms.iadu(run["t"], rotor_speed(run["u"])).sum())}
+    for j, name in enumerate(NAMES):
+        out[f"ISE {name}"] = float(norms.ise(run["t"], e[:, j]))
+    return out
+
+
+@register("quadrotor-attitude", "Quadrotor altitude/attitude, reduced model: W2/W∞ vs H∞ (Table 5.6)",
+          default_duration=30.0, thesis_ref="5.3.1, Tables 5.4-5.6, Figs. 5.3-5.4")
+def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> ExperimentResult:
+    out_dir = Path(out_dir)
+    duration = float(duration or (1.5 if smoke else 30.0))
+    params = QuadrotorParams()
+    hover = params.hover_input()
+    lo, hi = (np.zeros(4), 4 * hover * np.ones(4)) if limits else (None, None)
+    gains = controlled_gains(*WEIGHTS)
+    w_inner = SobolevLaw(gains)
+    loop = build_loop(lambda b: add_quadrotor(b, params), make_quadrotor_model(params), PARTITION,
+                      w_inner, table_5_5(), disturbance(), lower=lo, upper=hi, record=record)
+    law = loop.controller.law
+    outputs, claims = {}, []
+    qd0 = np.zeros(6)
+    w_run = run_loop(loop, w_inner, duration, Q0, qd0, label="W2/W∞")
+    if record:
+        outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
+                                                           out_dir / "quadrotor_attitude_w.html")
+    w_idx = indices(w_run, law)
+    surface = hinf_surface(gains)
+
+    def evaluate(wu):
+        r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, qd0, label="H∞")
+        return indices(r, law)["IADU"], r
+
+    wu, h_run, hist = tune(evaluate, w_idx["IADU"], omega_u_guess(law, gains, Q0, qd0),
+                           iters=2 if smoke else 8)
+    h_idx = indices(h_run, law)
+    rows = [[k, *(pct(idx[c], h_idx[c]) for c in COLS)] for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
+    th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+    md, js, table = report.write_table(out_dir, "quadrotor_attitude", ["controller", *COLS], rows,
+                                       thesis_rows=th,
+                                       title=f"Table 5.6 (quadrotor, reduced model, {duration:g} s, "
+                                             f"limits {'on' if limits else 'off'})")
+    outputs.update({"table (md)": md, "table (json)": js})
+    runs = {"W2/W∞": w_run, "H∞": h_run}
+    outputs["errors and inputs"] = compare_plot(
+        out_dir / "quadrotor_attitude.png", runs,
+        [("z̃ [m]", lambda r: tracked_errors(r, law)[0][:, :1], ["z"]),
+         ("attitude error [rad]", lambda r: tracked_errors(r, law)[0][:, 1:], NAMES[1:]),
+         ("x, y [m]", lambda r: r["x"][:, 3:5], ["x", "y"]),
+         ("Ω [rad/s]", lambda r: rotor_speed(r["u"]), ["Ω1", "Ω2", "Ω3", "Ω4"]),
+         ("w", lambda r: r["w"][:, [5, 0]], ["δz [N]", "δϕ [N m]"])],
+        title="Quadrotor altitude/attitude (thesis Figs. 5.3-5.4)", vlines=(8, 10, 15, 16, 20))
+    for name, r in runs.items():
+        if r["failed"]:
+            claims.append(Claim(f"{name} simulation completed", False, r["failed"]))
+        sat = float(np.mean(np.any((r["u"] <= 1e-9) | (r["u"] >= 4 * hover - 1e-6), axis=1)))
+        claims.append(Claim(f"{name}: rotor commands stay inside Ω² ∈ [0, 4·hover] without "
+                            "saturating more than 5 % of the time", sat < 0.05,
+                            f"saturated samples {100 * sat:.1f} %, min Ω² {r['u'].min():.3g}, "
+                            f"max Ω² {r['u'].max():.3g} (hover {hover:.3g})"))
+    claims.append(Claim("H∞ tuned to the same IADU as W2/W∞ (within 2 %)",
+                        abs(h_idx["IADU"] / w_idx["IADU"] - 1) < 0.02,
+                        f"W {w_idx['IADU']:.4g}, H∞ {h_idx['IADU']:.4g}, ωu = {wu:.4g}; search "
+                        f"{[(round(a, 6), round(b, 1)) for a, b in hist]}"))
+    for c in COLS[1:]:
+        claims.append(Claim(f"W2/W∞ has a smaller {c} than H∞ "
+                            f"(thesis {100 * THESIS['W2/W∞'][c] / THESIS['H∞'][c]:.0f} %)",
+                            w_idx[c] < h_idx[c], f"{100 * w_idx[c] / h_idx[c]:.0f} %"))
+    metrics = {"W2/W∞": w_idx, "H∞": h_idx, "hinf_omega_u": wu, "hinf_surface": surface,
+               "hinf_search": hist, "limits": limits, "duration": duration}
+    if not limits:
+        metrics["theorem3"] = sobolev_bound(w_run, law, make_quadrotor_model(params))
+    return ExperimentResult("quadrotor-attitude", outputs, metrics, claims, table)
