@@ -9,17 +9,36 @@ A₀ + A₁·p precomputed once) and the ``direct`` method (A assembled from the
 Galerkin solve).  It prints wall and process-CPU seconds and the 40³/20³ ratios, and the
 largest coefficient difference between rules (quadrature convergence).  Target: full W∞ design
 < 10 s.  Nothing here is asserted; the machine may be shared, so CPU time is the fairer number.
+
+Measured (2-core machine shared with other jobs, load ≈ 3, 1 BLAS thread): 20³ nodes — direct
+0.9 s wall / 0.4 s CPU, tensor 1.5 s / 0.7 s; 40³ nodes — direct 7.3 s / 2.3 s, tensor
+8.2 s / 3.2 s (CPU ratio 40³/20³ ≈ 4.3–5.6 for 8× the nodes); the coefficients change by
+< 3e-11 from 20³ to 40³ (8³ already agrees to ~1e-6), so 40³ is a stress test only.
+
+BLAS threads: unless ``OPENBLAS_NUM_THREADS`` is already set, this script sets it to 1 before
+numpy loads.  The Galerkin products are tall and skinny (34 × Q times Q × 34·P); on the shared
+2-core machine a multi-threaded OpenBLAS spins on them (measured under load: 34×64000 @ 64000×34
+takes 1.6 s CPU with threads vs 0.009 s single-threaded).  Pass ``--blas-threads N`` to compare.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import time
+import os
+import sys
 
-import numpy as np
+if __name__ == "__main__":  # must happen before numpy is imported
+    for i, a in enumerate(sys.argv):
+        if a == "--blas-threads" and i + 1 < len(sys.argv):
+            os.environ["OPENBLAS_NUM_THREADS"] = sys.argv[i + 1]
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from sobolev_drake.experiments.balance_sgaa import _problem, u0
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from sobolev_drake.experiments.balance_sgaa import _problem, u0  # noqa: E402
 
 
 def time_design(nodes: int, method: str) -> dict:
@@ -44,7 +63,10 @@ def main(argv=None):
     ap.add_argument("--nodes", type=int, nargs="+", default=[20, 40])
     ap.add_argument("--methods", nargs="+", default=["tensor", "direct"])
     ap.add_argument("--json", default=None)
+    ap.add_argument("--blas-threads", default=None, help="OPENBLAS_NUM_THREADS (default 1)")
     args = ap.parse_args(argv)
+    print(f"OPENBLAS_NUM_THREADS = {os.environ.get('OPENBLAS_NUM_THREADS')}")
+    time_design(6, "tensor")  # warm-up (first calls load LAPACK paths etc.)
     rows = []
     print(f"{'nodes':>6} {'points':>7} {'method':>7} {'setup':>7} {'tensor':>7} {'solve':>7} "
           f"{'total':>7} {'cpu':>7} {'iters':>5}  inner")

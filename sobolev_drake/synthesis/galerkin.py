@@ -289,13 +289,19 @@ class GalerkinProblem:
         return eig
 
     def solve(self, u0: Callable, *, tol: float = 1e-9, max_iter: int = 60, inner_tol=None,
-              max_inner: int = 60, method: str = "tensor", disturbance_update: str = "best_response",
+              max_inner: int = 60, method: str = "direct", disturbance_update: str = "best_response",
               check_u0: str = "simulate", divergence_factor: float = 1e6) -> GalerkinResult:
         """Run the SGAA from the admissible control ``u0(X) -> (Q, nu)``.
 
         Stops when ‖c⁽ⁱ⁾ − c⁽ⁱ⁻¹⁾‖₂ ≤ tol·max(1, ‖c⁽ⁱ⁾‖₂) (thesis: absolute 0.1, Remark 18).
         ``check_u0``: "simulate" (linearization + sampled trajectories), "linearization" or
         "none".  Raises :class:`GalerkinConvergenceError` when the budget runs out.
+
+        ``method``: both methods use the per-node policy maps v = v₀ + L c precomputed once.
+        ``"tensor"`` also precomputes A₁ (N³·Q work once, then N³ per solve); ``"direct"``
+        (default) assembles A from the nodes at every solve (N²·Q per solve).  The tensor pays
+        off only beyond ~N Galerkin solves; the balance W∞ design needs ~25 and is ~1.5× faster
+        with ``"direct"`` (``benchmarks/galerkin.py``).  Results agree to round-off.
         """
         if disturbance_update not in ("best_response", "saddle"):
             raise ValueError("disturbance_update must be 'best_response' or 'saddle'")
