@@ -13,7 +13,8 @@ largest coefficient difference between rules (quadrature convergence).  Target: 
 Measured (2-core machine shared with other jobs, load ≈ 3, 1 BLAS thread): 20³ nodes — direct
 0.9 s wall / 0.4 s CPU, tensor 1.5 s / 0.7 s; 40³ nodes — direct 7.3 s / 2.3 s, tensor
 8.2 s / 3.2 s (CPU ratio 40³/20³ ≈ 4.3–5.6 for 8× the nodes); the coefficients change by
-< 3e-11 from 20³ to 40³ (8³ already agrees to ~1e-6), so 40³ is a stress test only.
+< 3e-11 from 20³ to 40³ (8³ already agrees with 20³ to 2e-9, 6³ to 1e-4), so 40³ is a
+stress test only.
 
 BLAS threads: unless ``OPENBLAS_NUM_THREADS`` is already set, this script sets it to 1 before
 numpy loads.  The Galerkin products are tall and skinny (34 × Q times Q × 34·P); on the shared
