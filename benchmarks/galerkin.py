@@ -1,6 +1,6 @@
 """Timing of the balance-sgaa W∞ design (successive Galerkin approximation, thesis 4.4).
 
-    python benchmarks/galerkin.py [--nodes 20 40] [--repeat 1] [--json out.json]
+    python benchmarks/galerkin.py [--nodes 20 40] [--methods tensor direct] [--blas-threads 1] [--json out.json]
 
 For each Gauss–Legendre rule (nodes³ points on Ω) it times the full W∞ design (Algorithm 4.2,
 degree-4 basis, 34 terms, γ = 5, tol 1e-8): problem set-up (basis, model and cost at the
