@@ -27,6 +27,14 @@ of Beard & McLain (monotone); ``"saddle"`` uses the thesis' (4.19) literally (th
 for the current V).  Both have the same fixed point (the HJBI solution).  When the disturbance
 enters through the range of g (k = gE) the W∞ worst-case disturbance is zero and W∞ = W2
 (Remarks 30/36).
+
+Notes on the thesis text (checked against the linear Riccati limits in the tests):
+(4.15) has inconsistent factors (the cross terms fᵀBgu etc. carry no ½, the disturbance term is
+−½γ²wᵀw as in (4.13)); (4.21)/(4.22) drop σ₁ (the Hessians are gᵀ∇hᵀσ₁∇hg and
+kᵀ∇hᵀσ₁∇hk − γ²I); (4.22) is the condition for the maximization at fixed u, which implies the
+invertibility of the matrix in (4.19); Algorithm 4.2 leaves w⁽ⁱ'⁰⁾ undefined for i > 0 (we warm
+start from w⁽ⁱ⁻¹'∞⁾); the separable approximation (4.33) of the midpoint rule is not an identity
+for coupled integrands, so :func:`midpoint` integrates on the full tensor grid.
 """
 
 from __future__ import annotations
