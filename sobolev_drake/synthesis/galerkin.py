@@ -298,10 +298,12 @@ class GalerkinProblem:
 
     def solve(self, u0: Callable, *, tol: float = 1e-9, max_iter: int = 60, inner_tol=None,
               max_inner: int = 60, method: str = "direct", disturbance_update: str = "best_response",
-              check_u0: str = "simulate", divergence_factor: float = 1e6) -> GalerkinResult:
+              check_u0: str = "simulate", divergence_factor: float = 1e6,
+              atol: float = 0.0) -> GalerkinResult:
         """Run the SGAA from the admissible control ``u0(X) -> (Q, nu)``.
 
-        Stops when ‖c⁽ⁱ⁾ − c⁽ⁱ⁻¹⁾‖₂ ≤ tol·max(1, ‖c⁽ⁱ⁾‖₂) (thesis: absolute 0.1, Remark 18).
+        Stops when ‖c⁽ⁱ⁾ − c⁽ⁱ⁻¹⁾‖₂ ≤ max(atol, tol·max(1, ‖c⁽ⁱ⁾‖₂)) (the thesis uses the
+        absolute criterion ‖Δc‖₂ < 0.1, i.e. ``atol=0.1``; Remark 18).
         ``check_u0``: "simulate" (linearization + sampled trajectories), "linearization" or
         "none".  Raises :class:`GalerkinConvergenceError` when the budget runs out.
 
@@ -329,7 +331,9 @@ class GalerkinProblem:
         if U0.shape != (nodes.X.shape[0], nu):
             raise ValueError(f"u0(X) must return shape (Q, {nu}), got {U0.shape}")
         history: list = []
-        converged = lambda c, cp, t: np.linalg.norm(c - cp) <= t * max(1.0, np.linalg.norm(c))
+        atol = float(atol)
+        converged = lambda c, cp, t: np.linalg.norm(c - cp) <= max(
+            atol, t * max(1.0, np.linalg.norm(c)))
 
         if not nw:  # ---------------- Algorithm 4.1 (W2) / H2 ------------------------------
             c = solve_galerkin(*nodes.system(U0))
