@@ -197,7 +197,7 @@ def test_hinf_nonlinear_known_value_residual_falls_with_degree():
 
 
 # --- the balance design model (closed forms of (4.30)) ---------------------------------------
-def balance_problem(kind="w2", gamma=5.0, degree=2, nodes=6):
+def balance_problem(kind="w2", gamma=5.0, degree=2, nodes=6, rho=1.6):
     from sobolev_drake.experiments.balance_sgaa import design_model
     f, g, k = design_model()
     box = Box([-np.pi / 4, -3, -1.2], [np.pi / 4, 3, 1.2])
@@ -206,6 +206,9 @@ def balance_problem(kind="w2", gamma=5.0, degree=2, nodes=6):
     s0, s1 = np.eye(3), np.diag([0.64, 0.1, 0.1])
     if kind == "w2":
         model, cost = InputAffineModel(f, g, None, n=3), W2Cost(h, dh, s0, s1)
+    elif kind == "hinf":
+        from sobolev_drake.synthesis.galerkin import HinfCost
+        model, cost = InputAffineModel(f, g, k, n=3), HinfCost(h, np.eye(3), [[rho]], gamma)
     else:
         model, cost = InputAffineModel(f, g, k, n=3), WinfCost(h, dh, s0, s1, gamma)
     return GalerkinProblem(model, cost, PolynomialBasis(3, degree), box, quadrature=nodes)
@@ -214,7 +217,7 @@ def balance_problem(kind="w2", gamma=5.0, degree=2, nodes=6):
 K_THESIS = np.array([11.3132, 1.0022, 3.2589])
 
 
-@pytest.mark.parametrize("kind", ["w2", "winf"])
+@pytest.mark.parametrize("kind", ["w2", "winf", "hinf"])
 def test_cost_does_not_increase_along_iterations(kind):
     prob = balance_problem(kind, degree=4, nodes=8)
     res = prob.solve(lambda X: (X @ K_THESIS)[:, None], tol=1e-9, check_u0="linearization")
