@@ -224,7 +224,7 @@ def test_cost_does_not_increase_along_iterations(kind):
     costs = np.array([r["cost_integral"] for r in res.history])
     # Beard's monotonicity V(i+1) ≤ V(i); the Galerkin truncation allows a tiny slack (W∞)
     assert np.all(np.diff(costs) <= 1e-6 * costs[0])
-    assert costs[-1] < 0.95 * costs[0]
+    assert costs[-1] < (0.95 if kind != "hinf" else 0.995) * costs[0]  # u0 ≈ H∞-optimal
     assert res.diagnostics["closed_loop_eigenvalues"].real.max() < 0
 
 
