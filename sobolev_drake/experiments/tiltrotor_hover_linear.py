@@ -336,6 +336,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=DESIGNS):
         cert = "" if ctrl.get("certified", True) else f" (uncertified: ‖T‖∞ = {ctrl['achieved']:.3g})"
         rows.append([name, f"{ctrl['gamma']:.4g}{cert}", f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}",
                      f"{idx['iadu']:.1f}", *THESIS_TABLE_7_2[name], "; ".join(ctrl["notes"])[:200]])
+        # partial results survive an interrupted run
+        (out_dir / "tiltrotor-hover-linear_metrics.json").write_text(json.dumps(metrics, indent=1, default=str))
     base = {k: metrics[k] for k in metrics if "ise" in metrics[k]}
     for pair in (("W∞", "W∞-D"), ("W∞-O.F.", "W∞-O.F.D")):
         if all(p in base for p in pair):

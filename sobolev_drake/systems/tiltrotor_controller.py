@@ -134,12 +134,14 @@ def tracked_reference(ref_c, ref_r):
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
-def saturation_flags(tau, lo, up, rel_tol=1e-3):
+def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
-    of the bound width; a zero-width box, e.g. surfaces at zero air speed, counts as inside)."""
+    of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
+    whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
+    saturated, and counts as inside."""
     tau, lo, up = (np.asarray(a, dtype=float) for a in (tau, lo, up))
     tol = rel_tol * np.maximum(up - lo, 0.0)
-    width_ok = (up - lo) > 1e-9
+    width_ok = (up - lo) > min_width
     return np.where(width_ok & (tau >= up - tol), 1.0,
                     np.where(width_ok & (tau <= lo + tol), -1.0, 0.0))
 
