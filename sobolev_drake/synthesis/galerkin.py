@@ -358,16 +358,19 @@ class GalerkinProblem:
                     f"{history[-1]['coef_change']:.3e})", history)
         else:  # ---------------------- Algorithm 4.2 (W∞) / Beard's H∞ ---------------------
             def inner_loop(solve_for, c_start, c_ref, it):
-                c_in = c_start
+                c_in, changes = c_start, []
                 for j in range(1, max_inner + 1):
                     c_next = solve_for(c_in)
                     self._check_step(history, c_next, c_ref, f"iteration {it}, inner {j}")
+                    changes.append(float(np.linalg.norm(c_next - c_in)))
                     if converged(c_next, c_in, inner_tol):
                         return c_next, j
                     c_in = c_next
                 raise GalerkinDivergenceError(
                     f"iteration {it}: the disturbance loop did not converge in {max_inner} "
-                    "steps (Remark 20: gamma too small for this control?)", history)
+                    f"steps (last coefficient changes {np.round(changes[-4:], 4).tolist()}; "
+                    "Remark 20: gamma too small for this control, or the closed loop leaves Ω)",
+                    history)
 
             # i = 0: u = u0 fixed, w(0,0) = 0
             c = solve_galerkin(*nodes.system(np.hstack([U0, np.zeros((U0.shape[0], nw))])))
