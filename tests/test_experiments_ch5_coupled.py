@@ -45,7 +45,7 @@ def test_exact_tilted_model_follows_linear_closed_loop_586():
     ref = TrajectoryReference(PiecewiseTrajectory(["psi", "x", "y", "z"],
                                                   [[const(0.0), const(0.0), const(0.0), const(1.0)]]))
     inner = q8.sobolev_inner()
-    alloc = q8.make_allocation(model, "pinv", np.zeros(4), np.ones(4))
+    alloc = q8.Allocation(model, "pinv", np.zeros(4), np.ones(4))
     loop = build_loop(lambda b: add_quadrotor(b), model, q8.PARTITION, inner, ref,
                       TimeProfiledForce(6, []), allocation=alloc)
     q0 = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 1.3])
@@ -83,17 +83,19 @@ def test_figure8_projection_defect_is_what_breaks_586():
 
 def test_bad_allocation_name():
     with pytest.raises(ValueError, match="allocation"):
-        q8.make_allocation(make_quadrotor_model(), "magic", np.zeros(4), np.ones(4))
+        q8.Allocation(make_quadrotor_model(), "magic", np.zeros(4), np.ones(4))
 
 
 @pytest.mark.parametrize("module", [bc, q8])
 def test_smoke_runs_give_finite_tables(module, tmp_path):
     res = module.run(tmp_path, smoke=True)
-    for ctrl in ("W2/W∞", "H∞"):
-        vals = np.array(list(res.metrics[ctrl].values()), dtype=float)
-        assert vals.size == len(module.COLS) and np.all(np.isfinite(vals)) and np.all(vals >= 0)
-    assert "thesis" in res.table_markdown.lower() or "79.5" in res.table_markdown \
-        or "2.4" in res.table_markdown
+    tables = [v for v in res.metrics.values() if isinstance(v, dict) and set(v) == set(module.COLS)]
+    assert len(tables) >= 2
+    for v in tables:
+        vals = np.array(list(v.values()), dtype=float)
+        assert np.all(np.isfinite(vals)) and np.all(vals >= 0)
+    thesis_iadu = module.THESIS["W2/W∞"]["IADU"]
+    assert f"{thesis_iadu:.4g}" in res.table_markdown   # thesis numbers beside ours
     assert res.claims and all(isinstance(c.held, bool) for c in res.claims)
     for path in res.outputs.values():
         assert path.exists()

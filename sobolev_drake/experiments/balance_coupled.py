@@ -1,13 +1,29 @@
-"""Thesis 5.3.2, Table 5.7: two-wheeled self-balanced vehicle with input coupling.
+"""Thesis 5.3.2, Table 5.7: two-wheeled self-balanced vehicle with the input-coupling law.
+
+(Owned by the chapter-5 input-coupling experiments engineer; it supersedes the first version
+committed with the shared harness, keeping its structure and adding the torque limit and the
+Assumption-8 signal.)
 
 Plant (4.30), Table 4.1 (friction k ϕ̇ included); controller model = a separate TwoWheeledModel
-with the same parameters (the law compensates the friction).  Partition qc = θ (controlled, with
-integral action), qs = ϕ (stabilized, q̇s → 0); generalized input u* (5.73), applied motor torque
-τ = B†u* with B = F = [1, −1]ᵀ (5.118), i.e. τ = (u*_ϕ − u*_θ)/2.  Tuning Υ0 = 0.1, Υ1 = 1.1,
-Γ0 = 1000, Γ1 = 300, Γ2 = 2, Γ3 = 0.001 (W2 ≡ W∞, Remark 36).  θ(0) = π/4, the rest 0,
-reference θ_r = 0; disturbances wϕ = 4 sin(2πt/5) N m on 7 ≤ t ≤ 14 s and wθ = 4 N m on
-22 ≤ t ≤ 32 s (printed "22 ≤ t ≥ 32"); duration 40 s (not printed).  H∞ baseline: same ISE of θ
-(the thesis' rule for this table).  No torque limit (none printed).
+with the same parameters.  Partition qc = θ, qs = ϕ (Assumptions 6/7: B = [1, −1]ᵀ, Bc = −1,
+Bs = 1).  Law (5.73)/(5.84): u* = M q̈_des + C q̇ + g + K(q̇) with
+θ̈_des = −Γ3⁻¹[Q K T][θ̃̇; θ̃; ∫θ̃] and ϕ̈_des = −Υ1⁻¹U ϕ̇, applied as τ = B†u* (5.118), i.e.
+τ = (u*_ϕ − u*_θ)/2.  Tuning Υ0 = 0.1, Υ1 = 1.1, Γ0 = 1000, Γ1 = 300, Γ2 = 2, Γ3 = 0.001
+(W2 ≡ W∞, Remark 36).  q(0) = [0, π/4], q̇(0) = 0, θ_r = 0; disturbances wϕ = 4 sin(2πt/5) N m on
+7 ≤ t ≤ 14 s and wθ = 4 N m on 22 ≤ t ≤ 32 s (the PDF prints "22 ≤ t ≥ 32", a typo); 40 s (not
+printed; it is the duration that reproduces the printed ISE ϕ̇).
+
+Why ϕ̇ is large: with θ held at 0 by integral action, a constant body torque wθ can only be
+balanced by a motor torque whose reaction accelerates the wheels at wθ/((M+m)r² + Ir), so ϕ̇
+ramps up during 22–32 s and stays (Υ0 is small); ISE ϕ̇ ≈ 5·10⁴ is physics, not a defect.
+
+Actuator limit: the thesis prints none.  The motor torque is bounded by ``torque_limit``
+(default 50 N m, just above the 48.9 N m the W law asks at t = 0) through the law's bounded
+least squares; the claims report the saturated time.  ``torque_limit=None`` removes it.
+
+H∞ baseline (Raffo et al. 2015 structure, DESIGN §4.3) tuned by the thesis' rule for this table:
+same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tune`` on ωu
+(sliding-surface coefficients matched to the W closed loop, ``hinf_surface``), one reused diagram.
 """
 
 from __future__ import annotations
@@ -27,16 +43,22 @@ from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const
 
-PARTITION = Partition(controlled=[1], stabilized=[0])  # θ | ϕ
+PARTITION = Partition(controlled=[1], stabilized=[0])          # q = [ϕ θ]: qc = θ, qs = ϕ
+GAMMAS = (1000.0, 300.0, 2.0, 0.001)                            # Γ0..Γ3
+UPSILONS = (0.1, 1.1)                                           # Υ0, Υ1
 Q0, QD0 = np.array([0.0, np.pi / 4]), np.zeros(2)
 THESIS = {"W2/W∞": {"IADU": 79.5, "ISE θ": 0.047, "ISE ϕ̇": 4.975e4},
           "H∞": {"IADU": 108.3, "ISE θ": 0.0468, "ISE ϕ̇": 5.032e4}}
 COLS = ["IADU", "ISE θ", "ISE ϕ̇"]
+B_PERP = np.array([1.0, 1.0]) / np.sqrt(2.0)                    # left annihilator of B = [1, −1]ᵀ
 
 
-def gains():
-    return SobolevLaw(controlled=controlled_gains(1000, 300, 2, 0.001),
-                      stabilized=stabilized_gains(0.1, 1.1))
+def sobolev_inner() -> SobolevLaw:
+    """W2/W∞ gains of the thesis tuning (Theorem 4, (5.76)–(5.82))."""
+    return SobolevLaw(controlled_gains(*GAMMAS), stabilized=stabilized_gains(*UPSILONS))
+
+
+gains = sobolev_inner  # name used by the first version
 
 
 def reference() -> TrajectoryReference:
@@ -51,21 +73,39 @@ def disturbance() -> TimeProfiledForce:
     ])
 
 
-def indices(run):
+def indices(run) -> dict:
     t = run["t"]
     return {"IADU": float(norms.iadu(t, run["u"]).sum()),
-            "ISE θ": float(norms.ise(t, run["x"][:, 1])),
+            "ISE θ": float(norms.ise(t, run["x"][:, 1])),      # θ_r ≡ 0
             "ISE ϕ̇": float(norms.ise(t, run["x"][:, 2]))}
 
 
-@register("balance-coupled", "Two-wheeled vehicle with input coupling: W2/W∞ vs H∞ (Table 5.7)",
+def annihilator_residual(run, model) -> np.ndarray:
+    """‖B⊥(w − d)‖² along a run (Assumption 8) with d = g + K(q̇) (θ_r ≡ 0: no reference terms)."""
+    out = np.empty(len(run["t"]))
+    for k in range(len(out)):
+        q, qd = run["x"][k, :2], run["x"][k, 2:]
+        out[k] = float(B_PERP @ (run["w"][k] - model.g(q) - model.friction(qd))) ** 2
+    return out
+
+
+def saturated_fraction(run, limit) -> float:
+    if limit is None:
+        return 0.0
+    return float(np.mean(np.abs(run["u"][:, 0]) >= limit * (1 - 1e-6)))
+
+
+@register("balance-coupled", "Two-wheeled vehicle, input-coupling law: W2/W∞ vs H∞ (Table 5.7)",
           default_duration=40.0, thesis_ref="5.3.2, Table 5.7, Fig. 5.5")
-def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResult:
+def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0) -> ExperimentResult:
     out_dir = Path(out_dir)
-    duration = float(duration or (2.0 if smoke else 40.0))
-    w_inner = gains()
-    loop = build_loop(add_two_wheeled, make_two_wheeled_model(), PARTITION, w_inner, reference(),
-                      disturbance(), record=record)
+    duration = float(duration or (1.0 if smoke else 40.0))
+    lim = None if torque_limit is None else float(torque_limit)
+    lo, hi = (None, None) if lim is None else ([-lim], [lim])
+    w_inner = sobolev_inner()
+    model = make_two_wheeled_model()
+    loop = build_loop(add_two_wheeled, model, PARTITION, w_inner, reference(), disturbance(),
+                      lower=lo, upper=hi, record=record)
     law = loop.controller.law
     outputs, claims = {}, []
     w_run = run_loop(loop, w_inner, duration, Q0, QD0, label="W2/W∞")
@@ -80,37 +120,50 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
         return indices(r)["ISE θ"], r
 
     wu, h_run, hist = tune(evaluate, w_idx["ISE θ"], omega_u_guess(law, w_inner.controlled, Q0, QD0),
-                           iters=2 if smoke else 8, decreasing=False)
+                           iters=1 if smoke else 9, rtol=0.01, decreasing=False)
     h_idx = indices(h_run)
     rows = [[k, *(pct(idx[c], h_idx[c]) for c in COLS)] for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
     th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
-    md, js, table = report.write_table(out_dir, "balance_coupled", ["controller", *COLS], rows,
-                                       thesis_rows=th,
-                                       title=f"Table 5.7 (two-wheeled, input coupling, {duration:g} s)")
+    md, js, table = report.write_table(
+        out_dir, "balance_coupled", ["controller", *COLS], rows, thesis_rows=th,
+        title=f"Table 5.7 (two-wheeled vehicle, input coupling, {duration:g} s, torque limit "
+              f"{'none' if lim is None else f'±{lim:g} N m'})")
     outputs.update({"table (md)": md, "table (json)": js})
     runs = {"W2/W∞": w_run, "H∞": h_run}
+    for r in runs.values():
+        r["bperp"] = annihilator_residual(r, model)
     outputs["states and input"] = compare_plot(
         out_dir / "balance_coupled.png", runs,
         [("θ [rad]", lambda r: r["x"][:, 1], None),
          ("ϕ̇ [rad/s]", lambda r: r["x"][:, 2], None),
-         ("u [N m]", lambda r: r["u"], None),
+         ("u [N m]", lambda r: r["u"][:, 0], None),
+         ("‖B⊥(w−d)‖²", lambda r: r["bperp"], None),
          ("w [N m]", lambda r: r["w"], ["wϕ", "wθ"])],
         title="Two-wheeled vehicle, input coupling (thesis Fig. 5.5)", vlines=(7, 14, 22, 32))
+    sat = {k: saturated_fraction(r, lim) for k, r in runs.items()}
     for name, r in runs.items():
         if r["failed"]:
             claims.append(Claim(f"{name} simulation completed", False, r["failed"]))
-        claims.append(Claim(f"{name} keeps the vehicle upright (|θ| < π/2) and θ → 0 at the end",
-                            bool(np.max(np.abs(r["x"][:, 1])) < np.pi / 2
-                                 and abs(r["x"][-1, 1]) < 0.05),
+        claims.append(Claim(f"{name} keeps the vehicle upright (|θ| < π/2) and |θ| < 0.01 rad at "
+                            "the end", bool(np.max(np.abs(r["x"][:, 1])) < np.pi / 2
+                                            and abs(r["x"][-1, 1]) < 0.01),
                             f"max |θ| {np.max(np.abs(r['x'][:, 1])):.3g}, final θ {r['x'][-1, 1]:.3g}"))
+        claims.append(Claim(f"{name}: motor torque saturated less than 5 % of the time",
+                            sat[name] < 0.05, f"saturated samples {100 * sat[name]:.1f} %, "
+                                              f"|u| max {np.abs(r['u']).max():.3g} N m"))
     claims.append(Claim("H∞ tuned to the same ISE θ as W2/W∞ (within 2 %)",
                         abs(h_idx["ISE θ"] / w_idx["ISE θ"] - 1) < 0.02,
                         f"W {w_idx['ISE θ']:.4g}, H∞ {h_idx['ISE θ']:.4g}, ωu = {wu:.4g}; search "
-                        f"{[(round(a, 5), round(b, 5)) for a, b in hist]}"))
+                        f"(ωu, ISE θ) {[(round(a, 5), float(f'{b:.4g}')) for a, b in hist]}"))
     claims.append(Claim("W2/W∞ needs less control variation (IADU) than H∞ at equal ISE θ "
                         "(thesis 73 %)", w_idx["IADU"] < h_idx["IADU"],
                         f"{100 * w_idx['IADU'] / h_idx['IADU']:.0f} %"))
+    claims.append(Claim("ISE ϕ̇ similar for both controllers (thesis 98 %; within ±10 %)",
+                        abs(w_idx["ISE ϕ̇"] / h_idx["ISE ϕ̇"] - 1) < 0.1,
+                        f"{100 * w_idx['ISE ϕ̇'] / h_idx['ISE ϕ̇']:.0f} %"))
     e, _ = tracked_errors(w_run, law)
     metrics = {"W2/W∞": w_idx, "H∞": h_idx, "hinf_omega_u": wu, "hinf_surface": surface,
-               "hinf_search": hist, "duration": duration, "final_theta_W": float(e[-1, 0])}
+               "hinf_search": hist, "duration": duration, "final_theta_W": float(e[-1, 0]),
+               "torque_limit": lim, "saturated_fraction": sat,
+               "bperp_max": {k: float(r["bperp"].max()) for k, r in runs.items()}}
     return ExperimentResult("balance-coupled", outputs, metrics, claims, table)
