@@ -295,12 +295,13 @@ class TiltrotorWInfController(LeafSystem):
 
 
 # --- composition with the plant model, allocation and propeller data ----------------------------
-def make_law(model, inner=None, *, schedule="data", allocate=None):
+def make_law(model, inner=None, *, schedule="plant", allocate=None):
     """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
 
     ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
-    ``schedule``: ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``;
-    ``"plant"`` — the plant model's trim schedule (``models.tiltrotor.tilt_schedule``); or a
+    ``schedule``: ``"plant"`` (default) — spline through the plant model's level-flight trims
+    (:func:`plant_trim_schedule`); ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``
+    (the thesis author's simulator; it rises much faster above 24 m/s than our trims); or a
     callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
     ``systems.allocation.bounded_least_squares``.
 
@@ -390,7 +391,7 @@ def plant_trim_schedule(model=None):
     from scipy.interpolate import CubicSpline
     from sobolev_drake.models import tiltrotor_trim as tt
 
-    key = id(getattr(model, "params", None))
+    key = repr(getattr(model, "params", None))      # parameter values, not object identity
     if key not in _TRIM_SCHEDULES:
         trims = tt.tilt_schedule(model=model)
         V = np.array([t.V for t in trims])
