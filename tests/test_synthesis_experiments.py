@@ -26,3 +26,4 @@ def test_linear_simple_smoke(tmp_path):
     for m in res.metrics.values():
         assert m["achieved"] <= m["gamma"] * (1 + 1e-4)
     assert any("degenerate" in c.text and c.held for c in res.claims)
+

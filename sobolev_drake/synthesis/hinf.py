@@ -133,14 +133,28 @@ def _check_gamma_request(gamma, bound, what="gamma"):
                          f"(Parrott) bound {bound:.6g}")
 
 
+FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend fails
+
+
 def _solve(prog, backend, options, timings, label):
-    out = prog.solve(backend, options)
-    timings[f"{label}_build"] = out.build_time
-    timings[f"{label}_solve"] = out.solve_time
-    if not out.success or not np.all(np.isfinite(out.x)):
-        raise InfeasibleLMIError(f"LMI problem ({label}) not solved by {out.backend}/{out.solver}: "
-                                 f"status {out.status}", out.status)
-    return out
+    """Solve; with the default backend, fall back to Drake/Clarabel then CSDP on failure."""
+    chain = [backend] if backend is not None else [None, *FALLBACKS]
+    errors = []
+    for b in chain:
+        try:
+            out = prog.solve(b, options if b == backend else None)
+        except InfeasibleLMIError as e:
+            errors.append(str(e))
+            continue
+        timings[f"{label}_build"] = timings.get(f"{label}_build", 0.0) + out.build_time
+        timings[f"{label}_solve"] = timings.get(f"{label}_solve", 0.0) + out.solve_time
+        if out.success and np.all(np.isfinite(out.x)):
+            if errors:
+                out.status += f" (after fallback: {'; '.join(errors)})"
+            return out
+        errors.append(f"{out.backend}/{out.solver}: status {out.status}")
+    raise InfeasibleLMIError(f"LMI problem ({label}) not solved: " + "; ".join(errors),
+                             errors[-1] if errors else "")
 
 
 def _ladder(solve_at, g_opt, delta, deliberate, res):
