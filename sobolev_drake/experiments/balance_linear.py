@@ -92,9 +92,9 @@ class LinearFeedback(LeafSystem):
 
     def set_gains(self, context, K=None, controller=None):
         """Write K (state feedback) or (AK, BK, CK, DK) into this system's parameter."""
-        mats = [K] if self.nk == 0 else list(controller)
-        if any(m is None for m in mats):
+        if (self.nk == 0 and K is None) or (self.nk > 0 and controller is None):
             raise ValueError("state feedback needs K; output feedback needs controller=(AK, BK, CK, DK)")
+        mats = [K] if self.nk == 0 else list(controller)
         for m, shp in zip(mats, self._shapes):
             if np.shape(m) != shp:
                 raise ValueError(f"gain matrix shape {np.shape(m)} != expected {shp}")
