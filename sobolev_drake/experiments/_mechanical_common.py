@@ -27,7 +27,6 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import viz
-from sobolev_drake.simulation import simulate
 from sobolev_drake.synthesis.mechanical import SobolevGains, hinf_mechanical_gains
 from sobolev_drake.systems.mechanical_controller import HinfLaw, MechanicalController
 
@@ -80,12 +79,17 @@ def build_loop(add_plant: Callable, controller_model, partition, inner, referenc
     return Loop(diagram, sim, h, ctrl, sinks, meshcat, recorder)
 
 
-def run_loop(loop: Loop, inner, duration, q0, qd0, *, label="", accuracy=1e-4, max_step=0.01):
+def run_loop(loop: Loop, inner, duration, q0, qd0, *, label="", accuracy=1e-4, max_step=0.05,
+             evals_per_second=20000):
     """Reset the loop, swap the inner law, simulate; return logged arrays (rows = samples).
 
-    A simulation that fails (divergence, NaN) is reported in ``run["failed"]`` with the logs
-    up to the failure instead of raising, so the experiment can report what happened.
+    A simulation that fails (divergence, NaN, or more than ``evals_per_second`` derivative
+    evaluations per simulated second — a saturated high-gain law chattering) is reported in
+    ``run["failed"]`` with the logs up to the failure instead of raising, so the experiment can
+    report what happened and the tuning search treats it as "too aggressive".
     """
+    from pydrake.systems.analysis import ResetIntegratorFromFlags
+    from pydrake.systems.framework import EventStatus
     loop.controller.set_inner(inner)
     ctx = loop.simulator.get_mutable_context()
     ctx.SetTime(0.0)
@@ -95,11 +99,30 @@ def run_loop(loop: Loop, inner, duration, q0, qd0, *, label="", accuracy=1e-4, m
     for sink in loop.sinks.values():
         sink.FindMutableLog(ctx).Clear()
     failed = ""
+    budget = int(evals_per_second * float(duration)) + 2000
+    sim = loop.simulator
+    ResetIntegratorFromFlags(sim, "runge_kutta3", float(max_step))
+    integ = sim.get_mutable_integrator()
+    integ.set_target_accuracy(float(accuracy))
+    stop = []
+
+    def monitor(context):  # deterministic work budget (derivative evaluations)
+        if integ.get_num_derivative_evaluations() > budget:
+            stop.append(context.get_time())
+            return EventStatus.ReachedTermination(loop.diagram, "evaluation budget exceeded")
+        return EventStatus.Succeeded()
+
+    sim.set_monitor(monitor)
     try:
-        simulate(loop.diagram, ctx, float(duration), progress=False, label=label,
-                 accuracy=accuracy, max_step=max_step, simulator=loop.simulator)
+        sim.Initialize()
+        integ.ResetStatistics()
+        sim.AdvanceTo(float(duration))
+        if stop:
+            failed = (f"stopped at t = {stop[0]:.3f} s: {budget} derivative evaluations exceeded "
+                      "(stiff / chattering closed loop)")
     except (RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
         failed = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
+    sim.clear_monitor()
     out = {name: sink.FindLog(ctx).data().T.copy() for name, sink in loop.sinks.items()}
     out["t"] = loop.sinks["x"].FindLog(ctx).sample_times().copy()
     out["failed"] = failed

@@ -50,7 +50,7 @@ def indices(run, law):
           default_duration=40.0, thesis_ref="5.3.1, Tables 5.1-5.3, Fig. 5.2")
 def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResult:
     out_dir = Path(out_dir)
-    duration = float(duration or (3.0 if smoke else 40.0))
+    duration = float(duration or (1.0 if smoke else 40.0))
     gains = controlled_gains(*WEIGHTS)
     w_inner = SobolevLaw(gains)
     ctrl_model = make_arm_model()
@@ -74,7 +74,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
         r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, QD0, label="H∞")
         return indices(r, law)["IADU"], r
 
-    wu, h_run, hist = tune(evaluate, w_idx["IADU"], omega0, iters=2 if smoke else 8)
+    wu, h_run, hist = tune(evaluate, w_idx["IADU"], omega0, iters=2 if smoke else 6)
     h_idx = indices(h_run, law)
 
     cols = ["controller", "IADU Σ|dτ/dt|", "ISE q1", "ISE q2"]

@@ -161,6 +161,7 @@ class MechanicalLaw:
         from sobolev_drake.models.base import MechanicalModel
         cls = type(model)
         self._fast = all(getattr(cls, k) is getattr(MechanicalModel, k) for k in ("M", "Cqdot", "g"))
+        self._cache = {}
         p = partition
         self.ic = np.array(p.controlled, dtype=int)
         self.ir = np.array(p.regulated, dtype=int)
@@ -215,7 +216,23 @@ class MechanicalLaw:
 
     def _dynamics(self, q, qdot):
         """(M(q), h = C q̇ + g + friction): one context update when the model uses the base
-        class' Drake evaluations (the common case), else the model's own methods."""
+        class' Drake evaluations (the common case), else the model's own methods.  The last
+        result is cached (the LeafSystem asks for u and u* at the same state); callers must not
+        mutate the returned arrays."""
+        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
+        if self._cache.get("dyn_key") == key:
+            return self._cache["dyn"]
+        out = self._dynamics_eval(q, qdot)
+        self._cache["dyn_key"], self._cache["dyn"] = key, out
+        return out
+
+    def _B(self, q):
+        key = np.asarray(q, float).tobytes()
+        if self._cache.get("B_key") != key:
+            self._cache["B_key"], self._cache["B"] = key, np.asarray(self.model.B(q), dtype=float)
+        return self._cache["B"]
+
+    def _dynamics_eval(self, q, qdot):
         m = self.model
         if self._fast:
             plant, ctx, T = m.plant, m.context, m.T
@@ -248,15 +265,18 @@ class MechanicalLaw:
 
     def reduced_model(self, q, qdot):
         """(M̄, B̄, h̄) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u."""
+        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
+        if self._cache.get("red_key") == key:
+            return self._cache["red"]
         M, h = self._dynamics(q, qdot)
         ic, iu = self.ic, self.iu
-        Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
-        X = np.linalg.solve(Muu, np.eye(len(iu)))
-        Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
-        B = np.asarray(self.model.B(q))
-        Bbar = B[ic] - Mcu @ X @ B[iu]
-        hbar = h[ic] - Mcu @ X @ h[iu]
-        return Mbar, Bbar, hbar, Mcu @ X
+        Mcu = M[ic][:, iu]
+        X = Mcu @ np.linalg.inv(M[iu][:, iu])           # Mcu Muu⁻¹
+        Mbar = M[ic][:, ic] - X @ M[iu][:, ic]
+        B = self._B(q)
+        out = (Mbar, B[ic] - X @ B[iu], h[ic] - X @ h[iu], X)
+        self._cache["red_key"], self._cache["red"] = key, out
+        return out
 
     # --- H∞ law ------------------------------------------------------------------------------
     def _hinf_terms(self, q, qdot, e_int, reference):
@@ -321,10 +341,19 @@ class MechanicalLaw:
         if self.partition.mode == "reduced":
             _, Bmat, _, _ = self.reduced_model(q, qdot)
         else:
-            Bmat = np.asarray(self.model.B(q))
+            Bmat = self._B(q)
         if self.lower is not None or self.upper is not None:
             lo = -np.inf * np.ones(self.num_inputs) if self.lower is None else self.lower
             hi = np.inf * np.ones(self.num_inputs) if self.upper is None else self.upper
+            tau = np.linalg.lstsq(Bmat, u_star, rcond=None)[0]
+            if np.all(tau >= lo) and np.all(tau <= hi):  # unconstrained optimum is feasible
+                return tau
+            if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
+                try:  # the team's primal-dual active-set solver (pure numpy, faster than BVLS)
+                    from sobolev_drake.systems.allocation import bounded_least_squares
+                    return bounded_least_squares(Bmat, u_star, lo, hi)
+                except ImportError:  # pragma: no cover
+                    pass
             return lsq_linear(Bmat, u_star, bounds=(lo, hi), method="bvls").x
         if Bmat.shape[0] == Bmat.shape[1]:
             return np.linalg.solve(Bmat, u_star)
