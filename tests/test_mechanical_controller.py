@@ -46,7 +46,8 @@ def run_arm(inner, partition, w_fn, duration, q0, *, accuracy=1e-4, integrator="
             ref_fn=ref_arm):
     b = DiagramBuilder()
     h = add_arm(b)
-    ref = b.AddSystem(FnSource(6, lambda t: np.concatenate(ref_fn(t)), "reference"))
+    m = len(ref_fn(0.0)[0])
+    ref = b.AddSystem(FnSource(3 * m, lambda t: np.concatenate(ref_fn(t)), "reference"))
     dist = b.AddSystem(FnSource(2, w_fn, "w"))
     ctrl = b.AddSystem(MechanicalController(make_arm_model(), partition, inner))
     b.Connect(h.x, ctrl.GetInputPort("x"))
@@ -241,3 +242,35 @@ def test_bad_input_raises_clear_errors():
     with pytest.raises(ValueError, match="square B"):
         MechanicalLaw(quad, Partition(controlled=list(range(6))),
                       SobolevLaw(controlled_gains(*[np.ones(6)] * 4)))
+
+
+def test_input_coupling_theorem6_bound_with_exact_allocation():
+    """Theorem 6 / (5.115): with qc = q1 (W^{3,2}), qs = q2 (W^{1,2}) and B = I (u* realized
+    exactly) the storage identity V(T) − V(0) + ½(‖zc‖² + ‖zs‖²) = ½∫wᵀΠw, Π = M⁻¹EM⁻¹,
+    E = blkdiag(Υ1, Γ3) in DOF order, holds, hence ‖zc‖² + ‖zs‖² ≤ γ²‖w‖² + 2V(x0)."""
+    gc = controlled_gains([100], [500], [40], [0.072])
+    gs = stabilized_gains([3.0], [0.05])
+    model = make_arm_model()
+    run = run_arm(SobolevLaw(gc, stabilized=gs), Partition(controlled=[0], stabilized=[1]), _pulse,
+                  8.0, np.array([np.pi / 2 + 0.3, 0.1]), accuracy=1e-7, integrator="runge_kutta5",
+                  ref_fn=lambda t: tuple(v[:1] for v in ref_arm(t)))
+    t, X, U, W, ei = run["t"], run["x"], run["u"], run["w"], run["ei"]
+    E = np.diag([0.072, 0.05])  # DOF order [q1 (controlled), q2 (stabilized)]
+    cost, wpw, gam2, V = [], [], [], []
+    for k in range(len(t)):
+        q, qd = X[:2, k], X[2:, k]
+        qr, qdr, qddr = ref_arm(t[k])
+        M = model.M(q)
+        qdd = np.linalg.solve(M, U[:, k] + W[:, k] - model.Cqdot(q, qd) - model.g(q))
+        xc = np.array([qd[0] - qdr[0], q[0] - qr[0], ei[0, k]])
+        acc = np.array([qdd[0] - qddr[0], qdd[1]])
+        cost.append(100 * xc[2] ** 2 + 500 * xc[1] ** 2 + 40 * xc[0] ** 2 + 3.0 * qd[1] ** 2
+                    + acc @ E @ acc)
+        Mi = np.linalg.inv(M)
+        wpw.append(W[:, k] @ Mi @ E @ Mi @ W[:, k])
+        gam2.append(winf_gamma(M, E) ** 2)
+        V.append(gc.value(xc) + gs.value([qd[1]]))
+    z2 = np.trapezoid(cost, t)
+    lhs = 2 * (V[-1] - V[0]) + z2
+    assert lhs == pytest.approx(np.trapezoid(wpw, t), rel=2e-3, abs=1e-3)
+    assert z2 <= max(gam2) * np.trapezoid(np.sum(W ** 2, axis=0), t) + 2 * V[0]
