@@ -180,8 +180,24 @@ def _ladder(solve_at, g_opt, delta, deliberate, res):
 
 
 # --------------------------------------------------------------------------- state feedback
+def compress_performance(p):
+    """Same plant with z replaced by U^T z, U an orthonormal basis of range [C1 D11 D12].
+
+    |z| is unchanged (the dropped components vanish identically); the W-infinity channel
+    has 2n rows but rank <= n + nw + nu, so the BRL block shrinks (faster SDP).
+    """
+    M = np.hstack([p.C1, p.D11, p.D12])
+    if M.shape[0] <= M.shape[1]:
+        return p
+    U, sv, _ = np.linalg.svd(M, full_matrices=False)
+    r = max(1, int(np.sum(sv > 1e-12 * max(sv.max(), 1e-300))))
+    U = U[:, :r]
+    return GeneralizedPlant(p.A, p.B1, p.B2, U.T @ p.C1, U.T @ p.D11, U.T @ p.D12, p.C2, p.D21)
+
+
 def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS):
     """BRL (gamma^2 form, Schur complement of (6.5)) for each vertex with a common X, W."""
+    plants = [compress_performance(p) for p in plants]
     p0 = plants[0]
     n, nu = p0.n, p0.nu
     prog = LMIProgram()
@@ -303,6 +319,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
 
 # --------------------------------------------------------------------------- output feedback
 def _of_program(p, *, region, gamma2, input_weight, gain_bound, strictly_proper, margin=EPS):
+    p = compress_performance(p)
     n, nu, ny = p.n, p.nu, p.ny
     prog = LMIProgram()
     X, Y = prog.sym(n), prog.sym(n)
