@@ -164,3 +164,23 @@ def test_bad_input_errors():
         state_feedback(p, backend="matlab")
     with pytest.raises(ValueError, match="disk radius"):
         disk(-1)
+
+
+def test_fixed_gamma_request_minimizes_gain_and_certifies():
+    p = sgc_example7()
+    free = state_feedback(p, region=disk(50.0))
+    g = 1.5 * free.gamma
+    r = state_feedback(p, region=disk(50.0), gamma=g)
+    assert r.gamma == g and r.certificate.achieved <= g * (1 + 1e-4)
+    assert np.linalg.norm(r.K) <= np.linalg.norm(free.K) * (1 + 1e-6)  # relaxed gamma: smaller gain
+
+
+def test_performance_compression_preserves_norm():
+    from sobolev_drake.synthesis.hinf import compress_performance
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(4, 4)) - 4 * np.eye(4)
+    p = winf_plant(A, rng.normal(size=(4, 1)), rng.normal(size=(4, 1)), np.eye(4), 0.1 * np.eye(4))
+    q = compress_performance(p)
+    assert q.nz < p.nz
+    K = rng.normal(size=(1, 4))
+    assert np.isclose(hinf_norm(*p.closed_loop(K=K))[0], hinf_norm(*q.closed_loop(K=K))[0], rtol=1e-9)
