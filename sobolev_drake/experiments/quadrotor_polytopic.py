@@ -58,7 +58,7 @@ DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) be
 #: certificate tolerance of the unregularized W∞ optimum: it sits on the feedthrough bound and
 #: Clarabel stops "optimal_inaccurate" with ‖T‖∞ up to ~0.2 % above its γ (measured)
 W_RTOL = 1e-2
-RHO_TUNED = 100.0  # smoke mode (no search); a full run reports the ρ it found
+RHO_TUNED = 143.3  # smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2)
 
 
 def _params():
