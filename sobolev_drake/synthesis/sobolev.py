@@ -104,6 +104,43 @@ def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
     return float(np.sqrt(g.value(out.x)[0, 0])), K
 
 
+def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
+    """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*); returns gamma.
+
+    The thesis' (2,1) block is 0: the free Gahinet-Apkarian variable Ak has been set to
+    -(A + B Df C)^T, which does not change the optimum. Used to cross-check
+    :func:`winf_output_feedback` (same optimal gamma).
+    """
+    A, B, D = _abd(A, B, D)
+    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
+    C = as_matrix("C", C, (None, n))
+    ny = C.shape[0]
+    G0 = check_weight("Gamma0", Gamma0, n)
+    G1 = check_weight("Gamma1", Gamma1, n)
+    prog = LMIProgram()
+    S, W = prog.sym(n), prog.sym(n)
+    Bs, Cs, Df, g = prog.full(n, ny), prog.full(nu, n), prog.full(nu, ny), prog.scalar()
+    I = np.eye(n)
+    prog.add_pos(bmat([[S, I], [I, W]]), 1e-6)
+    Psi1 = (A @ S + B @ Cs).sym()
+    Psi3 = (W @ A + Bs @ C).sym()
+    ABC = A + B @ Df @ C
+    # rows of the lower blocks ordered (w, Gamma0, Gamma1) as in Psi6
+    col_x = bmat([[np.zeros((nw, n)) + D.T], [S], [A @ S + B @ Cs]])
+    col_y = bmat([[D.T @ W], [I], [ABC]])
+    Psi6 = bmat([[-g * np.eye(nw), None, D.T],
+                 [None, -np.linalg.inv(G0), None],
+                 [D, None, -np.linalg.inv(G1)]])
+    prog.add_lmi(bmat([[Psi1, np.zeros((n, n)), col_x.T],
+                       [np.zeros((n, n)), Psi3, col_y.T],
+                       [col_x, col_y, Psi6]]), 1e-7)
+    prog.minimize(g)
+    out = prog.solve(backend)
+    if not out.success:
+        raise InfeasibleLMIError(f"(6.22) not solved: {out.status}", out.status)
+    return float(np.sqrt(g.value(out.x)[0, 0]))
+
+
 # --------------------------------------------------------------------------- disturbance model
 @dataclass
 class DegeneracyReport:
