@@ -11,6 +11,25 @@ The HTML written by ``Meshcat.StaticHtml()`` inlines the three.js viewer and the
 animation; it loads no external script (checked by :func:`external_script_sources`, which the
 tests assert empty).  The viewer's JavaScript still *mentions* a CDN URL (WebXR controller
 profiles, fetched only if the user enters VR mode), which is harmless offline.
+
+Framing the vehicle (Meshcat's default camera sits at (0, −3, 1) m looking at the origin, so a
+vehicle 2 m up or 2 km away is out of view)::
+
+    frame_camera(meshcat, target=[0, 0, 2], radius=1.0)          # static view of a 1 m object
+    t, p = trajectory_from_log(logger.FindLog(context), indices=(5, 6, 7))  # or plant=, body=
+    follow_camera(recorder, t, p, meshcat=meshcat, radius=1.5)   # camera rides along
+    save_recording_html(meshcat, recorder, out_dir / "run.html")
+
+``follow_camera`` writes the translation p(t) − p(t₀) of the camera rig ``/Cameras/default``
+into the recording (one keyframe per animation frame) and points the camera at p(t₀).  Mouse
+orbit/zoom/pan keep working while the animation plays: the user's view offset rides along with
+the vehicle.  Meshcat's viewer alone would not do this (three.js OrbitControls keep the camera
+position in the rig frame but aim at the target as a *world* point, so a translated rig keeps
+staring at the start point); :func:`save_recording_html` therefore adds a short inline script
+(:data:`FOLLOW_CAMERA_JS`) that aims at the target expressed in the rig frame, only when the
+recording animates the rig.  Checked in headless Chromium on a 2 km flight (vehicle centred
+at every sampled time).  Call ``follow_camera`` after the simulation and before
+``save_recording_html``; the recorder's frame rate is 1/publish_period.
 """
 
 from __future__ import annotations
@@ -26,10 +45,13 @@ if os.environ.get("MPLBACKEND") is None:  # headless default; users may still ch
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Rgba  # noqa: E402
+from pydrake.math import RigidTransform  # noqa: E402
 
 __all__ = [
     "start_meshcat", "add_meshcat_recorder", "save_recording_html", "external_script_sources",
     "save_figure", "plot_time_series", "draw_path",
+    "frame_camera", "camera_position", "follow_camera", "trajectory_from_log", "meshcat_commands",
+    "animation_keyframes", "FOLLOW_CAMERA_PATH", "FOLLOW_CAMERA_JS",
 ]
 
 
@@ -85,6 +107,8 @@ def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> 
     bad = external_script_sources(html)
     if bad:
         raise RuntimeError(f"Meshcat StaticHtml references external resources: {bad[:3]}")
+    if _animates_camera_rig(html):
+        html = _inject_follow_script(html)
     path.write_text(html, encoding="utf-8")
     return path
 
@@ -162,3 +186,261 @@ def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t
         fig.suptitle(title)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+# --- camera framing -----------------------------------------------------------------------------
+FOLLOW_CAMERA_PATH = "/Cameras/default"
+_MESHCAT_FOV_DEG = 75.0  # vertical field of view of Meshcat's default perspective camera
+
+# Inline script added by save_recording_html when the recording animates the camera rig.
+# OrbitControls compute the camera position as target + offset in the camera's parent frame but
+# call Object3D.lookAt(target), which takes a world point; aiming at the target mapped through
+# the parent's world matrix makes orbiting consistent inside a moving rig (a no-op for a rig at
+# the origin).  Re-applied on every render, so a camera replaced later is patched as well.
+FOLLOW_CAMERA_JS = """<script>
+// sobolev_drake.viz.follow_camera: aim the camera at the orbit target expressed in the frame of
+// the (animated) camera rig /Cameras/default, so the view follows the recorded vehicle.
+(function () {
+  function patch() {
+    var cam = viewer.camera;
+    if (!cam || cam.sobolevFollow) { return; }
+    var lookAt = cam.lookAt;
+    cam.lookAt = function (v) {
+      if (v && v.isVector3 && this.parent) {
+        this.parent.updateWorldMatrix(true, false);
+        return lookAt.call(this, this.parent.localToWorld(v.clone()));
+      }
+      return lookAt.apply(this, arguments);
+    };
+    cam.sobolevFollow = true;
+  }
+  var render = viewer.render;
+  viewer.render = function () { patch(); return render.apply(viewer, arguments); };
+})();
+</script>
+"""
+
+
+def _point(name: str, v) -> np.ndarray:
+    a = np.asarray(v, dtype=float).reshape(-1)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be a finite 3-vector (x, y, z) in Drake's world frame, got {v!r}")
+    return a
+
+
+def camera_position(target, *, distance: float | None = None, radius: float = 1.0,
+                    elevation_deg: float = 20.0, azimuth_deg: float = -90.0) -> np.ndarray:
+    """Camera location looking at ``target`` (world frame, z up) from ``distance`` metres.
+
+    ``azimuth_deg`` is measured about +z from +x (−90°: camera on the −y side, Meshcat's
+    default direction), ``elevation_deg`` above the horizontal.  ``distance=None`` fits a sphere
+    of ``radius`` into Meshcat's 75° vertical field of view with a 20 % margin.
+    """
+    target = _point("target", target)
+    if distance is None:
+        if not (np.isfinite(radius) and radius > 0):
+            raise ValueError(f"radius must be positive and finite, got {radius}")
+        distance = 1.2 * radius / np.sin(np.radians(_MESHCAT_FOV_DEG / 2))
+    if not (np.isfinite(distance) and distance > 0):
+        raise ValueError(f"distance must be positive and finite, got {distance}")
+    if not (np.isfinite(elevation_deg) and abs(elevation_deg) < 90):
+        raise ValueError(f"elevation_deg must be in (−90, 90), got {elevation_deg}")
+    el, az = np.radians(elevation_deg), np.radians(azimuth_deg)
+    return target + float(distance) * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+
+
+def frame_camera(meshcat: Meshcat, target, **view) -> np.ndarray:
+    """Static view: put Meshcat's camera at :func:`camera_position` (same keywords) looking at
+    ``target`` (also the orbit centre).  Resets the rig ``/Cameras/default`` to the origin.
+    Returns the camera position."""
+    cam = camera_position(target, **view)
+    meshcat.SetCameraPose(cam, _point("target", target))
+    return cam
+
+
+def _trajectory(times, positions) -> tuple[np.ndarray, np.ndarray]:
+    t = np.asarray(times, dtype=float)
+    P = np.asarray(positions, dtype=float)
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"times must be a non-empty 1-D array, got shape {t.shape}")
+    if P.ndim == 2 and P.shape == (3, t.size) and t.size != 3:
+        P = P.T  # accept (3, N) logs as well
+    if P.shape != (t.size, 3):
+        raise ValueError(f"positions must be (N, 3) (or (3, N)) with N = len(times) = {t.size}, got shape {P.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("times must be finite")
+    if np.any(np.diff(t) < 0):
+        raise ValueError("times must be non-decreasing")
+    bad = ~np.all(np.isfinite(P), axis=1)
+    if np.any(bad):
+        raise ValueError(f"positions must be finite: {int(bad.sum())} non-finite rows, first at t = {t[bad][0]:g}")
+    return t, P
+
+
+def follow_camera(recorder, times, positions, *, meshcat: Meshcat | None = None, follow_axes: str = "xyz",
+                  **view) -> int:
+    """Write a follow camera into a recording: the rig ``/Cameras/default`` is translated by
+    p(t) − p(t₀) at every animation frame in [t₀, t_end] (positions linearly interpolated).
+
+    ``recorder`` is the MeshcatVisualizer from :func:`add_meshcat_recorder` (or its
+    ``MeshcatAnimation``); ``positions`` (N, 3) or (3, N) world positions at ``times`` (N,),
+    e.g. from :func:`trajectory_from_log`.  ``follow_axes`` selects the followed world axes
+    (``"xy"`` keeps the camera height).  With ``meshcat`` given, the camera is first placed by
+    :func:`frame_camera` around p(t₀) with ``view`` (distance / radius / elevation_deg /
+    azimuth_deg).  Call after simulating, before :func:`save_recording_html`.  Returns the number
+    of keyframes written (frames are ``round((t − start) · fps)`` as in Drake's recorder).
+    """
+    anim = recorder.get_mutable_recording() if hasattr(recorder, "get_mutable_recording") else recorder
+    if not hasattr(anim, "SetTransform") or not hasattr(anim, "frames_per_second"):
+        raise TypeError(f"recorder must be a recording MeshcatVisualizer or a MeshcatAnimation, got {type(recorder).__name__}")
+    t, P = _trajectory(times, positions)
+    if not follow_axes or set(follow_axes) - set("xyz"):
+        raise ValueError(f"follow_axes must be a non-empty subset of 'xyz', got {follow_axes!r}")
+    mask = np.array([a in follow_axes for a in "xyz"], dtype=float)
+    fps, start = float(anim.frames_per_second()), float(anim.start_time())
+    f0 = max(0, int(np.ceil((t[0] - start) * fps - 1e-6)))
+    f1 = int(np.floor((t[-1] - start) * fps + 1e-6))
+    if f1 < f0:
+        raise ValueError(f"times span [{t[0]:g}, {t[-1]:g}] s contains no animation frame (fps {fps:g}, start {start:g})")
+    frames = np.arange(f0, f1 + 1)
+    tf = np.clip(start + frames / fps, t[0], t[-1])
+    Pf = np.column_stack([np.interp(tf, t, P[:, i]) for i in range(3)])
+    if meshcat is not None:
+        frame_camera(meshcat, P[0], **view)
+    for f, p in zip(frames, Pf):
+        anim.SetTransform(int(f), FOLLOW_CAMERA_PATH, RigidTransform(mask * (p - P[0])))
+    return int(frames.size)
+
+
+def trajectory_from_log(log, *, indices=None, plant=None, body=None) -> tuple[np.ndarray, np.ndarray]:
+    """(times (N,), positions (N, 3)) for :func:`follow_camera` from a logged signal.
+
+    ``log`` is a Drake ``VectorLog`` (``logger.FindLog(context)``) or a pair ``(t, data)`` with
+    ``data`` shaped (size, N) like ``VectorLog.data()``.  Either ``indices`` — the three rows
+    holding x, y, z (e.g. (5, 6, 7) of the tilt-rotor's thesis state [αR αL φ θ ψ x y z …],
+    (3, 4, 5) of the quadrotor's) — or ``plant`` and ``body`` (a Body or body name): then ``log``
+    is the plant state (``plant.get_state_output_port()``) and the body origin is computed by
+    forward kinematics.
+    """
+    if hasattr(log, "sample_times"):
+        t, data = np.asarray(log.sample_times(), float), np.asarray(log.data(), float)
+    else:
+        try:
+            t, data = (np.asarray(a, float) for a in log)
+        except (TypeError, ValueError) as e:
+            raise TypeError("log must be a VectorLog or a (times, data) pair") from e
+    if data.ndim != 2 or data.shape[1] != t.size:
+        raise ValueError(f"log data must be (size, N) with N = {t.size} samples, got shape {data.shape}")
+    if (indices is None) == (plant is None):
+        raise ValueError("give either indices=(ix, iy, iz) or plant= and body=")
+    if indices is not None:
+        idx = [int(i) for i in indices]
+        if len(idx) != 3 or min(idx) < -data.shape[0] or max(idx) >= data.shape[0]:
+            raise ValueError(f"indices must be 3 rows of the {data.shape[0]}-row log, got {indices!r}")
+        return t, data[idx].T.copy()
+    if body is None:
+        raise ValueError("body is required with plant= (a Body or a body name)")
+    b = plant.GetBodyByName(body) if isinstance(body, str) else body
+    nq = plant.num_positions()
+    if data.shape[0] not in (nq, nq + plant.num_velocities()):
+        raise ValueError(f"log rows ({data.shape[0]}) must be the plant's positions ({nq}) or state "
+                         f"({nq + plant.num_velocities()})")
+    ctx = plant.CreateDefaultContext()
+    P = np.empty((t.size, 3))
+    for k in range(t.size):
+        plant.SetPositions(ctx, data[:nq, k])
+        P[k] = plant.EvalBodyPoseInWorld(ctx, b).translation()
+    return t, P
+
+
+# --- reading the recorded commands back (tests, claims) -------------------------------------------
+def _unpack(b: bytes, i: int = 0):
+    """Minimal msgpack decoder (the subset Meshcat emits); returns (value, next index)."""
+    import struct
+    c = b[i]
+    if c <= 0x7F or c >= 0xE0:
+        return (c if c <= 0x7F else c - 256), i + 1
+    if 0x80 <= c <= 0x9F:
+        n, i, is_map = c & 0x0F, i + 1, c <= 0x8F
+    elif c in (0xDC, 0xDD, 0xDE, 0xDF):
+        f = ">H" if c in (0xDC, 0xDE) else ">I"
+        n, i, is_map = struct.unpack_from(f, b, i + 1)[0], i + 1 + struct.calcsize(f), c >= 0xDE
+    elif 0xA0 <= c <= 0xBF:
+        n = c & 0x1F
+        return b[i + 1:i + 1 + n].decode(), i + 1 + n
+    elif c in (0xC0, 0xC2, 0xC3):
+        return {0xC0: None, 0xC2: False, 0xC3: True}[c], i + 1
+    else:
+        num = {0xCA: ">f", 0xCB: ">d", 0xCC: ">B", 0xCD: ">H", 0xCE: ">I", 0xCF: ">Q",
+               0xD0: ">b", 0xD1: ">h", 0xD2: ">i", 0xD3: ">q"}
+        if c in num:
+            return struct.unpack_from(num[c], b, i + 1)[0], i + 1 + struct.calcsize(num[c])
+        lens = {0xC4: ">B", 0xC5: ">H", 0xC6: ">I", 0xD9: ">B", 0xDA: ">H", 0xDB: ">I",
+                0xC7: ">B", 0xC8: ">H", 0xC9: ">I"}
+        fixext = {0xD4: 1, 0xD5: 2, 0xD6: 4, 0xD7: 8, 0xD8: 16}
+        if c in fixext:
+            n, j = fixext[c], i + 1
+        elif c in lens:
+            n = struct.unpack_from(lens[c], b, i + 1)[0]
+            j = i + 1 + struct.calcsize(lens[c])
+        else:
+            raise ValueError(f"unsupported msgpack byte 0x{c:02x} at {i}")
+        if c in fixext or c >= 0xC7 and c <= 0xC9:  # ext: (type, raw bytes)
+            return ("ext", b[j], bytes(b[j + 1:j + 1 + n])), j + 1 + n
+        raw = bytes(b[j:j + n])
+        return (raw.decode() if c >= 0xD9 else raw), j + n
+    out = {} if is_map else []
+    for _ in range(n):
+        if is_map:
+            k, i = _unpack(b, i)
+            out[k], i = _unpack(b, i)
+        else:
+            v, i = _unpack(b, i)
+            out.append(v)
+    return out, i
+
+
+_BLOB = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")
+
+
+def meshcat_commands(html: str) -> list[dict]:
+    """The Meshcat commands embedded in a ``StaticHtml()`` page, decoded (dicts with ``type``,
+    ``path``, …); assets that are not commands are skipped."""
+    import base64
+    out = []
+    for m in _BLOB.finditer(html):
+        raw = base64.b64decode(m.group(1))
+        try:
+            v, _ = _unpack(raw)
+        except (ValueError, IndexError, UnicodeDecodeError, KeyError):
+            continue
+        if isinstance(v, dict) and "type" in v:
+            out.append(v)
+    return out
+
+
+def animation_keyframes(html: str) -> dict[str, dict[str, int]]:
+    """{scene path: {track name: number of keyframes}} of the animation in a StaticHtml page."""
+    out: dict[str, dict[str, int]] = {}
+    for cmd in meshcat_commands(html):
+        if cmd.get("type") != "set_animation":
+            continue
+        for a in cmd.get("animations", []):
+            tracks = out.setdefault(a.get("path"), {})
+            for tr in a.get("clip", {}).get("tracks", []):
+                tracks[tr.get("name")] = len(tr.get("keys", []))
+    return out
+
+
+def _animates_camera_rig(html: str) -> bool:
+    import base64
+    key = FOLLOW_CAMERA_PATH.encode()
+    return any(b"set_animation" in raw and key in raw
+               for raw in (base64.b64decode(m.group(1)) for m in _BLOB.finditer(html)))
+
+
+def _inject_follow_script(html: str) -> str:
+    anchor = html.rfind("</body>")
+    if anchor < 0:
+        raise RuntimeError("Meshcat StaticHtml has no </body>: cannot add the follow-camera script")
+    return html[:anchor] + FOLLOW_CAMERA_JS + html[anchor:]
