@@ -99,3 +99,20 @@ def test_smoke_runs_give_finite_tables(module, tmp_path):
     assert res.claims and all(isinstance(c.held, bool) for c in res.claims)
     for path in res.outputs.values():
         assert path.exists()
+
+
+def test_balance_allocation_is_bounded_least_squares():
+    """The closed-form single-input allocation equals the general bounded LS solver and, inside
+    the limit, the thesis' B†u* (5.118)."""
+    from sobolev_drake.systems.allocation import bounded_least_squares
+
+    B = np.array([[1.0], [-1.0]])
+    alloc = bc.make_allocation(5.0)
+    free = bc.make_allocation(None)
+    rng = np.random.default_rng(0)
+    for u in rng.normal(scale=8.0, size=(20, 2)):
+        ref = bounded_least_squares(B, u, [-5.0], [5.0])
+        np.testing.assert_allclose(alloc(u, None, None), ref, atol=1e-9)
+        np.testing.assert_allclose(free(u, None, None), np.linalg.pinv(B) @ u, atol=1e-12)
+    with pytest.raises(ValueError, match="torque_limit"):
+        bc.run(".", smoke=True, torque_limit=-1.0)

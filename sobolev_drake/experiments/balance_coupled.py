@@ -18,8 +18,9 @@ balanced by a motor torque whose reaction accelerates the wheels at wθ/((M+m)r�
 ramps up during 22–32 s and stays (Υ0 is small); ISE ϕ̇ ≈ 5·10⁴ is physics, not a defect.
 
 Actuator limit: the thesis prints none.  The motor torque is bounded by ``torque_limit``
-(default 50 N m, just above the 48.9 N m the W law asks at t = 0) through the law's bounded
-least squares; the claims report the saturated time.  ``torque_limit=None`` removes it.
+(default 50 N m, just above the 48.9 N m the W law asks at t = 0) through the law's allocation
+hook (:func:`make_allocation`: bounded least squares, closed form for one input); the claims
+report the saturated time.  ``torque_limit=None`` removes it.
 
 H∞ baseline (Raffo et al. 2015 structure, DESIGN §4.3) tuned by the thesis' rule for this table:
 same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tune`` on ωu
@@ -89,6 +90,14 @@ def annihilator_residual(run, model) -> np.ndarray:
     return out
 
 
+def make_allocation(limit):
+    """τ = B†u* = (u*_ϕ − u*_θ)/2 (5.118), saturated to ±``limit``: with a single input this is
+    exactly the bounded least-squares allocation min ‖u* − Bτ‖ s.t. |τ| ≤ limit (a convex 1-D
+    quadratic's constrained minimizer is its clipped unconstrained one), without a QP solve."""
+    hi = np.inf if limit is None else float(limit)
+    return lambda u, q, qd: np.array([min(max(0.5 * (u[0] - u[1]), -hi), hi)])
+
+
 def saturated_fraction(run, limit) -> float:
     if limit is None:
         return 0.0
@@ -101,11 +110,12 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0)
     out_dir = Path(out_dir)
     duration = float(duration or (1.0 if smoke else 40.0))
     lim = None if torque_limit is None else float(torque_limit)
-    lo, hi = (None, None) if lim is None else ([-lim], [lim])
+    if lim is not None and not lim > 0:
+        raise ValueError(f"torque_limit must be positive or None, got {torque_limit!r}")
     w_inner = sobolev_inner()
     model = make_two_wheeled_model()
     loop = build_loop(add_two_wheeled, model, PARTITION, w_inner, reference(), disturbance(),
-                      lower=lo, upper=hi, record=record)
+                      allocation=make_allocation(lim), record=record)
     law = loop.controller.law
     outputs, claims = {}, []
     w_run = run_loop(loop, w_inner, duration, Q0, QD0, label="W2/W∞")
