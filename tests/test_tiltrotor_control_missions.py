@@ -94,6 +94,32 @@ def test_newton_speed_matches_bracketing_solver():
     assert tc.newton_speed_for_thrust(c, f, v, phi, np.zeros(2)) is None
 
 
+def test_envelope_is_the_flagship():
+    from sobolev_drake.experiments import REGISTRY
+    from sobolev_drake.experiments import tiltrotor_missions  # noqa: F401
+    assert REGISTRY["tiltrotor-envelope"].flagship == 10
+
+
+def test_phase_bookkeeping_and_pulses():
+    from sobolev_drake.experiments import tiltrotor_missions as tm
+    ph = tm.scenario_2_phases(250.0)
+    assert [p[0] for p in ph] == ["accelerate_climb", "cruise_1", "turn", "cruise_2",
+                                  "decelerate_descend", "hold"]
+    assert [p[1] for p in ph] == [0, 66, 86, 146, 166, 232] and ph[-1][2] == 250.0
+    assert [p[0] for p in tm.scenario_2_phases(10.0)] == ["accelerate_climb"]
+    t, v = tm.pulses([{"axis": "y", "value": 5.0, "from": 2.0, "to": 3.0},
+                      {"axis": "y", "value": 1.0, "from": 2.5, "to": 4.0}], 10.0)
+    assert list(t) == [0, 2, 2.5, 3, 4, 10]
+    assert list(v[1]) == [0, 5, 6, 1, 0, 0] and not v[[0, 2]].any()
+    tt = np.linspace(0, 10, 101)
+    pos = np.zeros((3, 101))
+    ref = np.zeros((3, 101))
+    pos[0, tt >= 5] = 2.0
+    rows = tm.phase_metrics(tt, pos, ref, [("a", 0, 5, "hover"), ("b", 5, 10, "cruise")])
+    assert rows[0]["rms_m"] == 0 and rows[1]["rms_m"] == pytest.approx(2.0)
+    assert rows[0]["goal_met"] and rows[1]["goal_met"]
+
+
 def test_law_rejects_bad_inputs(law):
     q = np.zeros(8)
     with pytest.raises(ValueError, match="reference"):
@@ -108,9 +134,10 @@ def test_law_rejects_bad_inputs(law):
 
 @pytest.fixture(scope="module", params=["tiltrotor-hover", "tiltrotor-envelope"])
 def smoke(request, tmp_path_factory):
-    from sobolev_drake.experiments import get
+    from sobolev_drake.experiments import REGISTRY
+    from sobolev_drake.experiments import tiltrotor_missions  # noqa: F401  (registers both)
     out = tmp_path_factory.mktemp(request.param)
-    return get(request.param).run(out, duration=None, record=False, smoke=True), out
+    return REGISTRY[request.param].run(out, duration=None, record=False, smoke=True), out
 
 
 def test_smoke_mission_flies(smoke):
