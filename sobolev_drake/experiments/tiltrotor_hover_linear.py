@@ -256,7 +256,11 @@ def indices(data, trim):
     e = q[[4, 5, 6, 7]]
     ints = np.concatenate([np.zeros((4, 1)), np.cumsum(0.5 * (e[:, 1:] + e[:, :-1]) * np.diff(t), axis=1)], axis=1)
     dx = np.vstack([q, qd, ints])
-    return {"ise": float(np.sum(ise(t, dx.T))), "iadu": float(np.sum(iadu(t, data["du"].T))),
+    per = np.asarray(ise(t, dx.T), dtype=float)
+    groups = {"tilt": [0, 1], "attitude": [2, 3, 4], "position": [5, 6, 7], "rates": list(range(8, 16)),
+              "integrals": [16, 17, 18, 19]}
+    return {"ise": float(np.sum(per)), "iadu": float(np.sum(iadu(t, data["du"].T))),
+            "ise_by_group": {k: float(per[v].sum()) for k, v in groups.items()},
             "rms_pos_m": float(np.sqrt(np.mean(np.sum(q[5:8] ** 2, axis=0)))),
             "final_pos_err_m": float(np.linalg.norm(q[5:8, -1])),
             "max_tilt_deg": float(np.degrees(np.max(np.abs(x[:2])))),
