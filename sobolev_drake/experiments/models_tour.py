@@ -14,6 +14,10 @@ models against physics:
 * tilt-rotor (if its model is available): open loop at the hover trim (n ≈ 51.9 rev/s,
   τs ≈ −0.127 N m, thesis 7.3.1): the trim must be an equilibrium of the simulated diagram.
 
+Each recording frames its model: the camera follows the model's main body (origin from the
+plant state log, :func:`sobolev_drake.viz.follow_camera`), so the tilt-rotor hovering 2 m up and
+the drifting quadrotor stay in view; the mouse still orbits and zooms.
+
 This is the lowest-priority flagship (``make demo`` runs it only if no mission is registered).
 """
 
@@ -29,6 +33,14 @@ from sobolev_drake.experiments import Claim, ExperimentResult, register
 
 DEFAULT_DURATION = 3.0
 SMOKE_DURATION = 0.4
+#: per model: body the camera follows, radius of the sphere to keep in view [m], followed axes
+VIEWS = {"two_wheeled": ("axle", 1.0, "xy"), "arm": ("link1", 2.3, "xyz"),
+         "quadrotor": ("body", 0.9, "xyz"), "tiltrotor": ("body", 1.3, "xyz")}
+
+
+def viz_path() -> str:
+    from sobolev_drake.viz import FOLLOW_CAMERA_PATH
+    return FOLLOW_CAMERA_PATH
 
 
 def _energy(plant, context) -> float:
@@ -78,10 +90,11 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
         src = builder.AddSystem(ConstantVectorSource(u_const))
         builder.Connect(src.get_output_port(), h.u)
     logger = LogVectorOutput(h.x, builder)
-    meshcat = recorder = None
+    meshcat = recorder = plant_logger = None
     if record:
         meshcat = viz.start_meshcat()
         recorder = viz.add_meshcat_recorder(builder, h.scene_graph, meshcat)
+        plant_logger = LogVectorOutput(h.plant.get_state_output_port(), builder)  # for the camera
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
     h.set_state(context, diagram, np.asarray(q0, float), np.asarray(qd0, float))
@@ -99,8 +112,17 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
     outputs[f"{name} states"] = viz.plot_time_series(
         t, {"q": x[:, :n], "qdot": x[:, n:]}, out_dir / f"{name}_states.png",
         labels={"q": names, "qdot": [f"d{s}/dt" for s in names]}, title=f"{name} under gravity (open loop)")
+    camera_keyframes = 0
     if record:
-        outputs[f"{name} recording"] = viz.save_recording_html(meshcat, recorder, out_dir / f"{name}.html")
+        body, radius, axes = VIEWS.get(name, (None, 1.5, "xyz"))
+        if body is not None:
+            tb, pb = viz.trajectory_from_log(plant_logger.FindLog(sim.get_context()), plant=h.plant, body=body)
+            camera_keyframes = viz.follow_camera(recorder, tb, pb, meshcat=meshcat, radius=radius,
+                                                 elevation_deg=15.0, azimuth_deg=-110.0, follow_axes=axes)
+        html = viz.save_recording_html(meshcat, recorder, out_dir / f"{name}.html")
+        outputs[f"{name} recording"] = html
+        keys = viz.animation_keyframes(html.read_text(encoding="utf-8")).get(viz.FOLLOW_CAMERA_PATH, {})
+        camera_keyframes = min(camera_keyframes, keys.get(".position", 0))  # what the page really holds
     # work of the non-conservative generalized forces the adapter adds (friction −K(q̇))
     friction = getattr(h.model, "friction", None)
     work = 0.0
@@ -108,7 +130,7 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
         power = np.array([-friction(xk[n:]) @ xk[n:] for xk in x])
         work = float(np.trapezoid(power, t))
     return {"t": t, "x": x, "e0": e0, "e1": e1, "steps": sim.get_num_steps_taken(), "n": n,
-            "u": u_const, "outputs": outputs, "work": work}
+            "u": u_const, "outputs": outputs, "work": work, "camera_keyframes": camera_keyframes}
 
 
 @register("models-tour", "Every plant (two-wheeled, arm, quadrotor, tilt-rotor) under gravity, "
@@ -128,6 +150,12 @@ def run(out_dir: Path, *, duration=None, record=True, smoke=False) -> Experiment
         rel = (r["e1"] - r["e0"]) / max(abs(r["e0"]), 1.0)
         rows.append([name, r["n"], T, r["e0"], r["e1"], rel, r["work"], r["steps"]])
         result.metrics[f"{name}_energy_change_rel"] = rel
+        if record:
+            result.metrics[f"{name}_camera_keyframes"] = r["camera_keyframes"]
+            expected = int(np.floor(T * 32 + 1e-6)) + 1  # recorder at 32 frames/s over [0, T]
+            result.claims.append(Claim(f"{name} recording: follow camera keyed at every animation frame",
+                                       r["camera_keyframes"] == expected,
+                                       f"{r['camera_keyframes']} keyframes on {viz_path()} (expected {expected})"))
         x = r["x"]
         if name == "arm":
             result.claims.append(Claim("arm without friction or input conserves energy (|ΔE|/E < 1e-3)",
