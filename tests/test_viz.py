@@ -134,3 +134,131 @@ def test_write_table_and_reproduction(tmp_path):
                                   (123456.0, "123456"), (1.5e6, "1.5e+06"), (3, "3"), (True, "yes"), (None, "—"), (2500.0, "2500")])
 def test_number_format(x, s):
     assert report.fmt(x) == s
+
+
+# --- camera framing ---------------------------------------------------------------------------------
+def swing_recording(meshcat, duration=1.0):
+    """Simulated pendulum recording; returns (recorder, times, bob positions (N, 3), plant, log)."""
+    diagram, plant, rec, logger = pendulum_diagram(meshcat)
+    ctx = diagram.CreateDefaultContext()
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(ctx), [1.0])
+    simulate(diagram, ctx, duration, progress=False)
+    log = logger.FindLog(ctx)
+    t, p = viz.trajectory_from_log(log, plant=plant, body="bob")
+    return rec, t, p, plant, log
+
+
+def camera_commands(html):
+    cmds = viz.meshcat_commands(html)
+    target = [c["value"] for c in cmds if c["type"] == "set_target"]
+    position = [c["value"] for c in cmds if c.get("path") == "/Cameras/default/rotated/<object>"
+                and c.get("property") == "position"]
+    return target, position
+
+
+def test_camera_position_geometry():
+    target = np.array([1.0, -2.0, 3.0])
+    cam = viz.camera_position(target, distance=5.0, elevation_deg=30.0, azimuth_deg=-90.0)
+    d = cam - target
+    assert np.linalg.norm(d) == pytest.approx(5.0)
+    assert np.degrees(np.arcsin(d[2] / 5.0)) == pytest.approx(30.0)
+    assert d[0] == pytest.approx(0.0, abs=1e-12) and d[1] < 0  # −90°: on the −y side
+    # distance from radius: a sphere of that radius fills 1/1.2 of the 75° vertical field of view
+    cam = viz.camera_position(target, radius=2.0)
+    half = np.arcsin(2.0 / np.linalg.norm(cam - target))
+    assert np.degrees(half) == pytest.approx(37.5 / 1.2, rel=0.03)
+    with pytest.raises(ValueError, match="target"):
+        viz.camera_position([0, 0])
+    with pytest.raises(ValueError, match="distance"):
+        viz.camera_position([0, 0, 0], distance=-1)
+    with pytest.raises(ValueError, match="elevation_deg"):
+        viz.camera_position([0, 0, 0], elevation_deg=90)
+
+
+def test_frame_camera_commands_in_three_js_coordinates():
+    meshcat = viz.start_meshcat()
+    cam = viz.frame_camera(meshcat, [1.0, 2.0, 3.0], distance=4.0, elevation_deg=0.0, azimuth_deg=0.0)
+    assert np.allclose(cam, [5.0, 2.0, 3.0])
+    target, position = camera_commands(meshcat.StaticHtml())
+    # Meshcat's camera lives in a y-up frame: (x, y, z)_drake -> (x, z, -y)
+    assert np.allclose(target[-1], [1.0, 3.0, -2.0])
+    assert np.allclose(position[-1], [5.0, 3.0, -2.0])
+
+
+def test_follow_camera_keyframes_in_static_html(tmp_path):
+    meshcat = viz.start_meshcat()
+    rec, t, p, plant, log = swing_recording(meshcat)
+    # the bob hangs 1 m below the pivot at the origin: |p| = 1, z = −cos q
+    assert np.allclose(np.linalg.norm(p, axis=1), 1.0)
+    assert np.allclose(p[:, 2], -np.cos(log.data()[0]))
+    fps = rec.get_mutable_recording().frames_per_second()
+    assert fps == pytest.approx(32.0)
+    n = viz.follow_camera(rec, t, p, meshcat=meshcat, radius=0.5)
+    assert n == int(round(t[-1] * fps)) + 1 == 33
+    html = viz.save_recording_html(meshcat, rec, tmp_path / "follow.html").read_text()
+    keys = viz.animation_keyframes(html)
+    assert keys[viz.FOLLOW_CAMERA_PATH] == {".position": n, ".quaternion": n}
+    assert viz.FOLLOW_CAMERA_JS in html and viz.external_script_sources(html) == []
+    # keyframe values: rig offset p(t) − p(t0) at t = frame / fps (linear interpolation of the log)
+    anim = next(c for c in viz.meshcat_commands(html) if c["type"] == "set_animation")
+    track = next(tr for a in anim["animations"] if a["path"] == viz.FOLLOW_CAMERA_PATH
+                 for tr in a["clip"]["tracks"] if tr["name"] == ".position")
+    frames = np.array([k["time"] for k in track["keys"]])
+    values = np.array([k["value"] for k in track["keys"]])
+    assert np.array_equal(frames, np.arange(n))
+    expect = np.column_stack([np.interp(frames / fps, t, p[:, i]) for i in range(3)]) - p[0]
+    assert np.allclose(values, expect, atol=1e-9)
+    assert np.ptp(values[:, 0]) > 0.5  # the bob really swings
+    # initial view centred on the bob's start position
+    target, _ = camera_commands(html)
+    assert np.allclose(target[-1], [p[0, 0], p[0, 2], -p[0, 1]])
+
+
+def test_follow_axes_and_indices_log(tmp_path):
+    meshcat = viz.start_meshcat()
+    rec, t, p, plant, log = swing_recording(meshcat, duration=0.5)
+    t2, p2 = viz.trajectory_from_log((t, np.vstack([p.T, np.zeros(t.size)])), indices=(0, 1, 2))
+    assert np.array_equal(t2, t) and np.array_equal(p2, p)
+    viz.follow_camera(rec.get_mutable_recording(), t, p.T, follow_axes="xy")  # animation object, (3, N)
+    html = viz.save_recording_html(meshcat, rec, tmp_path / "xy.html").read_text()
+    anim = next(c for c in viz.meshcat_commands(html) if c["type"] == "set_animation")
+    track = next(tr for a in anim["animations"] if a["path"] == viz.FOLLOW_CAMERA_PATH
+                 for tr in a["clip"]["tracks"] if tr["name"] == ".position")
+    assert all(k["value"][2] == 0.0 for k in track["keys"])  # height not followed
+
+
+def test_no_follow_script_without_camera_track(tmp_path):
+    meshcat = viz.start_meshcat()
+    rec, *_ = swing_recording(meshcat, duration=0.2)
+    html = viz.save_recording_html(meshcat, rec, tmp_path / "plain.html").read_text()
+    assert viz.FOLLOW_CAMERA_PATH not in viz.animation_keyframes(html)
+    assert viz.FOLLOW_CAMERA_JS not in html
+
+
+def test_follow_camera_bad_input():
+    meshcat = viz.start_meshcat()
+    rec, t, p, plant, log = swing_recording(meshcat, duration=0.2)
+    with pytest.raises(ValueError, match=r"positions must be \(N, 3\).*N = len\(times\)"):
+        viz.follow_camera(rec, t, p[:-1])
+    bad = p.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="positions must be finite: 1 non-finite"):
+        viz.follow_camera(rec, t, bad)
+    with pytest.raises(ValueError, match="times must be non-decreasing"):
+        viz.follow_camera(rec, t[::-1], p)
+    with pytest.raises(ValueError, match="times must be finite"):
+        viz.follow_camera(rec, np.full(t.size, np.inf), p)
+    with pytest.raises(ValueError, match="follow_axes"):
+        viz.follow_camera(rec, t, p, follow_axes="xw")
+    with pytest.raises(ValueError, match="no animation frame"):
+        viz.follow_camera(rec, [0.01, 0.02], p[:2])
+    with pytest.raises(TypeError, match="recorder"):
+        viz.follow_camera(plant, t, p)
+    with pytest.raises(ValueError, match="indices"):
+        viz.trajectory_from_log(log, indices=(0, 1, 5))
+    with pytest.raises(ValueError, match="either indices"):
+        viz.trajectory_from_log(log)
+    with pytest.raises(ValueError, match="log data"):
+        viz.trajectory_from_log((t, np.zeros((3, t.size + 1))), indices=(0, 1, 2))
+    with pytest.raises(ValueError, match="body is required"):
+        viz.trajectory_from_log(log, plant=plant)
