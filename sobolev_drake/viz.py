@@ -27,9 +27,18 @@ the vehicle.  Meshcat's viewer alone would not do this (three.js OrbitControls k
 position in the rig frame but aim at the target as a *world* point, so a translated rig keeps
 staring at the start point); :func:`save_recording_html` therefore adds a short inline script
 (:data:`FOLLOW_CAMERA_JS`) that aims at the target expressed in the rig frame, only when the
-recording animates the rig.  Checked in headless Chromium on a 2 km flight (vehicle centred
-at every sampled time).  Call ``follow_camera`` after the simulation and before
-``save_recording_html``; the recorder's frame rate is 1/publish_period.
+recording animates the rig.  Checked in headless Chromium (screenshots at several playback
+times) on a 2 km straight flight and on 60 s of the tilt-rotor envelope mission: the vehicle
+stays centred; without the script it is out of view after 3 s of the 2 km flight.  Call ``follow_camera``
+after the simulation and before ``save_recording_html``, and pass ``meshcat=`` so the initial
+view is centred on p(t₀).  The recorder's frame rate is 1/publish_period.  Caveat: a browser
+connected *live* to the Meshcat server receives the rig animation without the script (the
+camera then aims at the start point); the saved HTML is the intended replay.
+
+Tilt-rotor missions (thesis state q = [αR αL φ θ ψ x y z], z up, Drake world frame)::
+
+    follow_camera(built["recorder"], data["t"], data["x"][5:8].T, meshcat=built["meshcat"],
+                  radius=1.5, elevation_deg=15.0, azimuth_deg=-120.0)
 """
 
 from __future__ import annotations
