@@ -29,7 +29,8 @@ same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tun
 Stabilized DOF in the H∞ law.  The classic law weighs all DOF alike: it damps ϕ̇ with the same
 σ gain R⁻¹ as θ (u*_ϕ ∋ −R⁻¹ϕ̇).  Under the constant body torque wθ (22–32 s) holding θ = 0
 *requires* ϕ̇ to ramp (see above), so that damping fights the balance; we measured ISE θ ≈ 5.4
-(100× the W run) for every ωu tried, i.e. the thesis' rule "same ISE θ" is unreachable.  With
+(100× the W run) for ωu = 0.26, 0.087 and 0.029 (ISE θ barely moves: scaling ωu scales both
+channels alike), i.e. the thesis' rule "same ISE θ" is unreachable that way.  With
 ``hinf_phidot="matched"`` (default) the H∞ ϕ̇ damping is replaced by the W law's, M_ϕϕΥ1⁻¹U ϕ̇
 (applied in the allocation hook, since the law's H∞ gains are scalar); ``"equal"`` keeps the
 classic structure.
