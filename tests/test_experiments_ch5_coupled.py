@@ -84,6 +84,9 @@ def test_figure8_projection_defect_is_what_breaks_586():
 def test_bad_allocation_name():
     with pytest.raises(ValueError, match="allocation"):
         q8.Allocation(make_quadrotor_model(), "magic", np.zeros(4), np.ones(4))
+    alloc = q8.Allocation(make_quadrotor_model(), "bls", np.zeros(4), np.ones(4))
+    with pytest.raises(RuntimeError, match="diverged"):  # a lost vehicle stops the run
+        alloc(np.zeros(6), np.r_[1.5, 0, 0, 0, 0, 0], np.zeros(6))
 
 
 @pytest.mark.parametrize("module", [bc, q8])
