@@ -227,8 +227,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
     for name, v in idx.items():
         base = idx["H∞" + name[name.index(" ["):]]
         r = runs[name]
-        note = f" (stopped: {r['failed'][:60]})" if r["failed"] else ""
-        rows.append([name + note, *(pct(v[c], base[c]) for c in COLS)])
+        if r["failed"]:  # indices of a truncated run mean nothing: say what happened instead
+            rows.append([f"{name} — {r['failed'][:70]}", *(["—"] * len(COLS))])
+        else:
+            rows.append([name, *(pct(v[c], base[c]) for c in COLS)])
     th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
     th += [None] * (len(rows) - 2)                             # the thesis ran B† only
     md, js, table = report.write_table(
