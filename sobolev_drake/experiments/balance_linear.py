@@ -190,29 +190,16 @@ def match_parameter(f, target, grid, *, iters=10, rtol=0.01):
 
 
 # --------------------------------------------------------------------------- linear model
-def _rhs(model, x, u, w):
-    q, qd = np.array([0.0, x[0]]), np.array([x[1], x[2]])
-    tau = model.B(q) @ np.atleast_1d(u) + w - model.Cqdot(q, qd) - model.g(q) - model.friction(qd)
-    return np.r_[x[2], np.linalg.solve(model.M(q), tau)]
-
-
-def _jac(fun, n, h):
-    cols = []
-    for i in range(n):
-        e = np.zeros(n)
-        e[i] = h
-        cols.append((fun(e) - fun(-e)) / (2 * h))
-    return np.column_stack(cols)
-
-
 def linearize(model=None, h=1e-6):
-    """(A, B, D) at the upright by central differences of the Drake model's M, Cq̇, g, K."""
+    """(A, B, D) at the upright by central differences of the Drake model's M, Cq̇, g, K.
+
+    The full [ϕ θ ϕ̇ θ̇] linearization is reduced to x = [θ, ϕ̇, θ̇] (ϕ is cyclic)."""
+    from sobolev_drake.models.linearization import linearize_mechanical
     from sobolev_drake.models.two_wheeled import make_two_wheeled_model
     model = model or make_two_wheeled_model()
-    A = _jac(lambda dx: _rhs(model, dx, 0.0, np.zeros(2)), 3, h)
-    B = _jac(lambda du: _rhs(model, np.zeros(3), du, np.zeros(2)), 1, h)
-    D = _jac(lambda dw: _rhs(model, np.zeros(3), 0.0, dw), 2, h)
-    return A, B, D
+    A, B, D = linearize_mechanical(model, np.zeros(2), np.zeros(2), [0.0], h=h)
+    keep = [1, 2, 3]
+    return A[np.ix_(keep, keep)], B[keep], D[keep]
 
 
 def closed_form_linearization(params=None):

@@ -66,25 +66,14 @@ def _params():
     return QuadrotorParams.chapter6_nominal()
 
 
-def _rhs(model, x, u, w):
-    q, qd = x[:6], x[6:]
-    qdd = np.linalg.solve(model.M(q), model.B(q) @ u + w - model.Cqdot(q, qd) - model.g(q))
-    return np.r_[qd, qdd]
-
-
-def _jac(fun, n, h):
-    return np.column_stack([(fun(h * e) - fun(-h * e)) / (2 * h) for e in np.eye(n)])
-
-
 def linearize(params=None, *, tilt=None):
     """(A, B, D) at hover of the Drake model (B in Ω² units), central differences."""
+    from sobolev_drake.models.linearization import linearize_mechanical
     from sobolev_drake.models.quadrotor import make_quadrotor_model
     model = make_quadrotor_model(params or _params(), tilt=tilt)
     u0 = np.full(4, model.params.hover_input())
-    x0, w0 = np.zeros(12), np.zeros(6)
-    A = _jac(lambda dx: _rhs(model, dx, u0, w0), 12, 1e-6)
-    B = _jac(lambda du: _rhs(model, x0, u0 + du, w0), 4, 1.0)  # exact: affine in u
-    D = _jac(lambda dw: _rhs(model, x0, u0, dw), 6, 1e-3)  # exact: affine in w
+    # B and D exact with large steps: the dynamics are affine in u and w
+    A, B, D = linearize_mechanical(model, np.zeros(6), np.zeros(6), u0, h=1e-6, h_u=1.0, h_w=1e-3)
     return A, B, D
 
 
