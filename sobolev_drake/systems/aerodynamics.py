@@ -31,6 +31,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
 from sobolev_drake.models.tiltrotor_params import SURFACES, R_W, TiltrotorParams, cross_rows
+from sobolev_drake.systems.propulsion import body_kinematics_scalar
 
 _COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
 
@@ -178,22 +179,12 @@ class AeroModel:
             self._prepare_fast()
         (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
         imax = int(nmax) - 1
-        sin, cos, sqrt, atan2, asin = math.sin, math.cos, math.sqrt, math.atan2, math.asin
+        sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
         # Python floats: arithmetic on numpy scalars is several times slower
         q, qdot = [float(v) for v in q], [float(v) for v in qdot]
         zeta, delta = [float(v) for v in zeta], [float(v) for v in delta]
-        sf, cf = sin(q[2]), cos(q[2])
-        st, ct = sin(q[3]), cos(q[3])
-        sp, cp = sin(q[4]), cos(q[4])
-        r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
-        r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
-        r20, r21, r22 = -st, ct * sf, ct * cf
-        dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
-        wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
-        vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
-        vbx = r00 * vix + r10 * viy + r20 * viz
-        vby = r01 * vix + r11 * viy + r21 * viz
-        vbz = r02 * vix + r12 * viy + r22 * viz
+        ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
+         (wx, wy, wz), (vbx, vby, vbz)) = body_kinematics_scalar(q, qdot, zeta)
         de, dr = 0.5 * (delta[2] + delta[3]), 0.5 * (delta[2] - delta[3])
         dlift = (0.0, cda * delta[0], cda * delta[1], cde * de, cde * de, 0.0)
         dside = (0.0, 0.0, 0.0, cdr * dr, cdr * dr, 0.0)

@@ -18,6 +18,31 @@ from sobolev_drake.data import load
 from sobolev_drake.models.tiltrotor_params import R_W, TiltrotorParams, cross_rows
 
 
+def body_kinematics_scalar(q, qdot, zeta):
+    """Body-frame kinematics of the fast (Python scalar) force paths, thesis order q.
+
+    ``q``, ``qdot`` (size 8) and the wind ``zeta`` (size 3) must already be lists of Python
+    floats.  Returns ((sin ϕ, cos ϕ, sin θ, cos θ), R row-major (9 floats, body → inertial,
+    Z-Y-X Euler angles), body angular velocity (wx, wy, wz) and body air velocity
+    Rᵀ(ṗ − ζ) (vbx, vby, vbz)).  Shared by the propeller and aerodynamic force paths.
+    """
+    sin, cos = math.sin, math.cos
+    sf, cf = sin(q[2]), cos(q[2])
+    st, ct = sin(q[3]), cos(q[3])
+    sp, cp = sin(q[4]), cos(q[4])
+    r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
+    r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
+    r20, r21, r22 = -st, ct * sf, ct * cf
+    dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
+    wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
+    vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
+    vbx = r00 * vix + r10 * viy + r20 * viz
+    vby = r01 * vix + r11 * viy + r21 * viz
+    vbz = r02 * vix + r12 * viy + r22 * viz
+    return ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
+            (wx, wy, wz), (vbx, vby, vbz))
+
+
 class PropellerCoefficients:
     """Ct(J, φ) and Cq(J, φ) of the 24-inch propeller, quartic in (J, φ).
 
@@ -196,18 +221,8 @@ class PropulsionModel:
         # Python floats: arithmetic on numpy scalars is several times slower
         q, qdot = [float(v) for v in q], [float(v) for v in qdot]
         zeta, n = [float(v) for v in zeta], [float(v) for v in n]
-        sf, cf = sin(q[2]), cos(q[2])
-        st, ct = sin(q[3]), cos(q[3])
-        sp, cp = sin(q[4]), cos(q[4])
-        r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
-        r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
-        r20, r21, r22 = -st, ct * sf, ct * cf
-        dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
-        wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
-        vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
-        vbx = r00 * vix + r10 * viy + r20 * viz
-        vby = r01 * vix + r11 * viy + r21 * viz
-        vbz = r02 * vix + r12 * viy + r22 * viz
+        ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
+         (wx, wy, wz), (vbx, vby, vbz)) = body_kinematics_scalar(q, qdot, zeta)
         sb, cb = sin(p.beta), cos(p.beta)
         px, py, pz = self._dAP_f
         d, Jmax = c.diameter, c.J_max
