@@ -241,6 +241,40 @@ def _finish(res, plants, region, rtol, verify, status):
     return res
 
 
+def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns):
+    """Certify the unregularized optimum; decide whether the regularizing ladder must run.
+
+    The SDP optimum is approached from above, so without a requested gamma the result is
+    certified against the solver's gamma plus a 1e-6 relative slack.  Returns
+    (res or None, on_bound, need_regularization); re-raises the certificate failure when the
+    optimum fails and regularization is not allowed.  Appends the on-bound warning to ``warns``.
+    """
+    first_error = None
+    try:
+        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+        _finish(res, plants, region, rtol, False, out.status)
+    except SynthesisError as e:
+        first_error, res = e, None
+    on_bound = bound > 0 and g_opt <= bound * (1 + 1e-3)
+    if on_bound:
+        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {bound:.6g}: the "
+                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
+    need = regularize is True or (regularize == "auto" and gamma is None
+                                  and (on_bound or res is None or not res.certificate.ok))
+    if res is None and not need:
+        raise first_error
+    return res, on_bound, need
+
+
+def _publish(res, warns, t0, plants, region, rtol, verify):
+    """Attach and emit the warnings, total time, and run the final certificate check."""
+    res.warnings = warns
+    res.timings["total"] = time.perf_counter() - t0
+    for w in warns:
+        warnings.warn(w, SynthesisWarning, stacklevel=3)  # at the caller of the public function
+    return _finish(res, plants, region, rtol, verify, res.status)
+
+
 def _validate(plants, need_detectable):
     p0 = plants[0]
     for p in plants:
@@ -282,21 +316,8 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                                feedthrough_bound=fb, solver=out.solver, backend=out.backend,
                                status=out.status, timings=timings, region=region)
 
-    # the SDP optimum is approached from above: certify against the solver's gamma plus slack
-    first_error = None
-    try:
-        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
-        _finish(res, plants, region, rtol, False, out.status)
-    except SynthesisError as e:
-        first_error, res = e, None
-    on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
-    if on_bound:
-        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
-                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
-    need = regularize is True or (regularize == "auto" and gamma is None
-                                  and (on_bound or res is None or not res.certificate.ok))
-    if res is None and not need:
-        raise first_error
+    res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
+                                         regularize, warns)
     if need:
         def solve_at(g):
             prog2, X2, W2, _ = _sf_program(plants, region=region, gamma2=g ** 2, input_weight=input_weight,
@@ -310,11 +331,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                      f"minimizing a bound on the gain (|K| = {np.linalg.norm(res.K, 2):.4g})")
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
-    res.warnings = warns
-    res.timings["total"] = time.perf_counter() - t0
-    for w in warns:
-        warnings.warn(w, SynthesisWarning, stacklevel=2)
-    return _finish(res, plants, region, rtol, verify, res.status)
+    return _publish(res, warns, t0, plants, region, rtol, verify)
 
 
 # --------------------------------------------------------------------------- output feedback
@@ -416,20 +433,8 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
                                gamma_opt=g_opt, feedthrough_bound=fb, solver=out.solver,
                                backend=out.backend, status=out.status, timings=timings, region=region)
 
-    first_error = None
-    try:
-        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
-        _finish(res, [p], region, rtol, False, out.status)
-    except SynthesisError as e:
-        first_error, res = e, None
-    on_bound = fb > 0 and g_opt <= fb * (1 + 1e-3)
-    if on_bound:
-        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {fb:.6g}: the "
-                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
-    need = regularize is True or (regularize == "auto" and gamma is None
-                                  and (on_bound or res is None or not res.certificate.ok))
-    if res is None and not need:
-        raise first_error
+    res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
+                                         regularize, warns)
     if need:
         def solve_at(g):
             prog2, V2, _ = _of_program(p, gamma2=g ** 2, gain_bound=True, **kw)
@@ -443,11 +448,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")
-    res.warnings = warns
-    res.timings["total"] = time.perf_counter() - t0
-    for w in warns:
-        warnings.warn(w, SynthesisWarning, stacklevel=2)
-    return _finish(res, [p], region, rtol, verify, res.status)
+    return _publish(res, warns, t0, [p], region, rtol, verify)
 
 
 # --------------------------------------------------------------------------- functional API
