@@ -335,6 +335,20 @@ class GalerkinProblem:
         converged = lambda c, cp, t: np.linalg.norm(c - cp) <= max(
             atol, t * max(1.0, np.linalg.norm(c)))
 
+        def outer_loop(step, c, what):
+            """Policy iterations i = 1..max_iter: step(c, i) -> (c_next, inner iterations)."""
+            for it in range(1, max_iter + 1):
+                self._check_policy(history, c, f"iteration {it}")
+                c_new, nin = step(c, it)
+                self._record(history, it, c_new, c, inner=nin, t0=t0)
+                done = converged(c_new, c, tol)
+                c = c_new
+                if done:
+                    return c
+            raise GalerkinConvergenceError(
+                f"SGAA did not converge in {max_iter} {what} (last change "
+                f"{history[-1]['coef_change']:.3e})", history)
+
         if not nw:  # ---------------- Algorithm 4.1 (W2) / H2 ------------------------------
             c = solve_galerkin(*nodes.system(U0))
             c_ref = np.linalg.norm(c)
@@ -343,19 +357,12 @@ class GalerkinProblem:
             t_pre = time.perf_counter()
             sysA = AffineGalerkinSystem(nodes, nodes.v0_saddle, nodes.L_saddle, method=method)
             diag["tensor_time"] = time.perf_counter() - t_pre
-            for it in range(1, max_iter + 1):
-                self._check_policy(history, c, f"iteration {it}")
-                c_new = sysA.solve(c)
-                self._check_step(history, c_new, c_ref, f"iteration {it}")
-                self._record(history, it, c_new, c, t0=t0)
-                done = converged(c_new, c, tol)
-                c = c_new
-                if done:
-                    break
-            else:
-                raise GalerkinConvergenceError(
-                    f"SGAA did not converge in {max_iter} iterations (last change "
-                    f"{history[-1]['coef_change']:.3e})", history)
+            def sgaa_step(c_in, it):
+                c_next = sysA.solve(c_in)
+                self._check_step(history, c_next, c_ref, f"iteration {it}")
+                return c_next, 0
+
+            c = outer_loop(sgaa_step, c, "iterations")
         else:  # ---------------------- Algorithm 4.2 (W∞) / Beard's H∞ ---------------------
             def inner_loop(solve_for, c_start, c_ref, it):
                 c_in, changes = c_start, []
@@ -401,20 +408,11 @@ class GalerkinProblem:
             t_pre = time.perf_counter()
             sysA = AffineGalerkinSystem(nodes, v0, L, method=method, slow=N)
             diag["tensor_time"] = time.perf_counter() - t_pre
-            for it in range(1, max_iter + 1):
-                self._check_policy(history, c, f"iteration {it}")
-                c_outer = c
-                c_new, nin = inner_loop(lambda ci: sysA.solve(np.concatenate([c_outer, ci])),
-                                        c_outer, c_ref, it)
-                self._record(history, it, c_new, c, inner=nin, t0=t0)
-                done = converged(c_new, c, tol)
-                c = c_new
-                if done:
-                    break
-            else:
-                raise GalerkinConvergenceError(
-                    f"SGAA did not converge in {max_iter} outer iterations (last change "
-                    f"{history[-1]['coef_change']:.3e})", history)
+            def outer_step(c_outer, it):
+                return inner_loop(lambda ci: sysA.solve(np.concatenate([c_outer, ci])),
+                                  c_outer, c_ref, it)
+
+            c = outer_loop(outer_step, c, "outer iterations")
 
         diag["closed_loop_eigenvalues"] = self._check_policy(history, c, "final")
         Vt = self._test.Phi @ c
