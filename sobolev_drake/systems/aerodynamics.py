@@ -73,6 +73,20 @@ class AeroTables:
                 "side_force": b[0], "drag_beta": b[1], "yaw_moment": b[2]}
 
 
+def _interp3(tab, angle, start, step, nmax, imax):
+    """Linear interpolation of a 3-column table row list at −angle (scalar fast path).
+
+    ``tab[i]`` holds the coefficients at −angle = start + i·step; the index is clamped to the
+    table ends, as in the vectorized :meth:`AeroModel.coefficients` path."""
+    x = (-angle - start) / step
+    x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
+    i = int(x)
+    i = i if i <= imax else imax
+    fr = x - i
+    r0, r1 = tab[i], tab[i + 1]
+    return r0[0] + fr * (r1[0] - r0[0]), r0[1] + fr * (r1[1] - r0[1]), r0[2] + fr * (r1[2] - r0[2])
+
+
 class AeroModel:
     """Numpy core of the aerodynamic generalized forces (affine in the surface deflections).
 
@@ -206,24 +220,8 @@ class AeroModel:
             sb = 1.0 if sb > 1.0 else (-1.0 if sb < -1.0 else sb)
             cb = sqrt(u * u + w * w) / V
             beta = asin(sb)
-            x = (-alpha - start) / step
-            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
-            i = int(x)
-            i = i if i <= imax else imax
-            fr = x - i
-            a0, a1 = atab[k][i], atab[k][i + 1]
-            cl = a0[0] + fr * (a1[0] - a0[0])
-            cda_ = a0[1] + fr * (a1[1] - a0[1])
-            cm = a0[2] + fr * (a1[2] - a0[2])
-            x = (-beta - start) / step
-            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
-            i = int(x)
-            i = i if i <= imax else imax
-            fr = x - i
-            b0, b1 = btab[k][i], btab[k][i + 1]
-            cy = b0[0] + fr * (b1[0] - b0[0])
-            cdb = b0[1] + fr * (b1[1] - b0[1])
-            cn = b0[2] + fr * (b1[2] - b0[2])
+            cl, cda_, cm = _interp3(atab[k], alpha, start, step, nmax, imax)
+            cy, cdb, cn = _interp3(btab[k], beta, start, step, nmax, imax)
             ks = hrs[k] * V2
             fd = -ks * (cdb + cda_)
             fy = ks * (cy + dside[k])
