@@ -77,3 +77,25 @@ def test_bad_shapes():
         LinearDynamicOutputFeedback(-np.eye(2), np.ones((3, 1)), np.ones((1, 2)))
     with pytest.raises(ValueError, match="x_r must have shape"):
         LinearStateFeedback(np.ones((1, 2)), x_r=[1.0, 2.0, 3.0])
+
+
+def test_state_feedback_gains_are_a_context_parameter_and_clip():
+    K = np.array([[2.0, 3.0]])
+    sys = LinearStateFeedback(K, u_r=[0.5], reference_port=True, u_min=-1.0, u_max=1.0)
+    ctx = sys.CreateDefaultContext()
+    x, r = np.array([0.2, -0.1]), np.array([0.1, 0.0])
+    sys.GetInputPort("x").FixValue(ctx, x)
+    sys.GetInputPort("x_r").FixValue(ctx, r)
+    raw = 0.5 + K @ (x - r)  # = 0.4: inside the bounds
+    assert sys.GetOutputPort("u").Eval(ctx) == pytest.approx(raw)
+    sys.set_gains(ctx, np.array([[20.0, 0.0]]))  # same context, new gains: 0.5 + 2 = 2.5
+    assert sys.GetOutputPort("u_raw").Eval(ctx) == pytest.approx([2.5])
+    assert sys.GetOutputPort("u").Eval(ctx) == pytest.approx([1.0])
+    np.testing.assert_array_equal(sys.gains(ctx), [[20.0, 0.0]])
+    # a fresh context still holds the construction gains
+    np.testing.assert_array_equal(sys.gains(sys.CreateDefaultContext()), K)
+    with pytest.raises(ValueError, match="K must have shape"):
+        sys.set_gains(ctx, np.ones((2, 2)))
+    with pytest.raises(ValueError, match="u_min"):
+        LinearStateFeedback(K, u_min=1.0, u_max=0.0)
+    assert LinearStateFeedback(K).num_output_ports() == 1  # no u_raw without bounds

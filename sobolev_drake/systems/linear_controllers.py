@@ -3,7 +3,8 @@
 They receive gains computed by ``sobolev_drake.synthesis`` (never re-derive them):
 
 * :class:`LinearStateFeedback`: u = u_r + K (x - x_r), ports ``x`` (and ``x_r`` if
-  ``reference_port=True``), output ``u``. Direct feedthrough x -> u.
+  ``reference_port=True``), output ``u`` (optionally clipped, then also ``u_raw``). Direct
+  feedthrough x -> u.  K is a numeric parameter: ``set_gains(context, K)`` retunes a context.
 * :class:`LinearDynamicOutputFeedback`: x_K' = AK x_K + BK (y - y_op),
   u = u_op + CK x_K + DK (y - y_op); ports ``y`` -> ``u``. When DK = 0 the output depends on
   the controller state only and is declared so (no false algebraic loop).
@@ -25,22 +26,58 @@ def _mat(name, M, shape=None):
 
 
 class LinearStateFeedback(LeafSystem):
-    """u = u_r + K (x - x_r) with constant u_r (operating point) and x_r (port or constant)."""
+    """u = u_r + K (x - x_r) with constant u_r (operating point) and x_r (port or constant).
 
-    def __init__(self, K, *, u_r=None, x_r=None, reference_port=False):
+    K is stored in a numeric parameter (default: the ``K`` given here), so one diagram can serve
+    a gain sweep: :meth:`set_gains` writes new gains into a context.  With ``u_min`` / ``u_max``
+    the output ``u`` is clipped elementwise and a second output ``u_raw`` gives the unclipped
+    command (e.g. to measure saturation).
+    """
+
+    def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None):
         super().__init__()
         self.K = _mat("K", K)
         nu, nx = self.K.shape
         self.u_r = np.zeros(nu) if u_r is None else _mat("u_r", u_r, (1, nu)).ravel()
         self.x_r = np.zeros(nx) if x_r is None else _mat("x_r", x_r, (1, nx)).ravel()
+        self._bounds = None
+        if u_min is not None or u_max is not None:
+            lo = np.full(nu, -np.inf) if u_min is None else np.broadcast_to(
+                np.asarray(u_min, dtype=float), (nu,)).copy()
+            hi = np.full(nu, np.inf) if u_max is None else np.broadcast_to(
+                np.asarray(u_max, dtype=float), (nu,)).copy()
+            if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
+                raise ValueError(f"u_min must be <= u_max elementwise, got {lo} and {hi}")
+            self._bounds = (lo, hi)
+        self._K_index = self.DeclareNumericParameter(BasicVector(self.K.ravel()))
         self._x = self.DeclareVectorInputPort("x", nx)
         self._xr = self.DeclareVectorInputPort("x_r", nx) if reference_port else None
         self.DeclareVectorOutputPort("u", nu, self._calc_u)
+        if self._bounds is not None:
+            self.DeclareVectorOutputPort("u_raw", nu, self._calc_raw)
 
-    def _calc_u(self, context, output):
+    def set_gains(self, context, K):
+        """Write K (shape nu x nx) into this system's parameter in ``context`` (its own context)."""
+        K = _mat("K", K, self.K.shape)
+        context.get_mutable_numeric_parameter(self._K_index).SetFromVector(K.ravel())
+
+    def gains(self, context):
+        """The gain matrix K currently held by ``context``."""
+        return context.get_numeric_parameter(self._K_index).get_value().reshape(self.K.shape)
+
+    def _raw(self, context):
         x = self._x.Eval(context)
         xr = self._xr.Eval(context) if self._xr is not None else self.x_r
-        output.SetFromVector(self.u_r + self.K @ (x - xr))
+        return self.u_r + self.gains(context) @ (x - xr)
+
+    def _calc_u(self, context, output):
+        u = self._raw(context)
+        if self._bounds is not None:
+            u = np.clip(u, *self._bounds)
+        output.SetFromVector(u)
+
+    def _calc_raw(self, context, output):
+        output.SetFromVector(self._raw(context))
 
 
 class LinearDynamicOutputFeedback(LeafSystem):
