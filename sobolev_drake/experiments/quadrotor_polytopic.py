@@ -23,7 +23,8 @@ every vertex (state feedback cannot change D11); the library's gain-bound regula
 Clarabel on this 16-vertex problem, so the LMI optimum is used as is (``regularize=False``; the
 certificate is still checked at every vertex, with a 1 % tolerance on γ, :data:`W_RTOL`).  ``H∞``: z = [Γ0^½x; ρ^½ũ] with the same region,
 ρ chosen by the thesis' rule "similar ISE to W∞" (scan + bisection on log ρ, reusing ONE Drake
-diagram: gains are numeric parameters of :class:`~.balance_linear.LinearFeedback`).
+diagram: the gains are a numeric parameter of
+:class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback`).
 
 Simulation on the nonlinear Drake quadrotor (tilted rotors, nominal parameters): q(0) =
 [0 0 0 4 0 1], q̇(0) = 0, Table 6.3 path, δy = 10 N on 10 < t < 15 s, δz = 10 sin(0.4πt) N on
@@ -43,7 +44,8 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import MatrixGain, VectorLogSink
 
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments.balance_linear import LinearFeedback, match_parameter, quiet
+from sobolev_drake.experiments.balance_linear import match_parameter, quiet
+from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 
 GAMMA0 = np.diag([0.3183, 0.3183, 5.093, 10, 10, 10, 0.159, 0.159, 1.91, 0.05, 0.05, 0.5])
 GAMMA1 = np.diag([0.159, 0.159, 1.91, 0.05, 0.05, 0.5, 7.194, 7.194, 0.248, 0.0327, 0.0327, 0.3597])
@@ -145,8 +147,9 @@ class Rig:
         self.hover = p.hover_input()
         b = DiagramBuilder()
         self.h = add_quadrotor(b, p)
-        self.ctrl = b.AddSystem(LinearFeedback(np.eye(12), 4, u0=np.full(4, self.hover), lo=0.0,
-                                               hi=U_MAX_FACTOR * self.hover))
+        self.ctrl = b.AddSystem(LinearStateFeedback(np.zeros((4, 12)), u_r=np.full(4, self.hover),
+                                                    reference_port=True, u_min=0.0,
+                                                    u_max=U_MAX_FACTOR * self.hover))
         self.ref = b.AddSystem(table_6_3())
         sel = np.zeros((12, 9))  # [p_r; ṗ_r; p̈_r] → x̂_r = [0 0 0 p_r 0 0 0 ṗ_r]
         sel[3:6, 0:3] = np.eye(3)
@@ -156,7 +159,7 @@ class Rig:
                   {"index": 5, "value": lambda t: 10.0 * np.sin(0.4 * np.pi * t), "from": 25.0, "to": 30.0}]
         self.w = b.AddSystem(TimeProfiledForce(6, pulses))
         b.Connect(self.ref.GetOutputPort("reference"), to_x.get_input_port())
-        b.Connect(to_x.get_output_port(), self.ctrl.GetInputPort("x_ref"))
+        b.Connect(to_x.get_output_port(), self.ctrl.GetInputPort("x_r"))
         b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
@@ -181,7 +184,7 @@ class Rig:
         ctx = self.context
         ctx.SetTime(0.0)
         self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
-        self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), K=self.hover * np.asarray(K_scaled))
+        self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), self.hover * np.asarray(K_scaled))
         for s in self.sinks.values():
             s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
         t0 = time.perf_counter()
