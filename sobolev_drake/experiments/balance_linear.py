@@ -242,11 +242,49 @@ def design(which, lin, *, rho=None, backend=None):
 
 
 # --------------------------------------------------------------------------- simulation
-class Rig:
+class LoggedRig:
+    """Plumbing shared by the reusable closed-loop rigs (here and in quadrotor-polytopic).
+
+    A subclass adds its plant handles ``self.h`` and systems to a builder, then calls
+    :meth:`_build` with the ports to log; each run clears the logs (:meth:`_clear_logs`) and
+    collects them trimmed to a common length (:meth:`_collect`).
+    """
+
+    def _build(self, b, ports, log_period, record):
+        """Log ``ports`` ((label, port) pairs), add the optional Meshcat recorder, build."""
+        from pydrake.systems.analysis import Simulator
+        self.sinks = {}
+        for label, port in ports:
+            s = b.AddSystem(VectorLogSink(port.size(), log_period))
+            b.Connect(port, s.get_input_port())
+            self.sinks[label] = s
+        self.meshcat = self.recorder = None
+        if record:
+            from sobolev_drake import viz
+            self.meshcat = viz.start_meshcat()
+            self.recorder = viz.add_meshcat_recorder(b, self.h.scene_graph, self.meshcat)
+        self.diagram = b.Build()
+        self.sim = Simulator(self.diagram)
+        self.context = self.sim.get_mutable_context()
+
+    def _clear_logs(self, ctx):
+        for s in self.sinks.values():
+            s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
+
+    def _collect(self, ctx, t0):
+        """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length."""
+        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
+        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
+        n = min(v.shape[-1] for v in data.values())
+        data = {k: v[..., :n] for k, v in data.items()}
+        data["wall_s"] = time.perf_counter() - t0
+        return data
+
+
+class Rig(LoggedRig):
     """One nonlinear closed-loop diagram per controller kind ("sf"/"of"), reused for all runs."""
 
     def __init__(self, kind, *, disturbances=True, record=False, log_period=0.01):
-        from pydrake.systems.analysis import Simulator
         from sobolev_drake.models.two_wheeled import add_two_wheeled
         from sobolev_drake.systems.disturbances import TimeProfiledForce
         b = DiagramBuilder()
@@ -260,19 +298,8 @@ class Rig:
         b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
-        self.sinks = {}
-        for label, port in (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())):
-            s = b.AddSystem(VectorLogSink(port.size(), log_period))
-            b.Connect(port, s.get_input_port())
-            self.sinks[label] = s
-        self.meshcat = self.recorder = None
-        if record:
-            from sobolev_drake import viz
-            self.meshcat = viz.start_meshcat()
-            self.recorder = viz.add_meshcat_recorder(b, self.h.scene_graph, self.meshcat)
-        self.diagram = b.Build()
-        self.sim = Simulator(self.diagram)
-        self.context = self.sim.get_mutable_context()
+        self._build(b, (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())),
+                    log_period, record)
 
     def run(self, gains, duration, *, theta0=THETA0):
         from sobolev_drake.simulation import simulate
@@ -282,15 +309,10 @@ class Rig:
             np.zeros(ctx.get_continuous_state_vector().size()))
         self.h.set_state(ctx, self.diagram, [0.0, theta0], [0.0, 0.0])
         self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), **gains)
-        for s in self.sinks.values():
-            s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
+        self._clear_logs(ctx)
         t0 = time.perf_counter()
         simulate(self.diagram, ctx, duration, progress=False, simulator=self.sim, accuracy=1e-4, max_step=0.02)
-        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
-        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
-        n = min(v.shape[-1] for v in data.values())
-        data = {k: v[..., :n] for k, v in data.items()}
-        data["wall_s"] = time.perf_counter() - t0
+        data = self._collect(ctx, t0)
         return data
 
 

@@ -41,10 +41,10 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder, EventStatus
-from pydrake.systems.primitives import MatrixGain, VectorLogSink
+from pydrake.systems.primitives import MatrixGain
 
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments.balance_linear import match_parameter, quiet
+from sobolev_drake.experiments.balance_linear import LoggedRig, match_parameter, quiet
 from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 
 GAMMA0 = np.diag([0.3183, 0.3183, 5.093, 10, 10, 10, 0.159, 0.159, 1.91, 0.05, 0.05, 0.5])
@@ -135,11 +135,10 @@ def design(which, verts, *, rho=None, backend=None):
     return res, notes, time.perf_counter() - t0
 
 
-class Rig:
+class Rig(LoggedRig):
     """The nonlinear closed loop (one diagram, reused for every run of a sweep)."""
 
     def __init__(self, *, record=False, log_period=0.01, params=None):
-        from pydrake.systems.analysis import Simulator
         from sobolev_drake.models.quadrotor import add_quadrotor
         from sobolev_drake.systems.disturbances import TimeProfiledForce
         from sobolev_drake.systems.references import table_6_3
@@ -163,20 +162,9 @@ class Rig:
         b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
-        self.sinks = {}
-        for label, port in (("x", self.h.x), ("x_ref", to_x.get_output_port()), ("u", self.ctrl.GetOutputPort("u")),
-                            ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())):
-            s = b.AddSystem(VectorLogSink(port.size(), log_period))
-            b.Connect(port, s.get_input_port())
-            self.sinks[label] = s
-        self.meshcat = self.recorder = None
-        if record:
-            from sobolev_drake import viz
-            self.meshcat = viz.start_meshcat()
-            self.recorder = viz.add_meshcat_recorder(b, self.h.scene_graph, self.meshcat)
-        self.diagram = b.Build()
-        self.sim = Simulator(self.diagram)
-        self.context = self.sim.get_mutable_context()
+        self._build(b, (("x", self.h.x), ("x_ref", to_x.get_output_port()), ("u", self.ctrl.GetOutputPort("u")),
+                        ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
+                    log_period, record)
 
     def run(self, K_scaled, duration):
         """Fly u = Ω²_hover + (Ω²_hover K̃)(x̂ − x̂_r) for ``duration`` s from q(0) = Q0."""
@@ -185,8 +173,7 @@ class Rig:
         ctx.SetTime(0.0)
         self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
         self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), self.hover * np.asarray(K_scaled))
-        for s in self.sinks.values():
-            s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
+        self._clear_logs(ctx)
         t0 = time.perf_counter()
         self.sim.set_monitor(self._monitor)  # stops diverging runs (saturated, tumbling) early
         try:
@@ -194,11 +181,7 @@ class Rig:
                      max_step=0.02)
         finally:
             self.sim.clear_monitor()
-        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
-        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
-        n = min(v.shape[-1] for v in data.values())
-        data = {k: v[..., :n] for k, v in data.items()}
-        data["wall_s"] = time.perf_counter() - t0
+        data = self._collect(ctx, t0)
         data["hover"] = self.hover
         data["diverged"] = bool(ctx.get_time() < duration - 1e-9)
         return data
