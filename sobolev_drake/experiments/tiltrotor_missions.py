@@ -431,6 +431,9 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
     if record and built.get("meshcat") is not None:
         from sobolev_drake import viz
         draw_paths(built["meshcat"], built["reference"], duration, data["x"][5:8])
+        # The envelope spans ~2 km: a camera rig keyed to the flown path keeps the aircraft in view.
+        viz.follow_camera(built["recorder"], data["t"], data["x"][5:8].T, meshcat=built["meshcat"],
+                          radius=1.5, elevation_deg=15.0, azimuth_deg=-120.0)
         html = out_dir / f"{name}.html"
         viz.save_recording_html(built["meshcat"], built["recorder"], html)
         res.outputs["recording"] = html
