@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -70,11 +71,26 @@ def register(name: str, summary: str, *, default_duration=None, flagship=0, thes
     return wrap
 
 
+IMPORT_ERRORS: dict[str, str] = {}  # module name -> error text, for modules that failed to import
+
+
 def discover() -> dict[str, Experiment]:
-    """Import every module of this package so that they register themselves."""
+    """Import every module of this package so that they register themselves.
+
+    A module that fails to import must not take the whole CLI down with it (``run X`` should
+    work while an unrelated experiment ``Y`` is broken): the failure is recorded in
+    :data:`IMPORT_ERRORS`, announced once with a warning, and named by :func:`get` when the
+    requested experiment is missing.
+    """
     for info in pkgutil.iter_modules(__path__):
-        if not info.name.startswith("_"):
+        if info.name.startswith("_") or info.name in IMPORT_ERRORS:
+            continue
+        try:
             importlib.import_module(f"{__name__}.{info.name}")
+        except Exception as exc:  # noqa: BLE001 - reported, not swallowed
+            IMPORT_ERRORS[info.name] = f"{type(exc).__name__}: {exc}"
+            warnings.warn(f"experiment module {info.name!r} failed to import: "
+                          f"{IMPORT_ERRORS[info.name]}", RuntimeWarning, stacklevel=2)
     return REGISTRY
 
 
@@ -82,7 +98,8 @@ def get(name: str) -> Experiment:
     discover()
     if name not in REGISTRY:
         known = ", ".join(sorted(REGISTRY)) or "(none)"
-        raise UnknownExperimentError(f"unknown experiment {name!r}; known experiments: {known}")
+        broken = "".join(f"; module {m!r} failed to import ({e})" for m, e in sorted(IMPORT_ERRORS.items()))
+        raise UnknownExperimentError(f"unknown experiment {name!r}; known experiments: {known}{broken}")
     return REGISTRY[name]
 
 
