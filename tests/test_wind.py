@@ -25,9 +25,11 @@ def turbulence_rig():
     b.Connect(vk.GetOutputPort("wind"), log_w.get_input_port())
     b.Connect(vk.GetOutputPort("noise"), log_n.get_input_port())
     diagram = b.Build()
-    sim = Simulator(diagram)
 
     def run(seed, duration=5.0, stationary=False):
+        # A fresh (C++) Simulator per run: a reused one carries the error-controlled
+        # integrator's step-size history over, which changes the samples at the 1e-8 level.
+        sim = Simulator(diagram)
         ctx = sim.get_mutable_context()
         ctx.SetTime(0.0)
         diagram.SetDefaultContext(ctx)
