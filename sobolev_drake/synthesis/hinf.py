@@ -22,6 +22,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 
 from .certificates import (Certificate, as_matrix, certify_closed_loop, parrott_bound,
                            require_detectable, require_stabilizable)
@@ -285,15 +286,56 @@ def _validate(plants, need_detectable):
             require_detectable(p.A, p.C2)
 
 
+def _pow2(v):
+    """Nearest powers of two: scaling by them is exact in floating point."""
+    return np.exp2(np.round(np.log2(v)))
+
+
+def balance_scaling(plants):
+    """Diagonal state similarity x = T x~ and input scaling u = Su u~ (powers of two).
+
+    The w -> z map (hence gamma), the closed-loop poles (hence any LMI region) and the
+    feasible set are invariant; only the SDP's conditioning changes.  Su makes the columns
+    of [B2; D12] unit-sized; T balances [[A, b], [c, 0]] (scipy's matrix_balance, Parlett &
+    Reinsch), b / c the row / column magnitudes of [B1 B2 Su] / C1 over the vertices.
+    """
+    n = plants[0].n
+    cu = np.max([np.linalg.norm(np.vstack([p.B2, p.D12]), axis=0) for p in plants], axis=0)
+    Su = _pow2(np.where(cu > 0, 1.0 / np.where(cu > 0, cu, 1.0), 1.0))
+    absA = np.max([np.abs(p.A) for p in plants], axis=0)
+    b = np.max([np.linalg.norm(np.hstack([p.B1, p.B2 * Su]), axis=1) for p in plants], axis=0)
+    c = np.max([np.linalg.norm(p.C1, axis=0) for p in plants], axis=0)
+    M = np.block([[absA, b[:, None]], [c[None, :], np.zeros((1, 1))]])
+    if not (np.all(np.isfinite(M)) and M.any()):
+        return np.ones(n), Su
+    _, (d, _) = sla.matrix_balance(M, permute=False, separate=True)
+    T = _pow2(d[:n] / d[n])
+    # the inputs again, now in scaled state coordinates
+    cu = np.max([np.linalg.norm(np.vstack([p.B2 / T[:, None], p.D12]), axis=0) for p in plants], axis=0)
+    Su = _pow2(np.where(cu > 0, 1.0 / np.where(cu > 0, cu, 1.0), 1.0))
+    return T, Su
+
+
+def scale_plant(p, T, Su):
+    """Plant in coordinates x = T x~, u = Su u~ (w, z, y unchanged)."""
+    Ti = 1.0 / T
+    return GeneralizedPlant(Ti[:, None] * p.A * T, Ti[:, None] * p.B1, Ti[:, None] * p.B2 * Su,
+                            p.C1 * T, p.D11, p.D12 * Su, p.C2 * T, p.D21)
+
+
 def state_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
                    regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                   vertices=None, margin=EPS):
+                   vertices=None, margin=EPS, scaling=True):
     """H-infinity state feedback u = K x minimizing gamma (or feasibility at a given gamma).
 
     ``vertices``: optional list of extra plants sharing one Lyapunov matrix (polytopic,
     Corollary 1). ``input_weight``: replaces I in the -gamma^2 I block (used by the thesis'
     disturbance-model LMI (6.31)). ``regularize``: "auto" re-solves with a gain bound when the
     optimum sits on the feedthrough bound or the certificate fails; True always; False never.
+    ``scaling``: True (default) solves the LMI in balanced coordinates (``balance_scaling``:
+    exact diagonal state similarity and input scaling, gamma unchanged) and maps K, X, P back;
+    a tuple (T, Su) gives the scalings; False solves in the given coordinates.  The
+    certificate is always computed in the original coordinates.
     """
     plants = [plant] + list(vertices or [])
     _validate(plants, False)
@@ -301,7 +343,17 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()
-    prog, X, W, g2 = _sf_program(plants, region=region, gamma2=None if gamma is None else gamma ** 2,
+    if scaling is True:
+        T, Su = balance_scaling(plants)
+    elif scaling is False or scaling is None:
+        T, Su = np.ones(plant.n), np.ones(plant.nu)
+    else:
+        T, Su = (np.asarray(v, float).ravel() for v in scaling)
+        if T.shape != (plant.n,) or Su.shape != (plant.nu,) or np.any(T <= 0) or np.any(Su <= 0):
+            raise ValueError(f"scaling must be True, False or (T, Su) with positive T of length "
+                             f"{plant.n} and Su of length {plant.nu}")
+    splants = [scale_plant(p, T, Su) for p in plants]
+    prog, X, W, g2 = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
                                  input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
     out = _solve(prog, backend, solver_options, timings, "lmi")
     g_opt = float(np.sqrt(max(g2.value(out.x)[0, 0], 0.0))) if gamma is None else float(gamma)
@@ -311,8 +363,10 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
         Xv = 0.5 * (Xv + Xv.T)
         if np.linalg.eigvalsh(Xv).min() <= 0:
             raise SynthesisError(f"solver returned X not positive definite (status {out.status})")
-        K = np.linalg.solve(Xv, W.value(out.x).T).T  # K = W X^-1 (6.7)
-        return SynthesisResult("state_feedback", g, K=K, P=np.linalg.inv(Xv), X=Xv, gamma_opt=g_opt,
+        Ks = np.linalg.solve(Xv, W.value(out.x).T).T  # K = W X^-1 (6.7), scaled coordinates
+        K = Su[:, None] * Ks / T  # u = Su Ks T^-1 x
+        P = np.linalg.inv(Xv) / T[:, None] / T  # P = T^-1 Ps T^-1, X = T Xs T
+        return SynthesisResult("state_feedback", g, K=K, P=P, X=T[:, None] * Xv * T, gamma_opt=g_opt,
                                feedthrough_bound=fb, solver=out.solver, backend=out.backend,
                                status=out.status, timings=timings, region=region)
 
@@ -320,7 +374,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                                          regularize, warns)
     if need:
         def solve_at(g):
-            prog2, X2, W2, _ = _sf_program(plants, region=region, gamma2=g ** 2, input_weight=input_weight,
+            prog2, X2, W2, _ = _sf_program(splants, region=region, gamma2=g ** 2, input_weight=input_weight,
                                            gain_bound=True, margin=margin)
             nonlocal X, W
             X, W = X2, W2
