@@ -338,7 +338,9 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     certificate is always computed in the original coordinates.
     """
     plants = [plant] + list(vertices or [])
-    _validate(plants, False)
+    if any(tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in plant.as_tuple())
+           for p in plants):
+        raise ValueError("all vertex plants must have the same dimensions")
     fb = max(np.linalg.norm(p.D11, 2) if p.D11.size else 0.0 for p in plants)  # SF: D_cl = D11
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
@@ -353,6 +355,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
             raise ValueError(f"scaling must be True, False or (T, Su) with positive T of length "
                              f"{plant.n} and Su of length {plant.nu}")
     splants = [scale_plant(p, T, Su) for p in plants]
+    _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
     prog, X, W, g2 = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
                                  input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
     out = _solve(prog, backend, solver_options, timings, "lmi")
