@@ -408,7 +408,6 @@ def _plot(runs, out_dir):
         axes[2, col].set_xlabel("t [s]")
     fig.suptitle("balance-linear: nonlinear two-wheeled vehicle (cf. Figure 6.3)")
     out["time_series"] = save_figure(fig, Path(out_dir) / "balance-linear_states.png", tight=True)
-    plt.close(fig)
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for i, name in enumerate(DESIGNS):
         if name in runs:
@@ -419,7 +418,6 @@ def _plot(runs, out_dir):
     ax.set_xlabel("t [s]"), ax.set_ylabel("θ [rad]"), ax.legend(), ax.grid(alpha=0.3)
     ax.set_title("settling of θ (2 % band), cf. Figure 6.2")
     out["settling"] = save_figure(fig, Path(out_dir) / "balance-linear_settling.png", tight=True)
-    plt.close(fig)
     return out
 
 

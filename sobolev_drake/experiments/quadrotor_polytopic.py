@@ -224,7 +224,6 @@ def _plot(runs, out_dir):
         ax.plot(*d["x"][3:6], f"C{i}", lw=1, label=name)
     ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]"), ax.legend()
     out["path_3d"] = save_figure(fig, Path(out_dir) / "quadrotor-polytopic_path3d.png")
-    plt.close(fig)
     fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
     for i, (name, d) in enumerate(runs.items()):
         for k, lab in enumerate("ϕθψ"):
@@ -238,7 +237,6 @@ def _plot(runs, out_dir):
     axes[0].legend(fontsize=7), axes[3].legend(fontsize=7)
     fig.suptitle("attitude and disturbances (cf. Figure 6.5)")
     out["attitude"] = save_figure(fig, Path(out_dir) / "quadrotor-polytopic_attitude.png", tight=True)
-    plt.close(fig)
     fig, axes = plt.subplots(len(runs), 1, figsize=(8, 3 * len(runs)), sharex=True, squeeze=False)
     for i, (name, d) in enumerate(runs.items()):
         for k in range(4):
@@ -247,7 +245,6 @@ def _plot(runs, out_dir):
         axes[i, 0].grid(alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     out["inputs"] = save_figure(fig, Path(out_dir) / "quadrotor-polytopic_inputs.png", tight=True)
-    plt.close(fig)
     return out
 
 

@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
 from sobolev_drake.experiments import Claim, ExperimentResult, register
@@ -271,7 +271,7 @@ def _plot(all_data, out_dir):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from sobolev_drake.experiments.tiltrotor_missions import _save
+    from sobolev_drake.viz import save_figure
 
     out = {}
     fig = plt.figure(figsize=(7, 6))
@@ -283,7 +283,7 @@ def _plot(all_data, out_dir):
         ax.plot(d["x"][5], d["x"][6], d["x"][7], f"C{i}", lw=1, label=name)
     ax.legend()
     ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    out["path_3d"] = _save(fig, Path(out_dir) / "tiltrotor-hover-linear_path3d.png")
+    out["path_3d"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_path3d.png")
     fig, axes = plt.subplots(5, 1, figsize=(8, 11), sharex=True)
     for i, (name, d) in enumerate(all_data.items()):
         t, x, r = d["t"], d["x"], d["reference"]
@@ -297,14 +297,14 @@ def _plot(all_data, out_dir):
     axes[0].legend(fontsize=7)
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
-    out["errors"] = _save(fig, Path(out_dir) / "tiltrotor-hover-linear_errors.png")
+    out["errors"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_errors.png")
     fig, ax = plt.subplots(figsize=(8, 3))
     w = first["wind"]
     for k, a in enumerate("xyz"):
         ax.plot(first["t"], w[k], f"C{k}", lw=0.8, label=f"ζ{a}")
     ax.set_xlabel("time [s]"), ax.set_ylabel("wind [m/s]"), ax.legend()
     fig.tight_layout()
-    out["wind"] = _save(fig, Path(out_dir) / "tiltrotor-hover-linear_wind.png")
+    out["wind"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_wind.png")
     return out
 
 

@@ -238,23 +238,14 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
     return built, data
 
 
-def _save(fig, path):
-    try:
-        from sobolev_drake.viz import save_figure
-        return save_figure(fig, path)
-    except ImportError:  # viz not available: plain matplotlib
-        fig.savefig(path, dpi=110)
-        import matplotlib.pyplot as plt
-        plt.close(fig)
-        return path
-
-
 def plot_mission(data, out_dir, stem):
     """PNG figures: 3-D path, positions, attitude, tilt angles, propeller speeds, servo
     torques, δe/δr, wind, tracking errors and allocation residual. Returns {label: path}."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from sobolev_drake.viz import save_figure
 
     t, x, ref = data["t"], data["x"], data["reference"]
     q, pr = x[:8], ref[0:4]
@@ -266,7 +257,7 @@ def plot_mission(data, out_dir, stem):
     ax.plot(q[5], q[6], q[7], "C0", lw=1.5, label="W∞ + allocation")
     ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
     ax.legend()
-    out["path_3d"] = _save(fig, Path(out_dir) / f"{stem}_path3d.png")
+    out["path_3d"] = save_figure(fig, Path(out_dir) / f"{stem}_path3d.png")
 
     def panel(rows, title, fname):
         fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.6), sharex=True)
@@ -281,7 +272,7 @@ def plot_mission(data, out_dir, stem):
         axes[-1].set_xlabel("time [s]")
         fig.suptitle(title)
         fig.tight_layout()
-        return _save(fig, Path(out_dir) / f"{stem}_{fname}.png")
+        return save_figure(fig, Path(out_dir) / f"{stem}_{fname}.png")
 
     deg = 180 / np.pi
     out["positions"] = panel([(n, [(q[5 + i], "C0", "q"), (pr[i], "k--", "ref")])
