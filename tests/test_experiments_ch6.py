@@ -3,8 +3,9 @@
 Checks the linearizations against the closed-form Jacobians, the controllers' certificates
 independently of the synthesis code (closed-loop eigenvalues on the linear models, the
 common-Lyapunov bounded-real and disk LMIs at every polytope vertex and at interior points),
-the helper pieces (parameter matching, the gain-parameterized controller), and that the smoke
-runs write their tables with finite numbers.
+the helper pieces (parameter matching), and that the smoke runs write their tables with
+finite numbers.  (The balance rig's controllers are the library LeafSystems, tested in
+test_linear_controllers.py.)
 """
 
 import json
@@ -80,38 +81,6 @@ def test_match_parameter_monotone_and_largest_bracket():
     assert p == 2.0
     with pytest.raises(ValueError, match="grid"):
         bl.match_parameter(np.log10, 0.0, [1.0])
-
-
-def test_linear_feedback_state_and_dynamic_outputs():
-    S = np.array([[0, 1.0, 0], [0, 0, 1.0]])
-    sys = bl.LinearFeedback(S, 1, u0=[0.5], lo=-1.0, hi=1.0)
-    ctx = sys.CreateDefaultContext()
-    x, r = np.array([9.0, 0.2, -0.1]), np.array([0.1, 0.0])
-    sys.GetInputPort("x").FixValue(ctx, x)
-    sys.GetInputPort("x_ref").FixValue(ctx, r)
-    K = np.array([[2.0, 3.0]])
-    sys.set_gains(ctx, K=K)
-    raw = 0.5 + K @ (S @ x - r)
-    assert sys.GetOutputPort("u_raw").Eval(ctx) == pytest.approx(raw)
-    assert sys.GetOutputPort("u").Eval(ctx) == pytest.approx(np.clip(raw, -1, 1))
-    sys.set_gains(ctx, K=np.array([[20.0, 0.0]]))  # parameters change the output of the same context
-    assert sys.GetOutputPort("u").Eval(ctx)[0] == pytest.approx(1.0)
-    with pytest.raises(ValueError, match="shape"):
-        sys.set_gains(ctx, K=np.ones((2, 2)))
-    C = np.array([[1.0, 0.0]])
-    dyn = bl.LinearFeedback(S, 1, C=C, nk=2)
-    dctx = dyn.CreateDefaultContext()
-    dyn.GetInputPort("x").FixValue(dctx, x)
-    AK, BK, CK, DK = -np.eye(2), np.array([[1.0], [2.0]]), np.array([[0.5, -1.0]]), np.array([[3.0]])
-    dyn.set_gains(dctx, controller=(AK, BK, CK, DK))
-    xk = np.array([0.3, -0.7])
-    dctx.SetContinuousState(xk)
-    y = C @ (S @ x)
-    assert dyn.GetOutputPort("u").Eval(dctx) == pytest.approx(CK @ xk + DK @ y)
-    deriv = dyn.EvalTimeDerivatives(dctx).CopyToVector()
-    np.testing.assert_allclose(deriv, AK @ xk + BK @ y)
-    with pytest.raises(ValueError, match="controller"):
-        dyn.set_gains(dctx, K=np.ones((1, 2)))
 
 
 # ----------------------------------------------------------------------------- smoke runs

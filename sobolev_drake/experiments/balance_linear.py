@@ -19,8 +19,10 @@ as the disk, DESIGN §4.4):
   their weights, only the rule "similar 2 % settling time of θ from x(0) = [π/4 0 0]".  We take
   Q = Γ0 of the matching W∞ design and R = ρ, and pick ρ by bisection on log ρ so that the
   settling time of the NONLINEAR closed loop matches the W∞ one.  The search reuses ONE Drake
-  diagram (the controller's gains are numeric parameters of :class:`LinearFeedback`, reset in
-  the context) because Python LeafSystems are not garbage-collected in drake 1.51.
+  diagram (the controllers' gains are numeric parameters of the library's
+  :class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback` /
+  :class:`~sobolev_drake.systems.linear_controllers.LinearDynamicOutputFeedback`, reset in the
+  context) because Python LeafSystems are not garbage-collected in drake 1.51.
 
 Every controller is then flown on the nonlinear Drake model from θ(0) = π/4 with wϕ = 2 N m on
 5 ≤ t ≤ 10 s and wθ = 2 sin(2πt/5) N m on 15 < t ≤ 20 s.  Indices: ISE ∫θ², ∫ϕ̇², IADU ∫|du/dt|,
@@ -35,10 +37,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake.experiments import Claim, ExperimentResult, register
+from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
 GAMMA1_SF = np.diag([2.6, 0.25, 0.625])
@@ -46,6 +49,8 @@ GAMMA0_OF = np.diag([10.0, 1.0, 10.0])
 GAMMA1_OF = np.diag([0.66, 0.35, 0.3355])
 C_OF = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # θ̇ not measured (6.5.2)
 RADIUS = {"sf": 40.0, "of": 150.0}
+#: plant state [ϕ θ ϕ̇ θ̇] → linear-model state [θ ϕ̇ θ̇] (ϕ is cyclic)
+S_LIN = np.array([[0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
 THETA0 = np.pi / 4
 DESIGNS = ("H∞", "W∞", "H∞-O.F.", "W∞-O.F.")
 #: Table 6.2: ISE θ, ISE ϕ̇, IADU, empirical H∞ index
@@ -59,83 +64,7 @@ RHO_GRID = {"sf": np.logspace(-3, 2, 6), "of": np.logspace(-3, 2, 6)}
 RHO_TUNED = {"H∞": 10.75, "H∞-O.F.": 13.34}
 
 
-# --------------------------------------------------------------------------- linear controller
-class LinearFeedback(LeafSystem):
-    """u = sat(u0 + K e) or the dynamic controller on y = C e, with e = S x − x_ref.
-
-    Gains live in a numeric parameter so one diagram serves a whole sweep (:meth:`set_gains`).
-    ``S`` (n_lin × n_x) selects the linear-model state from the plant output ``x``; input
-    ``x_ref`` (n_lin, optional: zero when unconnected).  ``nk`` is the (fixed) controller order,
-    0 for state feedback.  Outputs ``u`` (clipped to [lo, hi]) and ``u_raw`` (unclipped).
-    """
-
-    def __init__(self, S, nu, *, C=None, nk=0, u0=None, lo=-np.inf, hi=np.inf):
-        super().__init__()
-        self.S = np.atleast_2d(np.asarray(S, float))
-        n = self.S.shape[0]
-        self.C = np.eye(n) if C is None else np.atleast_2d(np.asarray(C, float))
-        if self.C.shape[1] != n:
-            raise ValueError(f"C must have {n} columns (linear state size), got {self.C.shape}")
-        self.n, self.nu, self.ny, self.nk = n, int(nu), self.C.shape[0], int(nk)
-        self.u0 = np.zeros(self.nu) if u0 is None else np.asarray(u0, float).reshape(self.nu)
-        self.lo, self.hi = lo, hi
-        self._shapes = ([(self.nu, n)] if nk == 0 else
-                        [(nk, nk), (nk, self.ny), (self.nu, nk), (self.nu, self.ny)])
-        size = sum(a * b for a, b in self._shapes)
-        self._param = self.DeclareNumericParameter(BasicVector(np.zeros(size)))
-        self.x_port = self.DeclareVectorInputPort("x", self.S.shape[1])
-        self.ref_port = self.DeclareVectorInputPort("x_ref", n)
-        if nk:
-            self.DeclareContinuousState(nk)
-        self.DeclareVectorOutputPort("u", self.nu, self._calc_u)
-        self.DeclareVectorOutputPort("u_raw", self.nu, self._calc_raw)
-
-    def set_gains(self, context, K=None, controller=None):
-        """Write K (state feedback) or (AK, BK, CK, DK) into this system's parameter."""
-        if (self.nk == 0 and K is None) or (self.nk > 0 and controller is None):
-            raise ValueError("state feedback needs K; output feedback needs controller=(AK, BK, CK, DK)")
-        mats = [K] if self.nk == 0 else list(controller)
-        for m, shp in zip(mats, self._shapes):
-            if np.shape(m) != shp:
-                raise ValueError(f"gain matrix shape {np.shape(m)} != expected {shp}")
-        context.get_mutable_numeric_parameter(0).SetFromVector(
-            np.concatenate([np.asarray(m, float).ravel() for m in mats]))
-
-    def _mats(self, context):
-        p, out, k = context.get_numeric_parameter(0).get_value(), [], 0
-        for a, b in self._shapes:
-            out.append(p[k:k + a * b].reshape(a, b))
-            k += a * b
-        return out
-
-    def _e(self, context):
-        e = self.S @ self.x_port.Eval(context)
-        if self.ref_port.HasValue(context):
-            e = e - self.ref_port.Eval(context)
-        return e
-
-    def _raw(self, context):
-        e = self._e(context)
-        if self.nk == 0:
-            return self.u0 + self._mats(context)[0] @ e
-        _, _, CK, DK = self._mats(context)
-        xk = context.get_continuous_state_vector().CopyToVector()
-        return self.u0 + CK @ xk + DK @ (self.C @ e)
-
-    def DoCalcTimeDerivatives(self, context, derivatives):
-        if self.nk == 0:  # Drake calls this even for stateless leaves
-            return
-        AK, BK, _, _ = self._mats(context)
-        xk = context.get_continuous_state_vector().CopyToVector()
-        derivatives.get_mutable_vector().SetFromVector(AK @ xk + BK @ (self.C @ self._e(context)))
-
-    def _calc_u(self, context, output):
-        output.SetFromVector(np.clip(self._raw(context), self.lo, self.hi))
-
-    def _calc_raw(self, context, output):
-        output.SetFromVector(self._raw(context))
-
-
+# --------------------------------------------------------------------------- helpers
 def result_gains(res):
     """{'K': ...} or {'controller': (AK, BK, CK, DK)} of a SynthesisResult."""
     if res.K is not None:
@@ -289,13 +218,20 @@ class Rig(LoggedRig):
         from sobolev_drake.systems.disturbances import TimeProfiledForce
         b = DiagramBuilder()
         self.h = add_two_wheeled(b)
-        S = np.array([[0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])  # [ϕ θ ϕ̇ θ̇] → [θ ϕ̇ θ̇]
-        self.ctrl = b.AddSystem(LinearFeedback(S, 1, C=C_OF if kind == "of" else None,
-                                               nk=3 if kind == "of" else 0))
+        # gains are placeholders, set per run (set_gains); the OF controller has order 3 and
+        # feedthrough (the synthesized DK is nonzero)
+        if kind == "of":
+            self.ctrl = b.AddSystem(LinearDynamicOutputFeedback(
+                np.zeros((3, 3)), np.zeros((3, 2)), np.zeros((1, 3)), np.zeros((1, 2)),
+                S=C_OF @ S_LIN, feedthrough=True))
+            ctrl_in = self.ctrl.GetInputPort("y")
+        else:
+            self.ctrl = b.AddSystem(LinearStateFeedback(np.zeros((1, 3)), S=S_LIN))
+            ctrl_in = self.ctrl.GetInputPort("x")
         pulses = [{"index": 0, "value": 2.0, "from": 5.0, "to": 10.0},
                   {"index": 1, "value": lambda t: 2.0 * np.sin(2 * np.pi * t / 5.0), "from": 15.0, "to": 20.0}]
         self.w = b.AddSystem(TimeProfiledForce(2, pulses if disturbances else []))
-        b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
+        b.Connect(self.h.x, ctrl_in)
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
         self._build(b, (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())),

@@ -2,12 +2,20 @@
 
 They receive gains computed by ``sobolev_drake.synthesis`` (never re-derive them):
 
-* :class:`LinearStateFeedback`: u = u_r + K (x - x_r), ports ``x`` (and ``x_r`` if
+* :class:`LinearStateFeedback`: u = u_r + K (S x - x_r), ports ``x`` (and ``x_r`` if
   ``reference_port=True``), output ``u`` (optionally clipped, then also ``u_raw``). Direct
-  feedthrough x -> u.  K is a numeric parameter: ``set_gains(context, K)`` retunes a context.
-* :class:`LinearDynamicOutputFeedback`: x_K' = AK x_K + BK (y - y_op),
-  u = u_op + CK x_K + DK (y - y_op); ports ``y`` -> ``u``. When DK = 0 the output depends on
-  the controller state only and is declared so (no false algebraic loop).
+  feedthrough x -> u.
+* :class:`LinearDynamicOutputFeedback`: x_K' = AK x_K + BK (S y - y_op),
+  u = u_op + CK x_K + DK (S y - y_op); port ``y`` -> ``u`` (optionally clipped, then also
+  ``u_raw``). Without feedthrough (DK = 0) the output depends on the controller state only and
+  is declared so (no false algebraic loop).
+
+Both keep their gains in a numeric parameter, so one diagram serves a whole gain sweep
+(Python LeafSystems are not garbage collected in drake 1.51): ``set_gains(context, ...)``
+retunes a context, ``gains(context)`` reads it back.  The optional selection matrix ``S``
+maps the connected signal (e.g. a plant's full state) to the linear model's state / output,
+so no extra MatrixGain is needed.  The matrix sizes (and the controller order) are fixed at
+construction.
 """
 
 from __future__ import annotations
@@ -18,6 +26,8 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 def _mat(name, M, shape=None):
     M = np.atleast_2d(np.asarray(M, dtype=float))
+    if M.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D matrix, got {M.ndim} dimensions")
     if shape is not None and any(w is not None and g != w for g, w in zip(M.shape, shape)):
         raise ValueError(f"{name} must have shape {shape}, got {M.shape}")
     if not np.all(np.isfinite(M)):
@@ -25,32 +35,51 @@ def _mat(name, M, shape=None):
     return M
 
 
+def _bounds(nu, u_min, u_max):
+    """Elementwise (lo, hi) of size nu, or None without bounds."""
+    if u_min is None and u_max is None:
+        return None
+    try:
+        lo = np.full(nu, -np.inf) if u_min is None else np.broadcast_to(
+            np.asarray(u_min, dtype=float), (nu,)).copy()
+        hi = np.full(nu, np.inf) if u_max is None else np.broadcast_to(
+            np.asarray(u_max, dtype=float), (nu,)).copy()
+    except ValueError:
+        raise ValueError(f"u_min / u_max must be scalars or of size {nu} (the input size)") from None
+    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
+        raise ValueError(f"u_min must be <= u_max elementwise, got {lo} and {hi}")
+    return lo, hi
+
+
+def _selection(S, n):
+    """Selection matrix S (n x m) or None (identity, m = n); returns (S or None, m)."""
+    if S is None:
+        return None, n
+    S = _mat("S", S, (n, None))
+    return S, S.shape[1]
+
+
 class LinearStateFeedback(LeafSystem):
-    """u = u_r + K (x - x_r) with constant u_r (operating point) and x_r (port or constant).
+    """u = u_r + K (S x - x_r) with constant u_r (operating point) and x_r (port or constant).
 
     K is stored in a numeric parameter (default: the ``K`` given here), so one diagram can serve
-    a gain sweep: :meth:`set_gains` writes new gains into a context.  With ``u_min`` / ``u_max``
-    the output ``u`` is clipped elementwise and a second output ``u_raw`` gives the unclipped
-    command (e.g. to measure saturation).
+    a gain sweep: :meth:`set_gains` writes new gains into a context.  ``S`` (nx x m, default the
+    identity) selects the linear-model state from the m-vector on port ``x``.  With ``u_min`` /
+    ``u_max`` the output ``u`` is clipped elementwise and a second output ``u_raw`` gives the
+    unclipped command (e.g. to measure saturation).
     """
 
-    def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None):
+    def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None,
+                 S=None):
         super().__init__()
         self.K = _mat("K", K)
         nu, nx = self.K.shape
+        self.S, nin = _selection(S, nx)
         self.u_r = np.zeros(nu) if u_r is None else _mat("u_r", u_r, (1, nu)).ravel()
         self.x_r = np.zeros(nx) if x_r is None else _mat("x_r", x_r, (1, nx)).ravel()
-        self._bounds = None
-        if u_min is not None or u_max is not None:
-            lo = np.full(nu, -np.inf) if u_min is None else np.broadcast_to(
-                np.asarray(u_min, dtype=float), (nu,)).copy()
-            hi = np.full(nu, np.inf) if u_max is None else np.broadcast_to(
-                np.asarray(u_max, dtype=float), (nu,)).copy()
-            if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
-                raise ValueError(f"u_min must be <= u_max elementwise, got {lo} and {hi}")
-            self._bounds = (lo, hi)
+        self._bounds = _bounds(nu, u_min, u_max)
         self._K_index = self.DeclareNumericParameter(BasicVector(self.K.ravel()))
-        self._x = self.DeclareVectorInputPort("x", nx)
+        self._x = self.DeclareVectorInputPort("x", nin)
         self._xr = self.DeclareVectorInputPort("x_r", nx) if reference_port else None
         self.DeclareVectorOutputPort("u", nu, self._calc_u)
         if self._bounds is not None:
@@ -67,6 +96,8 @@ class LinearStateFeedback(LeafSystem):
 
     def _raw(self, context):
         x = self._x.Eval(context)
+        if self.S is not None:
+            x = self.S @ x
         xr = self._xr.Eval(context) if self._xr is not None else self.x_r
         return self.u_r + self.gains(context) @ (x - xr)
 
@@ -81,9 +112,19 @@ class LinearStateFeedback(LeafSystem):
 
 
 class LinearDynamicOutputFeedback(LeafSystem):
-    """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op)."""
+    """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op).
 
-    def __init__(self, AK, BK, CK, DK=None, *, y_op=None, u_op=None, x0=None):
+    The four matrices are stored in one numeric parameter (defaults: the matrices given here);
+    :meth:`set_gains` writes a new controller of the same order and sizes into a context.
+    ``feedthrough`` (default: DK given here is nonzero) fixes at construction whether ``u``
+    may depend directly on ``y``; a system built without it rejects gains with DK != 0, so the
+    declared dependency (no algebraic loop) stays true.  ``S`` (ny x m, default identity) maps
+    the m-vector on port ``y`` to the controller's measurement.  ``u_min`` / ``u_max`` clip
+    ``u`` (then ``u_raw`` is the unclipped command).  ``x0`` is the default controller state.
+    """
+
+    def __init__(self, AK, BK, CK, DK=None, *, y_op=None, u_op=None, x0=None, S=None,
+                 feedthrough=None, u_min=None, u_max=None):
         super().__init__()
         self.AK = _mat("AK", AK)
         nk = self.AK.shape[0]
@@ -93,14 +134,26 @@ class LinearDynamicOutputFeedback(LeafSystem):
         self.CK = _mat("CK", CK, (None, nk))
         nu = self.CK.shape[0]
         self.DK = np.zeros((nu, ny)) if DK is None else _mat("DK", DK, (nu, ny))
+        self.nk, self.ny, self.nu = nk, ny, nu
+        self._shapes = ((nk, nk), (nk, ny), (nu, nk), (nu, ny))
+        self.S, nin = _selection(S, ny)
         self.y_op = np.zeros(ny) if y_op is None else _mat("y_op", y_op, (1, ny)).ravel()
         self.u_op = np.zeros(nu) if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
         x0 = np.zeros(nk) if x0 is None else _mat("x0", x0, (1, nk)).ravel()
-        self._y = self.DeclareVectorInputPort("y", ny)
+        self._bounds = _bounds(nu, u_min, u_max)
+        self.feedthrough = bool(np.any(self.DK != 0)) if feedthrough is None else bool(feedthrough)
+        if not self.feedthrough and np.any(self.DK != 0):
+            raise ValueError("DK must be zero when feedthrough=False (u would depend on y directly)")
+        self._p_index = self.DeclareNumericParameter(BasicVector(self._pack(
+            (self.AK, self.BK, self.CK, self.DK))))
+        self._y = self.DeclareVectorInputPort("y", nin)
         self.DeclareContinuousState(BasicVector(x0))
-        feedthrough = bool(np.any(self.DK != 0))
-        prereq = ({self.all_sources_ticket()} if feedthrough else {self.xc_ticket()})
+        # without feedthrough u depends on the controller state (and parameters) only
+        prereq = ({self.all_sources_ticket()} if self.feedthrough
+                  else {self.xc_ticket(), self.all_parameters_ticket()})
         self.DeclareVectorOutputPort("u", nu, self._calc_u, prerequisites_of_calc=prereq)
+        if self._bounds is not None:
+            self.DeclareVectorOutputPort("u_raw", nu, self._calc_raw, prerequisites_of_calc=prereq)
 
     @classmethod
     def from_controller(cls, controller, **kw):
@@ -108,15 +161,60 @@ class LinearDynamicOutputFeedback(LeafSystem):
         AK, BK, CK, DK = controller
         return cls(AK, BK, CK, DK, **kw)
 
+    @staticmethod
+    def _pack(mats):
+        return np.concatenate([np.asarray(m, dtype=float).ravel() for m in mats])
+
+    def set_gains(self, context, controller):
+        """Write ``controller`` = (AK, BK, CK, DK) (a ``DynamicController`` or any iterable; DK
+        may be None for 0) into this system's parameter in ``context`` (its own context).
+
+        The shapes must equal the construction ones (the controller order is fixed)."""
+        try:
+            AK, BK, CK, DK = controller
+        except (TypeError, ValueError):
+            raise ValueError("controller must be an (AK, BK, CK, DK) tuple or DynamicController") from None
+        if DK is None:
+            DK = np.zeros(self._shapes[3])
+        mats = [_mat(n, M, s) for n, M, s in zip(("AK", "BK", "CK", "DK"), (AK, BK, CK, DK), self._shapes)]
+        if not self.feedthrough and np.any(mats[3] != 0):
+            raise ValueError("DK must be zero: this controller was built with feedthrough=False "
+                             "(pass feedthrough=True at construction to allow DK != 0)")
+        context.get_mutable_numeric_parameter(self._p_index).SetFromVector(self._pack(mats))
+
+    def gains(self, context):
+        """(AK, BK, CK, DK) currently held by ``context``."""
+        p, out, k = context.get_numeric_parameter(self._p_index).get_value(), [], 0
+        for a, b in self._shapes:
+            out.append(p[k:k + a * b].reshape(a, b))
+            k += a * b
+        return tuple(out)
+
     def _xk(self, context):
         return context.get_continuous_state_vector().CopyToVector()
 
+    def _dy(self, context):
+        y = self._y.Eval(context)
+        if self.S is not None:
+            y = self.S @ y
+        return y - self.y_op
+
     def DoCalcTimeDerivatives(self, context, derivatives):
-        dy = self._y.Eval(context) - self.y_op
-        derivatives.get_mutable_vector().SetFromVector(self.AK @ self._xk(context) + self.BK @ dy)
+        AK, BK, _, _ = self.gains(context)
+        derivatives.get_mutable_vector().SetFromVector(AK @ self._xk(context) + BK @ self._dy(context))
+
+    def _raw(self, context):
+        _, _, CK, DK = self.gains(context)
+        u = self.u_op + CK @ self._xk(context)
+        if self.feedthrough:
+            u = u + DK @ self._dy(context)
+        return u
 
     def _calc_u(self, context, output):
-        u = self.u_op + self.CK @ self._xk(context)
-        if np.any(self.DK != 0):
-            u = u + self.DK @ (self._y.Eval(context) - self.y_op)
+        u = self._raw(context)
+        if self._bounds is not None:
+            u = np.clip(u, *self._bounds)
         output.SetFromVector(u)
+
+    def _calc_raw(self, context, output):
+        output.SetFromVector(self._raw(context))
