@@ -27,3 +27,78 @@ def test_linear_simple_smoke(tmp_path):
         assert m["achieved"] <= m["gamma"] * (1 + 1e-4)
     assert any("degenerate" in c.text and c.held for c in res.claims)
 
+
+
+# ------------------------------------------------- linear-simple: initial condition vs disturbance
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def simple_designs():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ctrls, _ = ls.design()
+    return ctrls
+
+
+def test_linear_simple_runs_superpose_initial_condition_and_disturbance(simple_designs):
+    """The closed loop is linear: the full run equals the x(0)-only run plus the v-only run
+    (same seed), for the static and for a dynamic controller; the v-only run of the
+    disturbance-model design is tiny (the matched disturbance is estimated and cancelled)."""
+    for name in ("W-inf", "W-inf-D"):
+        kind, data, _ = simple_designs[name]
+        full = ls.simulate_exact(kind, data, 3.0)
+        ic = ls.simulate_exact(kind, data, 3.0, noise=False)
+        vo = ls.simulate_exact(kind, data, 3.0, x0=[0.0, 0.0])
+        scale = np.abs(full["x"]).max()
+        np.testing.assert_allclose(full["x"], ic["x"] + vo["x"], atol=1e-9 * scale)
+        np.testing.assert_allclose(full["u"], ic["u"] + vo["u"], atol=1e-9 * np.abs(full["u"]).max())
+    kind, data, _ = simple_designs["W-inf-D"]
+    kb, datab, _ = simple_designs["W-inf"]
+    vD = ls._indices(ls.simulate_exact(kind, data, 3.0, x0=[0.0, 0.0]))[0]
+    vB = ls._indices(ls.simulate_exact(kb, datab, 3.0, x0=[0.0, 0.0]))[0]
+    assert vD < 1e-3 * vB
+
+
+def test_linear_simple_initial_condition_energy_matches_simulation(simple_designs):
+    """||z||^2 from the Gramian equals the integral of |Gamma0^1/2 x|^2 + |xdot|^2 of a long
+    x(0)-only run (xdot by finite differences)."""
+    kind, data, _ = simple_designs["W-inf"]
+    s = ls.simulate_exact(kind, data, 2.0, noise=False, dt=1e-4)
+    t, x = s["t"], s["x"]
+    xd = np.gradient(x, t, axis=0)
+    sim = np.trapezoid(10 * np.sum(x ** 2, 1) + np.sum(xd ** 2, 1), t)
+    assert ls.initial_condition_energy(kind, data) == pytest.approx(sim, rel=2e-3)
+
+
+def test_linear_simple_lyapunov_bound_6_33_and_consistent_controller_state(simple_designs):
+    """(6.33) with v = 0: ||z||^2 <= V(xi(0)) for every design; x_K(0) = argmin V is a
+    stationary point of V (gradient zero), lowers V and the transient energy of W-inf-D."""
+    for name, (kind, data, res) in simple_designs.items():
+        z2 = ls.initial_condition_energy(kind, data)
+        V = ls.lyapunov_bound(kind, data, res)
+        assert 0 < z2 <= V * (1 + 1e-6), name
+    kind, data, res = simple_designs["W-inf-D"]
+    xk = ls.consistent_controller_state(res)
+    P = res.P
+    xi = np.concatenate([ls.X0, np.zeros(2), xk])
+    grad = (P @ xi)[4:]
+    assert np.linalg.norm(grad) <= 1e-8 * np.linalg.norm(P @ np.concatenate([ls.X0, np.zeros(2 + xk.size)]))
+    V0, V1 = ls.lyapunov_bound(kind, data, res), ls.lyapunov_bound(kind, data, res, xk0=xk)
+    assert V1 < 1e-2 * V0
+    z1 = ls.initial_condition_energy(kind, data, xk0=xk)
+    assert z1 <= V1 * (1 + 1e-6) and z1 < ls.initial_condition_energy(kind, data)
+
+
+def test_linear_simple_bad_initial_states(simple_designs):
+    kind, data, res = simple_designs["W-inf-D"]
+    with pytest.raises(ValueError, match="xk0 must have 4 entries"):
+        ls.simulate_exact(kind, data, 0.1, xk0=[0.0, 0.0])
+    with pytest.raises(ValueError, match="x0 must have 2 entries"):
+        ls.initial_condition_energy(kind, data, x0=[1.0, 2.0, 3.0])
+    _, _, rsf = simple_designs["W-inf"]
+    with pytest.raises(ValueError, match="dynamic-controller result"):
+        ls.consistent_controller_state(rsf)
+    _, _, rof = simple_designs["W-inf-O.F."]  # P on [x; x_K]: no disturbance states
+    with pytest.raises(ValueError, match=r"res.P must be the Lyapunov matrix on \[x; d; x_K\]"):
+        ls.consistent_controller_state(rof)
