@@ -61,7 +61,7 @@ SETTLE_WINDOW = 5.0  # the disturbances start at t = 5 s
 #: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design)
 RHO_GRID = {"sf": np.logspace(-3, 2, 6), "of": np.logspace(-3, 2, 6)}
 #: ρ found by a full run (used by smoke mode, which skips the search)
-RHO_TUNED = {"H∞": 10.75, "H∞-O.F.": 13.34}
+RHO_TUNED = {"H∞": 10.0, "H∞-O.F.": 13.34}
 
 
 # --------------------------------------------------------------------------- helpers
