@@ -20,7 +20,8 @@ from pydrake.systems.framework import LeafSystem
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.handles import PlantHandles
-from sobolev_drake.models.tiltrotor_params import DOF_NAMES, R_IB, TiltrotorParams, body_generalized_force
+from sobolev_drake.models.tiltrotor_params import DOF_NAMES, TiltrotorParams
+from sobolev_drake.systems.propulsion import body_kinematics_scalar
 
 #: Drake joint of each thesis coordinate
 JOINTS = ("tilt_right", "tilt_left", "base_roll", "base_pitch", "base_yaw", "base_x", "base_y", "base_z")
@@ -184,39 +185,55 @@ class TiltrotorForces(LeafSystem):
         self._perm16 = np.concatenate([perm, perm + 8])
         self._perm8_inv = np.argsort(perm)         # τ_drake[i] = τ_thesis[perm⁻¹[i]]
         self._zero3 = np.zeros(3)
-        self._cosb, self._nu = np.cos(model.params.beta), model.params.nu
+        self._cosb, self._nu = float(np.cos(model.params.beta)), float(model.params.nu)
+        self._dC1 = [float(v) for v in model.params.d_B_C1]
         self.evaluations = 0          # number of force evaluations (benchmarks)
-
-    def _opt(self, name, context):
-        port = self._ports[name]
-        return port.Eval(context) if port.HasValue(context) else None
 
     def _calc_x(self, context, output) -> None:
         output.SetFromVector(self._state.Eval(context)[self._perm16])
 
     def thesis_force(self, context) -> np.ndarray:
         """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
-        touches each port once and skips unconnected ones."""
+        touches each port once, skips unconnected ones and uses the scalar force cores with
+        one shared body-kinematics pass."""
         self.evaluations += 1
-        x = self._state.Eval(context)[self._perm16]
-        q, qd = x[:8], x[8:]
-        u = self._opt("u", context)
-        u = np.zeros(8) if u is None else np.array(u)
-        for name, sl in (("propeller_speed", slice(0, 2)), ("servo_torque", slice(2, 4)),
-                         ("surface_deflection", slice(4, 8))):
-            v = self._opt(name, context)
-            if v is not None:
-                u[sl] += v
-        zeta = self._opt("wind", context)
-        zeta = self._zero3 if zeta is None else zeta
-        tau = self.prop.propeller_force(q, qd, zeta, u[0:2]) + self.aero.generalized_force(q, qd, zeta, u[4:8])
-        tau[0:2] += self._cosb * u[2:4] - self._nu * qd[0:2]          # servos (7.33)
-        w = self._opt("disturbance", context)
-        if w is not None:
-            tau += w
-        fd = self._opt("force_disturbance", context)
-        if fd is not None:
-            tau += body_generalized_force(q, self.model.params.d_B_C1, R_IB(q).T @ fd)
+        ql = self._state.Eval(context)[self._perm16].tolist()
+        q, qd = ql[:8], ql[8:]
+        ports = self._ports
+        u = ports["u"].Eval(context).tolist() if ports["u"].HasValue(context) else [0.0] * 8
+        for name, i0 in (("propeller_speed", 0), ("servo_torque", 2), ("surface_deflection", 4)):
+            port = ports[name]
+            if port.HasValue(context):
+                for i, v in enumerate(port.Eval(context).tolist()):
+                    u[i0 + i] += v
+        zeta = ports["wind"].Eval(context).tolist() if ports["wind"].HasValue(context) else [0.0] * 3
+        kin = body_kinematics_scalar(q, qd, zeta)
+        tp = self.prop.propeller_force_scalar(kin, self.prop.rotors_scalar(q, qd, kin), u[0:2])
+        ta = self.aero.loads_scalar(kin, u[4:8])[0]
+        tau = [a + b for a, b in zip(tp, ta)]
+        tau[0] += self._cosb * u[2] - self._nu * qd[0]          # servos (7.33)
+        tau[1] += self._cosb * u[3] - self._nu * qd[1]
+        port = ports["force_disturbance"]
+        if port.HasValue(context):
+            fx, fy, fz = port.Eval(context).tolist()
+            if fx != 0.0 or fy != 0.0 or fz != 0.0:
+                # inertial force at C1: generalized force [0, 0, Wηᵀ (d × Rᵀ F), R Rᵀ F]
+                (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
+                bx = r00 * fx + r10 * fy + r20 * fz
+                by = r01 * fx + r11 * fy + r21 * fz
+                bz = r02 * fx + r12 * fy + r22 * fz
+                dx, dy, dz = self._dC1
+                tx, ty, tz = dy * bz - dz * by, dz * bx - dx * bz, dx * by - dy * bx
+                tau[2] += tx
+                tau[3] += cf * ty - sf * tz
+                tau[4] += -st * tx + ct * sf * ty + cf * ct * tz
+                tau[5] += r00 * bx + r01 * by + r02 * bz
+                tau[6] += r10 * bx + r11 * by + r12 * bz
+                tau[7] += r20 * bx + r21 * by + r22 * bz
+        tau = np.array(tau)
+        port = ports["disturbance"]
+        if port.HasValue(context):
+            tau += port.Eval(context)
         return tau
 
     def _calc_thesis(self, context, output) -> None:

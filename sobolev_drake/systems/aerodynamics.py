@@ -189,29 +189,45 @@ class AeroModel:
     def generalized_force_fast(self, q, qdot, zeta, delta):
         """Same as :meth:`generalized_force_vectorized` with Python scalar math: for 6 surfaces
         the per-call overhead of small numpy operations dominates (≈10× slower)."""
+        # Python floats: arithmetic on numpy scalars is several times slower
+        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
+        zeta, delta = [float(v) for v in zeta], [float(v) for v in delta]
+        kin = body_kinematics_scalar(q, qdot, zeta)
+        return np.array(self.loads_scalar(kin, delta)[0])
+
+    def loads_scalar(self, kin, delta, columns=False):
+        """Scalar core of the aerodynamic generalized force (thesis order).
+
+        ``kin``: :func:`~sobolev_drake.systems.propulsion.body_kinematics_scalar`; ``delta``:
+        four floats [δWR δWL δTR δTL].  Returns ``(ϑ_aero (list of 8), V (list of 6 surface air
+        speeds), Bd)`` where ``Bd`` is None unless ``columns``: then the (8, 4) deflection
+        columns of (B.12)–(B.15) as a numpy array (``ϑ_aero = ϑ(δ = 0) + Bd δ``, see
+        :meth:`terms`).
+        """
         if self._fast is None:
             self._prepare_fast()
         (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
         imax = int(nmax) - 1
         sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
-        # Python floats: arithmetic on numpy scalars is several times slower
-        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
-        zeta, delta = [float(v) for v in zeta], [float(v) for v in delta]
         ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
-         (wx, wy, wz), (vbx, vby, vbz)) = body_kinematics_scalar(q, qdot, zeta)
+         (wx, wy, wz), (vbx, vby, vbz)) = kin
         de, dr = 0.5 * (delta[2] + delta[3]), 0.5 * (delta[2] - delta[3])
         dlift = (0.0, cda * delta[0], cda * delta[1], cde * de, cde * de, 0.0)
         dside = (0.0, 0.0, 0.0, cdr * dr, cdr * dr, 0.0)
         Fx = Fy = Fz = Tx = Ty = Tz = 0.0
+        Vs = [0.0] * 6
+        # body-axes unit-deflection force per surface 1..4: wing lift (δW), tail lift (δe), tail side (δr)
+        unit = [None] * 6
         for k in range(6):
             rx, ry, rz = pts[k]
             u = vbx + wy * rz - wz * ry
             v = vby + wz * rx - wx * rz
             w = vbz + wx * ry - wy * rx
             V2 = u * u + v * v + w * w
+            Vs[k] = sqrt(V2)
             if V2 < 1e-24:
                 continue
-            V = sqrt(V2)
+            V = Vs[k]
             up = u if u > 0.0 else 0.0
             h = sqrt(up * up + w * w)
             alpha = atan2(w, up)
@@ -235,9 +251,51 @@ class AeroModel:
             Tx += ry * bz - rz * by
             Ty += rz * bx - rx * bz - ks * chord * cm
             Tz += rx * by - ry * bx - ks * span * cn
-        return np.array([0.0, 0.0, Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
-                         r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
-                         r20 * Fx + r21 * Fy + r22 * Fz])
+            if columns and 1 <= k <= 4:
+                # lift direction z_w = [−sα, 0, cα], side direction y_w = [−cα sβ, cβ, −sα sβ]
+                unit[k] = (-sa * ks, ca * ks, -ca * sb * ks, cb * ks, -sa * sb * ks)
+        out = [0.0, 0.0, Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
+               r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
+               r20 * Fx + r21 * Fy + r22 * Fz]
+        if not columns:
+            return out, Vs, None
+        Bd = np.zeros((8, 4))
+        # each column: list of (point, body force) pairs
+        cols = [[], [], [], []]
+        for k, j in ((1, 0), (2, 1)):
+            if unit[k] is not None:
+                lx, lz = unit[k][0], unit[k][1]
+                cols[j].append((pts[k], (cda * lx, 0.0, cda * lz)))
+        for k in (3, 4):
+            if unit[k] is not None:
+                lx, lz, yx, yy, yz = unit[k]
+                e = (cde * lx, 0.0, cde * lz)
+                r = (cdr * yx, cdr * yy, cdr * yz)
+                # δTR = +½ on δe and δr, δTL = +½ on δe and −½ on δr
+                cols[2].append((pts[k], (0.5 * (e[0] + r[0]), 0.5 * (e[1] + r[1]), 0.5 * (e[2] + r[2]))))
+                cols[3].append((pts[k], (0.5 * (e[0] - r[0]), 0.5 * (e[1] - r[1]), 0.5 * (e[2] - r[2]))))
+        for j, items in enumerate(cols):
+            if not items:
+                continue
+            Fx = Fy = Fz = Tx = Ty = Tz = 0.0
+            for (rx, ry, rz), (bx, by, bz) in items:
+                Fx += bx
+                Fy += by
+                Fz += bz
+                Tx += ry * bz - rz * by
+                Ty += rz * bx - rx * bz
+                Tz += rx * by - ry * bx
+            Bd[2:8, j] = (Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
+                          r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
+                          r20 * Fx + r21 * Fy + r22 * Fz)
+        return out, Vs, Bd
+
+    def terms_scalar(self, q, qdot, zeta):
+        """(ϑ_aero_passive (8,), B_delta (8, 4), V (6,)) — scalar version of :meth:`terms`
+        plus the surface air speeds of :meth:`surface_air_data` (tested equal)."""
+        q, qdot, zeta = [float(v) for v in q], [float(v) for v in qdot], [float(v) for v in zeta]
+        out, V, Bd = self.loads_scalar(body_kinematics_scalar(q, qdot, zeta), (0.0,) * 4, True)
+        return np.array(out), Bd, np.array(V)
 
     def _prepare_fast(self):
         p, t = self.params, self.tables

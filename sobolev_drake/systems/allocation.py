@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import lapack as _lapack
 from scipy.optimize import lsq_linear
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
@@ -54,14 +55,43 @@ def _check_problem(B, u, lo, hi):
     if lo.shape != (m,) or hi.shape != (m,):
         raise ValueError(f"lo and hi must be vectors of length m = {m} (columns of B), "
                          f"got shapes {lo.shape} and {hi.shape}")
-    if not (np.all(np.isfinite(B)) and np.all(np.isfinite(u))):
+    if not (np.isfinite(B).all() and np.isfinite(u).all()):
         raise ValueError("B and u must be finite")
-    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
+    if not (lo <= hi).all():            # also catches NaN
         bad = np.flatnonzero(~(lo <= hi))
         raise ValueError(f"need lo <= hi (no NaN) elementwise; violated at indices {bad.tolist()}")
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
         raise ValueError("lo and hi must be finite (the scaling uses the box widths)")
     return B, u, lo, hi
+
+
+def _solve(H, rhs):
+    """Solve H x = rhs (small dense, LU with partial pivoting: LAPACK dgesv, as numpy's solve
+    but without its per-call overhead); raises LinAlgError if singular."""
+    _, _, x, info = _lapack.dgesv(H, rhs)
+    if info != 0:
+        raise np.linalg.LinAlgError("singular matrix")
+    return x
+
+
+_GELSD_WORK: dict = {}
+
+
+def _lstsq_min_norm(A, b, rcond):
+    """Minimum-norm least squares (LAPACK dgelsd, numpy's lstsq driver) with relative
+    singular-value cutoff ``rcond``."""
+    n, m = A.shape
+    key = (n, m, rcond)
+    if key not in _GELSD_WORK:
+        lw = _lapack.dgelsd_lwork(n, m, 1, rcond)
+        _GELSD_WORK[key] = (int(lw[0]), int(lw[1]))
+    lwork, iwork = _GELSD_WORK[key]
+    if n < m:                              # dgelsd needs room for the m-vector solution
+        b = np.concatenate([b, np.zeros(m - n)])
+    x, _, _, info = _lapack.dgelsd(A, b, lwork, iwork, rcond)
+    if info != 0:                          # SVD failed to converge: numpy's path raises too
+        return np.linalg.lstsq(A, b[:n], rcond=rcond)[0]
+    return x[:m]
 
 
 def _box_qp_pdas(H, g, l, h, low, up, max_iter=25):
@@ -79,12 +109,12 @@ def _box_qp_pdas(H, g, l, h, low, up, max_iter=25):
         s = np.where(up, h, np.where(low, l, 0.0))
         if free.any():
             Hf = H[free]
-            s[free] = np.linalg.solve(Hf[:, free], g[free] - Hf[:, act] @ s[act])
+            s[free] = _solve(Hf[:, free], g[free] - Hf[:, act] @ s[act])
         lam = g - H @ s
         lam[free] = 0.0
         new_up = lam + c * (s - h) > 0
         new_low = (lam + c * (s - l) < 0) & ~new_up
-        if np.array_equal(new_up, up) and np.array_equal(new_low, low):
+        if (new_up == up).all() and (new_low == low).all():
             return s, low, up, it + 1
         low, up = new_low, new_up
     return None
@@ -185,20 +215,29 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
         raise ValueError(f"regularization must be a finite non-negative number, got {regularization}")
     m = B.shape[1]
     width = hi - lo
-    tau_p = np.clip(0.0, lo, hi)
-    scale = np.where(width > 0, 0.5 * width, 1.0)
+    tau_p = np.minimum(np.maximum(0.0, lo), hi)        # clip(0, lo, hi)
     var = width > 0                      # fixed variables (lo == hi) are removed
+    all_var = bool(var.all())
+    scale = 0.5 * width if all_var else np.where(var, 0.5 * width, 1.0)
     tau = tau_p.copy()
-    tau[~var] = lo[~var]
-    A = B[:, var] * scale[var]
-    b = u - B @ tau
-    l = (lo[var] - tau_p[var]) / scale[var]
-    h = (hi[var] - tau_p[var]) / scale[var]
+    if all_var:
+        A = B * scale
+        b = u - B @ tau
+        l = (lo - tau_p) / scale
+        h = (hi - tau_p) / scale
+    else:
+        tau[~var] = lo[~var]
+        A = B[:, var] * scale[var]
+        b = u - B @ tau
+        l = (lo[var] - tau_p[var]) / scale[var]
+        h = (hi[var] - tau_p[var]) / scale[var]
     info = {"method": "none", "iterations": 0}
     active = np.zeros(m, dtype=int)     # −1 on lower bound, +1 on upper bound, 0 free/fixed
     if A.shape[1]:
-        eps = regularization * max(float(np.sum(A * A)), 1e-300)
-        H = A.T @ A + eps * np.eye(A.shape[1])
+        k = A.shape[1]
+        eps = regularization * max(float((A * A).sum()), 1e-300)
+        H = A.T @ A
+        H.flat[::k + 1] += eps                         # + ε I
         g = A.T @ b
         if eps == 0.0 and np.linalg.cond(H) > 1e12:  # singular without regularization
             res = _fallback(A, b, l, h, eps)
@@ -211,9 +250,11 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
                     ws = np.asarray(warm_start)
                     if ws.shape != (m,):
                         raise ValueError(f"warm_start must be a length-{m} array of -1/0/+1, got shape {ws.shape}")
-                    low0, up0 = ws[var] < 0, ws[var] > 0
+                    if not all_var:
+                        ws = ws[var]
+                    low0, up0 = ws < 0, ws > 0
                 else:
-                    s0 = np.linalg.solve(H, g)
+                    s0 = _solve(H, g)
                     low0, up0 = s0 < l, s0 > h
                 out = _box_qp_pdas(H, g, l, h, low0, up0)
                 info["method"] = "pdas"
@@ -225,18 +266,26 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
             else:
                 s, low, up, info["iterations"] = out
                 s = _polish(A, b, s, low, up, l, h)
-        s = np.clip(s, l, h)
-        tau[var] = tau_p[var] + scale[var] * s
+        s = np.minimum(np.maximum(s, l), h)
+        if all_var:
+            tau = tau_p + scale * s
+        else:
+            tau[var] = tau_p[var] + scale[var] * s
         if info["method"] == "lsq_linear_bvls":
             tol = 1e-12 * max(1.0, float(np.max(np.abs(h - l))))
             low, up = s <= l + tol, s >= h - tol
-        active[np.flatnonzero(var)[low]] = -1
-        active[np.flatnonzero(var)[up]] = 1
+        if all_var:
+            active[low] = -1
+            active[up] = 1
+        else:
+            active[np.flatnonzero(var)[low]] = -1
+            active[np.flatnonzero(var)[up]] = 1
     # Variables on a bound are set to it exactly (τ_p + D s may be off by rounding).
-    tau = np.where(active < 0, lo, np.where(active > 0, hi, np.clip(tau, lo, hi)))
+    tau = np.where(active < 0, lo, np.where(active > 0, hi, np.minimum(np.maximum(tau, lo), hi)))
     if not return_info:
         return tau
-    info.update(residual=float(np.linalg.norm(u - B @ tau)), active=active)
+    r = u - B @ tau
+    info.update(residual=math.sqrt(float(r @ r)), active=active)
     return tau, info
 
 
@@ -251,13 +300,17 @@ def _polish(A, b, s, low, up, l, h):
     free = ~(low | up)
     if not free.any():
         return s
-    rhs = b - A[:, ~free] @ s[~free]
-    x = np.linalg.lstsq(A[:, free], rhs, rcond=1e-10)[0]
-    slack = 1e-12 * (h[free] - l[free])
-    if np.all(x >= l[free] - slack) and np.all(x <= h[free] + slack):
+    fixed = ~free
+    rhs = b - A[:, fixed] @ s[fixed]
+    Af = A[:, free]
+    x = _lstsq_min_norm(Af, rhs, 1e-10)
+    lf, hf = l[free], h[free]
+    slack = 1e-12 * (hf - lf)
+    if (x >= lf - slack).all() and (x <= hf + slack).all():
         new = s.copy()
-        new[free] = np.clip(x, l[free], h[free])
-        if np.linalg.norm(b - A @ new) <= np.linalg.norm(b - A @ s) * (1 + 1e-12) + 1e-300:
+        new[free] = np.minimum(np.maximum(x, lf), hf)
+        r_new, r_old = b - A @ new, b - A @ s
+        if math.sqrt(float(r_new @ r_new)) <= math.sqrt(float(r_old @ r_old)) * (1 + 1e-12) + 1e-300:
             return new
     return s
 
@@ -282,6 +335,16 @@ def sigmf(v, s: float = 2.0, c: float = 12.0):
     return np.where(z >= 0, np.exp(-np.abs(z)) / (1.0 + np.exp(-np.abs(z))), 1.0 / (1.0 + np.exp(-np.abs(z))))
 
 
+_THESIS_LIMITS: dict = {}
+
+
+def _thesis_limits() -> dict:
+    """``controller_limits_thesis`` of ``tiltrotor_missions.json`` (parsed once per process)."""
+    if not _THESIS_LIMITS:
+        _THESIS_LIMITS.update(load("tiltrotor_missions")["controller_limits_thesis"])
+    return _THESIS_LIMITS
+
+
 def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     """(lo, hi) of τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL] (7.85)–(7.89).
 
@@ -292,18 +355,24 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     [−2, 2] N m, δ ∈ ±5π/36 rad, s = 2, c = 12 m/s).  Below ≈ 8 m/s the surface range is
     < 0.03 % of δ_max: the surfaces are effectively removed from the allocation.
     """
-    lim = limits if limits is not None else load("tiltrotor_missions")["controller_limits_thesis"]
+    lim = limits if limits is not None else _thesis_limits()
     v = np.asarray(v_air, dtype=float)
     if v.size == 1:  # scalar or a size-1 port value: the same airspeed for all surfaces
         v = np.full(4, float(v.ravel()[0]))
-    if v.shape != (4,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+    if v.shape != (4,) or not np.isfinite(v).all() or (v < 0).any():
         raise ValueError(f"v_air must be a non-negative scalar or a 4-vector [WR, WL, TR, TL], got {v_air!r}")
-    sg = sigmf(v, float(lim["sigmoid_s"]), float(lim["sigmoid_c_m_s"]))
+    s, c = float(lim["sigmoid_s"]), float(lim["sigmoid_c_m_s"])
     f_lo, f_hi = lim["thrust_N"]
     t_lo, t_hi = lim["servo_torque_Nm"]
     d_lo, d_hi = lim["surface_deflection_rad"]
-    lo = np.concatenate([[f_lo, f_lo, t_lo, t_lo], d_lo * sg])
-    hi = np.concatenate([[f_hi, f_hi, t_hi, t_hi], d_hi * sg])
+    # sigmf (7.89) per surface in plain floats (same overflow-safe form as :func:`sigmf`)
+    sg = []
+    for x in v.tolist():
+        z = -s * (x - c)
+        e = math.exp(-abs(z))
+        sg.append(e / (1.0 + e) if z >= 0 else 1.0 / (1.0 + e))
+    lo = np.array([f_lo, f_lo, t_lo, t_lo] + [d_lo * g for g in sg], dtype=float)
+    hi = np.array([f_hi, f_hi, t_hi, t_hi] + [d_hi * g for g in sg], dtype=float)
     return lo, hi
 
 

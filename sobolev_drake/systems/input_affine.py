@@ -16,12 +16,15 @@
 
 from __future__ import annotations
 
+import math
+from typing import NamedTuple
+
 import numpy as np
 
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams, body_generalized_force, R_IB
 from sobolev_drake.systems.aerodynamics import AeroModel
-from sobolev_drake.systems.propulsion import PropulsionModel
+from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_scalar
 
 #: reference propeller speed (rev/s) for Cq/Ct when ``n`` is not given: thesis hover trim
 N_REF = 51.9
@@ -52,6 +55,96 @@ def _params_of(model_or_params):
 
 def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
     """(B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
+
+    ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
+    torque/thrust ratio Cq/Ct(J, φ) (default ``N_REF``).  Columns of B follow ``ACTUATOR_NAMES``.
+
+    ``torque``: ``"through_thrust"`` (Appendix C, default) puts the drag torque in the thrust
+    columns via t = λ d (Cq/Ct) f.  Ct(J, φ) crosses zero near J = 0.75 (windmilling, min Ct ≈
+    −0.0025) where that ratio blows up; ``"passive"`` instead puts the torque
+    λ ρ d⁵ n² Cq(J, φ) of the given ``n`` into ϑ_passive and keeps B's thrust columns pure thrust.
+    Both satisfy ϑ = B τ̄ + ϑ_passive exactly for the given n.
+
+    Python scalar math (:func:`input_affine_terms`); :func:`input_affine_vectorized` is the
+    numpy formulation it is tested against.
+    """
+    if torque not in ("through_thrust", "passive"):
+        raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
+    t = input_affine_terms(model, q, qdot, zeta, n, torque=torque)
+    return t.B, t.passive
+
+
+class AffineTerms(NamedTuple):
+    """Everything one controller sample needs from the force model at (q, q̇, ζ, n)."""
+
+    B: np.ndarray               # (8, 8) input matrix of (7.62)
+    passive: np.ndarray         # (8,) ϑ_passive
+    surface_speed: np.ndarray   # (6,) air speed of the surfaces F WR WL TR TL I (7.38)
+    rotor_vxz: np.ndarray       # (2,) rotor-frame air speed in the x–z plane (J = V_xz/(n d))
+    rotor_phi: np.ndarray       # (2,) inflow angle φ of each rotor (7.30)
+
+
+def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust") -> AffineTerms:
+    """:class:`AffineTerms` at (q, q̇, ζ): B and ϑ_passive of :func:`input_affine` plus the
+    surface air speeds (bounds (7.87)–(7.89)) and the rotor inflow (thrust inversion (7.90)),
+    from one pass of scalar kinematics (the controller's per-sample hot path)."""
+    p = _params_of(model)
+    q = check_vector("q", q, 8)
+    qdot = check_vector("qdot", qdot, 8)
+    zeta = check_vector("zeta", zeta, 3)
+    nl = [N_REF, N_REF] if n is None else check_vector("n", n, 2).tolist()
+    prop, aero = cores(p)
+    c = prop.coef
+    ql, qdl = q.tolist(), qdot.tolist()
+    kin = body_kinematics_scalar(ql, qdl, zeta.tolist())
+    rotors = prop.rotors_scalar(ql, qdl, kin)
+    out, V, Bd = aero.loads_scalar(kin, (0.0, 0.0, 0.0, 0.0), columns=True)
+    (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
+    B = np.zeros((8, 8))
+    B[:, 4:8] = Bd
+    passive = np.array(out)
+    vxz, phis = [0.0, 0.0], [0.0, 0.0]
+    d, Jmax, hp = c.diameter, c.J_max, 0.5 * math.pi
+    for k in (0, 1):
+        dx, dy, dz, rx, ry, rz, zx, zy, zz, u, w = rotors[k]
+        v_xz = math.hypot(u, w)
+        phi = math.atan2(u, w)
+        phi = abs(hp if phi > hp else (-hp if phi < -hp else phi))
+        vxz[k], phis[k] = v_xz, phi
+        # J as PropellerCoefficients.advance_ratio_and_inflow (n ≤ 0 → J_max unless V_xz = 0)
+        J = min(v_xz / max(nl[k] * d, 1e-300), Jmax)
+        ct_, cq_ = c.ct_cq_scalar(J, phi)
+        # thrust column G_f (+ G_t λ d Cq/Ct) and torque column G_t (7.32), Appendix C
+        gf = (dz * zx - dx * zz, ry * zz - rz * zy, rz * zx - rx * zz, rx * zy - ry * zx)
+        gt = (zy, zx, zy, zz)
+        if torque == "through_thrust":
+            ratio = prop._lam_f[k] * (d * cq_ / ct_)
+            col = [a + b * ratio for a, b in zip(gf, gt)]
+        else:
+            col = list(gf)
+            tq = prop._lam_f[k] * (c.rho * d ** 5 * nl[k] ** 2 * cq_)
+            passive[k] += tq * zy
+            passive[2] += tq * zx
+            passive[3] += tq * (cf * zy - sf * zz)
+            passive[4] += tq * (-st * zx + ct * sf * zy + cf * ct * zz)
+        B[k, k] = col[0]
+        tx, ty, tz = col[1], col[2], col[3]
+        B[2, k] = tx
+        B[3, k] = cf * ty - sf * tz
+        B[4, k] = -st * tx + ct * sf * ty + cf * ct * tz
+        B[5, k] = r00 * zx + r01 * zy + r02 * zz
+        B[6, k] = r10 * zx + r11 * zy + r12 * zz
+        B[7, k] = r20 * zx + r21 * zy + r22 * zz
+    B[0, 2] = B[1, 3] = prop.cosb
+    passive[0] -= p.nu * qdl[0]
+    passive[1] -= p.nu * qdl[1]
+    return AffineTerms(B, passive, np.array(V), np.array(vxz), np.array(phis))
+
+
+def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
+    """Numpy formulation of :func:`input_affine` (reference for its tests).
+
+    (B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
 
     ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
     torque/thrust ratio Cq/Ct(J, φ) (default ``N_REF``).  Columns of B follow ``ACTUATOR_NAMES``.

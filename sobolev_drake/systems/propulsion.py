@@ -99,6 +99,15 @@ class PropellerCoefficients:
             cq += b * f
         return ct, cq
 
+    def ct_scalar(self, J: float, phi: float) -> float:
+        """Ct at scalar (J, φ) with Python floats (Newton thrust inversion of the controller)."""
+        Jp = (1.0, J, J * J, J * J * J, J * J * J * J)
+        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
+        ct = 0.0
+        for (i, j), a, _ in self._terms:
+            ct += a * (Jp[i] * Pp[j])
+        return ct
+
     def ct(self, J, phi):
         """Thrust coefficient Ct(J, φ) (vectorized over broadcast J, φ)."""
         return self._features(J, phi) @ self.ct_coef
@@ -161,6 +170,9 @@ class PropulsionModel:
         self._lam_f = [float(v) for v in self.lam]
         self._dBA_f = [[float(v) for v in A] for A in self.d_B_A]
         self._dAP_f = [float(v) for v in p.d_A_P]
+        self._sb, self._cb = math.sin(p.beta), math.cos(p.beta)
+        c = self.coef
+        self._kf, self._kt = c.rho * c.diameter ** 4, c.rho * c.diameter ** 5
 
     def rotor_frames(self, q):
         """(R_B^A (2,3,3), rotor centres in body axes r (2,3), R_B^A d_A,P (2,3))."""
@@ -213,24 +225,20 @@ class PropulsionModel:
         Gf, Gt = self.unit_columns(q)
         return Gf @ f + Gt @ t
 
-    def propeller_force(self, q, qdot, zeta, n):
-        """ϑ_P (7.32), thesis order — Python scalar math (small numpy calls cost more than the
-        arithmetic); equal to :meth:`propeller_force_vectorized` (tested)."""
-        sin, cos, sqrt, atan2 = math.sin, math.cos, math.sqrt, math.atan2
-        p, c = self.params, self.coef
-        # Python floats: arithmetic on numpy scalars is several times slower
-        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
-        zeta, n = [float(v) for v in zeta], [float(v) for v in n]
-        ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
-         (wx, wy, wz), (vbx, vby, vbz)) = body_kinematics_scalar(q, qdot, zeta)
-        sb, cb = sin(p.beta), cos(p.beta)
+    def rotors_scalar(self, q, qdot, kin):
+        """Per-rotor geometry and inflow with Python floats (fast paths of plant and controller).
+
+        ``q``, ``qdot``: lists of floats (thesis order); ``kin``: :func:`body_kinematics_scalar`.
+        Returns two tuples (right, left rotor) of ``(dx, dy, dz, rx, ry, rz, zx, zy, zz, u, w)``:
+        R_B^A d_A,P, the hub position r in body axes, the rotor axis z in body axes and the
+        rotor-frame air-relative velocity components u (in-plane x) and w (axial) (7.31).
+        """
+        sin, cos = math.sin, math.cos
+        _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
+        sb, cb = self._sb, self._cb
         px, py, pz = self._dAP_f
-        d, Jmax = c.diameter, c.J_max
-        kf, kt = c.rho * d ** 4, c.rho * d ** 5
-        out = [0.0] * 8
-        Fx = Fy = Fz = Tx = Ty = Tz = 0.0
-        for k, (a, s, lam, A) in enumerate(((q[0], -sb, self._lam_f[0], self._dBA_f[0]),
-                                            (q[1], sb, self._lam_f[1], self._dBA_f[1]))):
+        out = []
+        for k, (a, s, A) in enumerate(((q[0], -sb, self._dBA_f[0]), (q[1], sb, self._dBA_f[1]))):
             sa, ca = sin(a), cos(a)
             # R_B^A = Ry(α) Rx(s) with s = ∓β
             m00, m01, m02 = ca, sa * s, sa * cb
@@ -244,8 +252,23 @@ class PropulsionModel:
             ux = vbx + wy * rz - wz * ry + ad * dz
             uy = vby + wz * rx - wx * rz
             uz = vbz + wx * ry - wy * rx - ad * dx
-            u = m00 * ux + m20 * uz                       # rotor frame: R_B^Aᵀ v
-            w = m02 * ux + m12 * uy + m22 * uz
+            out.append((dx, dy, dz, rx, ry, rz, m02, m12, m22,
+                        m00 * ux + m20 * uz,                   # rotor frame: R_B^Aᵀ v
+                        m02 * ux + m12 * uy + m22 * uz))
+        return out[0], out[1]
+
+    def propeller_force_scalar(self, kin, rotors, n):
+        """ϑ_P (7.32) as a list of 8 floats from :func:`body_kinematics_scalar` and
+        :meth:`rotors_scalar` at propeller speeds ``n`` (two floats)."""
+        sqrt, atan2 = math.sqrt, math.atan2
+        c = self.coef
+        (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
+        d, Jmax = c.diameter, c.J_max
+        kf, kt = self._kf, self._kt
+        out = [0.0] * 8
+        Fx = Fy = Fz = Tx = Ty = Tz = 0.0
+        for k in (0, 1):
+            dx, dy, dz, rx, ry, rz, zx, zy, zz, u, w = rotors[k]
             nk = n[k]
             nd = nk * d
             J = sqrt(u * u + w * w) / nd if nd > 0 else Jmax
@@ -255,8 +278,7 @@ class PropulsionModel:
                       (-1.5707963267948966 if phi < -1.5707963267948966 else phi))
             cT, cQ = c.ct_cq_scalar(J, phi)
             f = kf * nk * nk * cT
-            t = lam * kt * nk * nk * cQ
-            zx, zy, zz = m02, m12, m22                    # rotor axis in body axes
+            t = self._lam_f[k] * kt * nk * nk * cQ
             bx, by, bz = f * zx, f * zy, f * zz
             out[k] = dz * bx - dx * bz + t * zy          # e_y · (R_B^A d × F + T)
             Fx += bx
@@ -271,7 +293,16 @@ class PropulsionModel:
         out[5] = r00 * Fx + r01 * Fy + r02 * Fz
         out[6] = r10 * Fx + r11 * Fy + r12 * Fz
         out[7] = r20 * Fx + r21 * Fy + r22 * Fz
-        return np.array(out)
+        return out
+
+    def propeller_force(self, q, qdot, zeta, n):
+        """ϑ_P (7.32), thesis order — Python scalar math (small numpy calls cost more than the
+        arithmetic); equal to :meth:`propeller_force_vectorized` (tested)."""
+        # Python floats: arithmetic on numpy scalars is several times slower
+        q, qdot = [float(v) for v in q], [float(v) for v in qdot]
+        zeta, n = [float(v) for v in zeta], [float(v) for v in n]
+        kin = body_kinematics_scalar(q, qdot, zeta)
+        return np.array(self.propeller_force_scalar(kin, self.rotors_scalar(q, qdot, kin), n))
 
     def servo_force(self, qdot, tau_s):
         """ϑ_s (7.33): τs acts about the inclined y axis of C2/C3, i.e. cos β τs on the tilt

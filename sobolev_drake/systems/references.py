@@ -17,6 +17,8 @@ and is re-exported here: ``table_5_2``, ``table_5_5``, ``table_5_8``, ``table_6_
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_left
 from typing import Callable, Sequence
 
 import numpy as np
@@ -28,11 +30,23 @@ __all__ = [
 
 
 class Coordinate:
-    """One scalar reference coordinate on a piece: t ↦ (f(t), ḟ(t), f̈(t)), vectorized in t."""
+    """One scalar reference coordinate on a piece: t ↦ (f(t), ḟ(t), f̈(t)), vectorized in t.
 
-    def __init__(self, fn: Callable, description: str = ""):
+    ``scalar`` (optional): the same function for one Python float t returning three floats; the
+    per-sample evaluation of a simulation uses it (numpy's per-call overhead dominates there).
+    """
+
+    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None):
         self._fn = fn
         self.description = description
+        self._scalar = scalar
+
+    def scalar(self, t: float):
+        """(f, ḟ, f̈) as floats at one time t."""
+        if self._scalar is not None:
+            return self._scalar(t)
+        f, df, ddf = self(t)
+        return float(f), float(df), float(ddf)
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -48,7 +62,7 @@ class Coordinate:
 def const(c: float) -> Coordinate:
     """f(t) = c."""
     c = float(c)
-    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}")
+    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0))
 
 
 def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
@@ -59,7 +73,12 @@ def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 
         arg = w * (t - s) + ph
         return c + A * np.sin(arg), A * w * np.cos(arg), -A * w * w * np.sin(arg)
 
-    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})")
+    def fn_scalar(t):
+        arg = w * (t - s) + ph
+        sn = math.sin(arg)
+        return c + A * sn, A * w * math.cos(arg), -A * w * w * sn
+
+    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})", scalar=fn_scalar)
 
 
 def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
@@ -70,7 +89,21 @@ def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
     P = np.polynomial.Polynomial(c)
     dP, ddP = P.deriv(1), P.deriv(2)
     s = float(t0)
-    return Coordinate(lambda t: (P(t - s), dP(t - s), ddP(t - s)), f"poly{tuple(c)} in (t-{s:g})")
+    # Horner on plain floats, highest power first, as numpy's polyval
+    cs = [P.coef.tolist()[::-1], dP.coef.tolist()[::-1], ddP.coef.tolist()[::-1]]
+
+    def fn_scalar(t):
+        x = t - s
+        out = []
+        for cc in cs:
+            v = cc[0]
+            for a in cc[1:]:
+                v = v * x + a
+            out.append(v)
+        return out[0], out[1], out[2]
+
+    return Coordinate(lambda t: (P(t - s), dP(t - s), ddP(t - s)), f"poly{tuple(c)} in (t-{s:g})",
+                      scalar=fn_scalar)
 
 
 class PiecewiseTrajectory:
@@ -108,6 +141,14 @@ class PiecewiseTrajectory:
         if np.any(np.diff(self.breakpoints) <= 0):
             raise ValueError("breakpoints must be strictly increasing")
         self.description = description
+        self._bp = self.breakpoints.tolist()
+
+    def evaluate_scalar(self, t: float):
+        """(q_r, q̇_r, q̈_r) at one finite time t as three lists of floats (fast path of the
+        LeafSystem; equal to :meth:`evaluate`)."""
+        piece = self.pieces[bisect_left(self._bp, t)]   # (b_{k-1}, b_k] → piece k
+        vals = [c.scalar(t) for c in piece]
+        return [v[0] for v in vals], [v[1] for v in vals], [v[2] for v in vals]
 
     def index(self, name: str) -> int:
         try:
@@ -199,17 +240,17 @@ class TrajectoryReference(LeafSystem):
         return self.trajectory.evaluate(t)
 
     def _calc_q(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate(context.get_time())[0])
+        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[0])
 
     def _calc_qd(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate(context.get_time())[1])
+        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[1])
 
     def _calc_qdd(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate(context.get_time())[2])
+        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[2])
 
     def _calc_all(self, context, output: BasicVector):
-        q, qd, qdd = self.trajectory.evaluate(context.get_time())
-        output.SetFromVector(np.concatenate([q, qd, qdd]))
+        q, qd, qdd = self.trajectory.evaluate_scalar(context.get_time())
+        output.SetFromVector(q + qd + qdd)
 
 
 # Catalogue: thin wrappers (the definitions live in reference_catalogue.py, which imports this

@@ -34,6 +34,8 @@ sampling rate instead of at every integrator stage.
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -43,6 +45,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
+from sobolev_drake.systems.mechanical_controller import _vec  # fast finite-vector check
 
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
@@ -107,10 +110,11 @@ def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
     U_b = [cos ψ, sin ψ]·(ṗ_r − ζ)_xy with the measured wind ζ taken constant over a sample;
     using the reference (not the measured velocity) keeps α_r smooth with known derivatives.
     """
-    c, s = np.cos(psi), np.sin(psi)
-    vx, vy = vel_ref[0] - wind[0], vel_ref[1] - wind[1]
+    psi, psidot = float(psi), float(psidot)
+    c, s = math.cos(psi), math.sin(psi)
+    vx, vy = float(vel_ref[0]) - float(wind[0]), float(vel_ref[1]) - float(wind[1])
     U = c * vx + s * vy
-    Udot = c * acc_ref[0] + s * acc_ref[1] + psidot * (-s * vx + c * vy)
+    Udot = c * float(acc_ref[0]) + s * float(acc_ref[1]) + psidot * (-s * vx + c * vy)
     return U, Udot
 
 
@@ -120,13 +124,11 @@ def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
     ``psi_ref`` = (ψ_r, ψ̇_r, ψ̈_r) from the mission.  q̈ of the tilt uses α''U̇² (the jerk term
     α'Ü is dropped: the mission references are piecewise constant-acceleration).
     """
-    psi, psid, psidd = psi_ref
+    psi, psid, psidd = (float(v) for v in psi_ref)
     U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
     a, da, dda = schedule(U)
-    q = np.array([a, a, psi])
-    qd = np.array([da * Udot, da * Udot, psid])
-    qdd = np.array([dda * Udot**2, dda * Udot**2, psidd])
-    return q, qd, qdd
+    qd_a, qdd_a = da * Udot, dda * Udot**2
+    return (np.array([a, a, psi]), np.array([qd_a, qd_a, psid]), np.array([qdd_a, qdd_a, psidd]))
 
 
 def tracked_reference(ref_c, ref_r):
@@ -200,10 +202,10 @@ class TiltrotorWInfLaw:
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
         (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
-        q = check_vector("q", q, N_Q)
-        qdot = check_vector("qdot", qdot, N_Q)
-        ref = check_vector("reference", reference, 12)
-        wind = check_vector("wind", wind, 3)
+        q = _vec("q", q, N_Q)
+        qdot = _vec("qdot", qdot, N_Q)
+        ref = _vec("reference", reference, 12)
+        wind = _vec("wind", wind, 3)
         p, v, a = ref[0:4], ref[4:8], ref[8:12]
         ref_r = regulated_reference(self.tilt_schedule, v, a, (p[3], v[3], a[3]), wind)
         tracked = tracked_reference((p[:3], v[:3], a[:3]), ref_r)
@@ -212,7 +214,10 @@ class TiltrotorWInfLaw:
             B, theta = self.input_affine(self.model, q, qdot, wind)
         else:
             B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
-        u = self.mech_law.generalized_input(q, qdot, integral_ec, tracked, extra=theta)
+        # u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), i.e. MechanicalLaw.generalized_input with
+        # extra = ϑ_passive, without recomputing q̈_des (M, h cached for this (q, q̇))
+        M, h = self.mech_law._dynamics(q, qdot)
+        u = M @ qdd + h - _vec("theta_passive", theta, N_Q)
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
@@ -311,7 +316,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import cores, input_affine
+    from sobolev_drake.systems.input_affine import N_REF, cores, input_affine, input_affine_terms
 
     prop, aero = cores(model.params)
     if callable(schedule):
@@ -323,16 +328,43 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         sched = plant_trim_schedule(model)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
-    allocate = bounded_least_squares if allocate is None else allocate
+    if allocate is None:
+        # The previous sample's active set warm-starts the solver: one linear solve when it
+        # is unchanged; the solution is the same (KKT-certified), only the iterations differ.
+        last = {"active": None}
+
+        def allocate(B, u, lo, up):
+            tau, info = bounded_least_squares(B, u, lo, up, warm_start=last["active"],
+                                              return_info=True)
+            last["active"] = info["active"]
+            return tau
+
+    # One scalar pass of the force model per sample serves B, ϑ_passive, the surface air
+    # speeds of the bounds and the rotor inflow of the thrust inversion (all at (q, q̇, ζ)).
+    shared = {"key": None, "terms": None}
+
+    def terms(q, qdot, wind, n=None):
+        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes(),
+               np.asarray(wind, float).tobytes())
+        if n is None and shared["key"] == key:
+            return shared["terms"]
+        t = input_affine_terms(model, q, qdot, wind, n)
+        shared["key"], shared["terms"] = key, t   # speeds and inflow do not depend on n
+        return t
+
+    def affine(model_, q, qdot, zeta, n=None):
+        if model_ is not model:
+            return input_affine(model_, q, qdot, zeta, n)
+        t = terms(q, qdot, zeta, np.full(2, N_REF) if n is None else n)
+        return t.B, t.passive
 
     def bounds(q, qdot, wind):
-        V = aero.surface_air_data(q, qdot, wind)[1]
+        V = terms(q, qdot, wind).surface_speed
         return tiltrotor_bounds(V[1:5])          # surfaces F, WR, WL, TR, TL, I → [WR WL TR TL]
 
     def thrust_to_speed(f, q, qdot, wind, n_guess=None):
-        v = prop.rotor_air_velocity(q, qdot, wind)
-        v_xz = np.hypot(v[:, 0], v[:, 2])
-        phi = np.abs(np.clip(np.arctan2(v[:, 0], v[:, 2]), -np.pi / 2, np.pi / 2))
+        t = terms(q, qdot, wind)
+        v_xz, phi = t.rotor_vxz, t.rotor_phi
         if n_guess is not None:
             n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
             if n is not None:
@@ -342,7 +374,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
 
     inner = thesis_inner_law() if inner is None else inner
     mech = MechanicalLaw(model, PARTITION, inner, allocation=lambda u, q, qd: u)
-    law = TiltrotorWInfLaw(mech, input_affine=input_affine, allocate=allocate, bounds=bounds,
+    law = TiltrotorWInfLaw(mech, input_affine=affine, allocate=allocate, bounds=bounds,
                            thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
     law.propulsion, law.aero = prop, aero
     return law
@@ -354,30 +386,35 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
     The previous sample's speeds are an excellent start (the demand changes little over one
     sample), so 2–3 Newton steps reach machine-level thrust residuals; the caller falls back to
     the bracketing solver of ``systems.allocation`` when this returns None (no warm start,
-    zero thrust, non-increasing thrust, or no convergence).
+    zero thrust, non-increasing thrust, or no convergence).  All rotors iterate together
+    (Python floats: a handful of scalars is far cheaper than numpy calls).
     """
-    f = np.asarray(f, dtype=float)
-    n = np.asarray(n_guess, dtype=float).copy()
-    if np.any(f <= 0) or np.any(n <= 1.0):
+    f = [float(v) for v in np.ravel(f)]
+    n = [float(v) for v in np.ravel(n_guess)]
+    vx = [float(v) for v in np.ravel(v_xz)]
+    ph = [float(v) for v in np.ravel(phi)]
+    if any(x <= 0 for x in f) or any(x <= 1.0 for x in n):
         return None
     k = coef.rho * coef.diameter ** 4
-    d = coef.diameter
+    d, Jmax, ct = coef.diameter, coef.J_max, coef.ct_scalar
+    idx = range(len(f))
 
-    def thrust(nn):  # J clamped to the table range, as in the plant's propeller model
-        return k * nn**2 * coef.ct(np.minimum(v_xz / (nn * d), coef.J_max), phi)
+    def g(nn, i):  # thrust − f, J clamped to the table range as in the plant's propeller model
+        J = vx[i] / (nn * d)
+        return k * nn * nn * ct(J if J < Jmax else Jmax, ph[i]) - f[i]
 
     for _ in range(iterations):
-        h = 1e-6 * n
-        g0 = thrust(n) - f
-        if np.all(np.abs(g0) <= rtol * (1.0 + f)):
-            return n
-        dg = (thrust(n + h) - f - g0) / h
-        if np.any(dg <= 0):
+        g0 = [g(n[i], i) for i in idx]
+        if all(abs(g0[i]) <= rtol * (1.0 + f[i]) for i in idx):
+            return np.array(n)
+        hs = [1e-6 * x for x in n]
+        dg = [(g(n[i] + hs[i], i) - g0[i]) / hs[i] for i in idx]
+        if any(x <= 0 for x in dg):
             return None
-        n = n - g0 / dg
-        if np.any(n <= 0):
+        n = [n[i] - g0[i] / dg[i] for i in idx]
+        if any(x <= 0 for x in n):
             return None
-    return n if np.all(np.abs(thrust(n) - f) <= 1e-6 * (1.0 + f)) else None
+    return np.array(n) if all(abs(g(n[i], i)) <= 1e-6 * (1.0 + f[i]) for i in idx) else None
 
 
 _TRIM_SCHEDULES: dict = {}
@@ -398,9 +435,20 @@ def plant_trim_schedule(model=None):
         a = np.array([0.5 * (t.q[0] + t.q[1]) for t in trims])
         _TRIM_SCHEDULES[key] = (CubicSpline(V, a), V[0], V[-1])
     spline, lo, hi = _TRIM_SCHEDULES[key]
+    # plain-float evaluation of the spline's pieces (scipy's call costs ~10 µs per derivative)
+    xs = spline.x.tolist()
+    coefs = spline.c.T.tolist()            # per interval: highest power first
+    last = len(xs) - 2
 
     def sched(U):
-        if U < lo or U > hi:
-            return float(spline(min(max(U, lo), hi))), 0.0, 0.0
-        return float(spline(U)), float(spline(U, 1)), float(spline(U, 2))
+        U = float(U)
+        inside = lo <= U <= hi
+        U = min(max(U, lo), hi)
+        i = min(max(bisect_right(xs, U) - 1, 0), last)
+        c3, c2, c1, c0 = coefs[i]
+        x = U - xs[i]
+        val = ((c3 * x + c2) * x + c1) * x + c0
+        if not inside:
+            return val, 0.0, 0.0
+        return val, (3.0 * c3 * x + 2.0 * c2) * x + c1, 6.0 * c3 * x + 2.0 * c2
     return sched
