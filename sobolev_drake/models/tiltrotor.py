@@ -176,6 +176,9 @@ class TiltrotorForces(LeafSystem):
                        (("u", 8), ("propeller_speed", 2), ("servo_torque", 2),
                         ("surface_deflection", 4), ("wind", 3), ("force_disturbance", 3),
                         ("disturbance", 8))}
+        self._port_list = [self._ports[k] for k in ("u", "propeller_speed", "servo_torque",
+                                                     "surface_deflection", "wind",
+                                                     "force_disturbance", "disturbance")]
         st = {self.input_port_ticket(self._state.get_index())}
         self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
         self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake)
@@ -199,23 +202,27 @@ class TiltrotorForces(LeafSystem):
         self.evaluations += 1
         ql = self._state.Eval(context)[self._perm16].tolist()
         q, qd = ql[:8], ql[8:]
-        ports = self._ports
-        u = ports["u"].Eval(context).tolist() if ports["u"].HasValue(context) else [0.0] * 8
-        for name, i0 in (("propeller_speed", 0), ("servo_torque", 2), ("surface_deflection", 4)):
-            port = ports[name]
-            if port.HasValue(context):
-                for i, v in enumerate(port.Eval(context).tolist()):
-                    u[i0 + i] += v
-        zeta = ports["wind"].Eval(context).tolist() if ports["wind"].HasValue(context) else [0.0] * 3
+        p_u, p_n, p_s, p_d, p_w, p_f, p_dist = self._port_list
+        u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
+        if p_n.HasValue(context):
+            a, b = p_n.Eval(context).tolist()
+            u[0] += a
+            u[1] += b
+        if p_s.HasValue(context):
+            a, b = p_s.Eval(context).tolist()
+            u[2] += a
+            u[3] += b
+        if p_d.HasValue(context):
+            u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
+        zeta = p_w.Eval(context).tolist() if p_w.HasValue(context) else [0.0] * 3
         kin = body_kinematics_scalar(q, qd, zeta)
         tp = self.prop.propeller_force_scalar(kin, self.prop.rotors_scalar(q, qd, kin), u[0:2])
         ta = self.aero.loads_scalar(kin, u[4:8])[0]
         tau = [a + b for a, b in zip(tp, ta)]
         tau[0] += self._cosb * u[2] - self._nu * qd[0]          # servos (7.33)
         tau[1] += self._cosb * u[3] - self._nu * qd[1]
-        port = ports["force_disturbance"]
-        if port.HasValue(context):
-            fx, fy, fz = port.Eval(context).tolist()
+        if p_f.HasValue(context):
+            fx, fy, fz = p_f.Eval(context).tolist()
             if fx != 0.0 or fy != 0.0 or fz != 0.0:
                 # inertial force at C1: generalized force [0, 0, Wηᵀ (d × Rᵀ F), R Rᵀ F]
                 (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
@@ -231,9 +238,8 @@ class TiltrotorForces(LeafSystem):
                 tau[6] += r10 * bx + r11 * by + r12 * bz
                 tau[7] += r20 * bx + r21 * by + r22 * bz
         tau = np.array(tau)
-        port = ports["disturbance"]
-        if port.HasValue(context):
-            tau += port.Eval(context)
+        if p_dist.HasValue(context):
+            tau += p_dist.Eval(context)
         return tau
 
     def _calc_thesis(self, context, output) -> None:

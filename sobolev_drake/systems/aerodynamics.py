@@ -200,9 +200,9 @@ class AeroModel:
 
         ``kin``: :func:`~sobolev_drake.systems.propulsion.body_kinematics_scalar`; ``delta``:
         four floats [δWR δWL δTR δTL].  Returns ``(ϑ_aero (list of 8), V (list of 6 surface air
-        speeds), Bd)`` where ``Bd`` is None unless ``columns``: then the (8, 4) deflection
-        columns of (B.12)–(B.15) as a numpy array (``ϑ_aero = ϑ(δ = 0) + Bd δ``, see
-        :meth:`terms`).
+        speeds), cols)`` where ``cols`` is None unless ``columns``: then the four deflection
+        columns [δWR δWL δTR δTL] of (B.12)–(B.15), each as a tuple of its rows 2..7 (rows 0, 1
+        are zero; ``ϑ_aero = ϑ(δ = 0) + Bd δ``, see :meth:`terms`).
         """
         if self._fast is None:
             self._prepare_fast()
@@ -259,42 +259,46 @@ class AeroModel:
                r20 * Fx + r21 * Fy + r22 * Fz]
         if not columns:
             return out, Vs, None
-        Bd = np.zeros((8, 4))
-        # each column: list of (point, body force) pairs
-        cols = [[], [], [], []]
-        for k, j in ((1, 0), (2, 1)):
-            if unit[k] is not None:
-                lx, lz = unit[k][0], unit[k][1]
-                cols[j].append((pts[k], (cda * lx, 0.0, cda * lz)))
-        for k in (3, 4):
-            if unit[k] is not None:
-                lx, lz, yx, yy, yz = unit[k]
-                e = (cde * lx, 0.0, cde * lz)
-                r = (cdr * yx, cdr * yy, cdr * yz)
-                # δTR = +½ on δe and δr, δTL = +½ on δe and −½ on δr
-                cols[2].append((pts[k], (0.5 * (e[0] + r[0]), 0.5 * (e[1] + r[1]), 0.5 * (e[2] + r[2]))))
-                cols[3].append((pts[k], (0.5 * (e[0] - r[0]), 0.5 * (e[1] - r[1]), 0.5 * (e[2] - r[2]))))
-        for j, items in enumerate(cols):
-            if not items:
-                continue
+        # Deflection columns [δWR δWL δTR δTL]: body force and moment per radian, summed over
+        # the surfaces each deflection acts on, then mapped like the loads (rows 2..7).
+        cols = []
+        for j in range(4):
             Fx = Fy = Fz = Tx = Ty = Tz = 0.0
-            for (rx, ry, rz), (bx, by, bz) in items:
+            if j < 2:                     # aileron: lift c_δa κs z_w at the wing WR / WL
+                items = ((j + 1, 1.0, 0.0),)
+            else:                         # δTR = +½ on δe and δr, δTL = +½ on δe and −½ on δr
+                sr = 0.5 if j == 2 else -0.5
+                items = ((3, 0.5, sr), (4, 0.5, sr))
+            for k, se, sr in items:
+                uk = unit[k]
+                if uk is None:
+                    continue
+                lx, lz, yx, yy, yz = uk
+                if j < 2:
+                    bx, by, bz = cda * lx, 0.0, cda * lz
+                else:
+                    ex, ez = cde * lx, cde * lz
+                    qx, qy, qz = cdr * yx, cdr * yy, cdr * yz
+                    bx, by, bz = se * ex + sr * qx, sr * qy, se * ez + sr * qz
+                rx, ry, rz = pts[k]
                 Fx += bx
                 Fy += by
                 Fz += bz
                 Tx += ry * bz - rz * by
                 Ty += rz * bx - rx * bz
                 Tz += rx * by - ry * bx
-            Bd[2:8, j] = (Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
-                          r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
-                          r20 * Fx + r21 * Fy + r22 * Fz)
-        return out, Vs, Bd
+            cols.append((Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
+                         r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
+                         r20 * Fx + r21 * Fy + r22 * Fz))
+        return out, Vs, cols
 
     def terms_scalar(self, q, qdot, zeta):
         """(ϑ_aero_passive (8,), B_delta (8, 4), V (6,)) — scalar version of :meth:`terms`
         plus the surface air speeds of :meth:`surface_air_data` (tested equal)."""
         q, qdot, zeta = [float(v) for v in q], [float(v) for v in qdot], [float(v) for v in zeta]
-        out, V, Bd = self.loads_scalar(body_kinematics_scalar(q, qdot, zeta), (0.0,) * 4, True)
+        out, V, cols = self.loads_scalar(body_kinematics_scalar(q, qdot, zeta), (0.0,) * 4, True)
+        Bd = np.zeros((8, 4))
+        Bd[2:8] = np.array(cols).T
         return np.array(out), Bd, np.array(V)
 
     def _prepare_fast(self):

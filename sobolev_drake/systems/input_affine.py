@@ -32,6 +32,14 @@ N_REF = 51.9
 _CORES: dict = {}
 
 
+def _vec(name, value, size):
+    """Float vector of length ``size`` (fast path of ``check_vector``, same errors)."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        return check_vector(name, value, size)
+    return arr
+
+
 def cores(params: TiltrotorParams | None = None):
     """(PropulsionModel, AeroModel) for ``params`` (cached per parameter object)."""
     params = TiltrotorParams() if params is None else params
@@ -89,20 +97,21 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
     surface air speeds (bounds (7.87)–(7.89)) and the rotor inflow (thrust inversion (7.90)),
     from one pass of scalar kinematics (the controller's per-sample hot path)."""
     p = _params_of(model)
-    q = check_vector("q", q, 8)
-    qdot = check_vector("qdot", qdot, 8)
-    zeta = check_vector("zeta", zeta, 3)
-    nl = [N_REF, N_REF] if n is None else check_vector("n", n, 2).tolist()
+    q = _vec("q", q, 8)
+    qdot = _vec("qdot", qdot, 8)
+    zeta = _vec("zeta", zeta, 3)
+    nl = [N_REF, N_REF] if n is None else _vec("n", n, 2).tolist()
     prop, aero = cores(p)
     c = prop.coef
     ql, qdl = q.tolist(), qdot.tolist()
     kin = body_kinematics_scalar(ql, qdl, zeta.tolist())
     rotors = prop.rotors_scalar(ql, qdl, kin)
-    out, V, Bd = aero.loads_scalar(kin, (0.0, 0.0, 0.0, 0.0), columns=True)
+    passive, V, cols = aero.loads_scalar(kin, (0.0, 0.0, 0.0, 0.0), columns=True)
     (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
-    B = np.zeros((8, 8))
-    B[:, 4:8] = Bd
-    passive = np.array(out)
+    # B assembled row-major in Python floats: [thrust R, thrust L, servo R, servo L, δ columns]
+    rows = [[0.0, 0.0, prop.cosb, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, prop.cosb, 0.0, 0.0, 0.0, 0.0]]
+    rows += [[0.0, 0.0, 0.0, 0.0, cols[0][i], cols[1][i], cols[2][i], cols[3][i]] for i in range(6)]
     vxz, phis = [0.0, 0.0], [0.0, 0.0]
     d, Jmax, hp = c.diameter, c.J_max, 0.5 * math.pi
     for k in (0, 1):
@@ -127,18 +136,17 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
             passive[2] += tq * zx
             passive[3] += tq * (cf * zy - sf * zz)
             passive[4] += tq * (-st * zx + ct * sf * zy + cf * ct * zz)
-        B[k, k] = col[0]
+        rows[k][k] = col[0]
         tx, ty, tz = col[1], col[2], col[3]
-        B[2, k] = tx
-        B[3, k] = cf * ty - sf * tz
-        B[4, k] = -st * tx + ct * sf * ty + cf * ct * tz
-        B[5, k] = r00 * zx + r01 * zy + r02 * zz
-        B[6, k] = r10 * zx + r11 * zy + r12 * zz
-        B[7, k] = r20 * zx + r21 * zy + r22 * zz
-    B[0, 2] = B[1, 3] = prop.cosb
+        rows[2][k] = tx
+        rows[3][k] = cf * ty - sf * tz
+        rows[4][k] = -st * tx + ct * sf * ty + cf * ct * tz
+        rows[5][k] = r00 * zx + r01 * zy + r02 * zz
+        rows[6][k] = r10 * zx + r11 * zy + r12 * zz
+        rows[7][k] = r20 * zx + r21 * zy + r22 * zz
     passive[0] -= p.nu * qdl[0]
     passive[1] -= p.nu * qdl[1]
-    return AffineTerms(B, passive, np.array(V), np.array(vxz), np.array(phis))
+    return AffineTerms(np.array(rows), np.array(passive), np.array(V), np.array(vxz), np.array(phis))
 
 
 def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thrust"):

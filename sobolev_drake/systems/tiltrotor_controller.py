@@ -124,11 +124,16 @@ def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
     ``psi_ref`` = (ψ_r, ψ̇_r, ψ̈_r) from the mission.  q̈ of the tilt uses α''U̇² (the jerk term
     α'Ü is dropped: the mission references are piecewise constant-acceleration).
     """
+    a, qd_a, qdd_a, psi, psid, psidd = _regulated_scalar(schedule, vel_ref, acc_ref, psi_ref, wind)
+    return (np.array([a, a, psi]), np.array([qd_a, qd_a, psid]), np.array([qdd_a, qdd_a, psidd]))
+
+
+def _regulated_scalar(schedule, vel_ref, acc_ref, psi_ref, wind):
+    """(α, α̇, α̈, ψ, ψ̇, ψ̈) floats of :func:`regulated_reference`."""
     psi, psid, psidd = (float(v) for v in psi_ref)
     U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
     a, da, dda = schedule(U)
-    qd_a, qdd_a = da * Udot, dda * Udot**2
-    return (np.array([a, a, psi]), np.array([qd_a, qd_a, psid]), np.array([qdd_a, qdd_a, psidd]))
+    return a, da * Udot, dda * Udot**2, psi, psid, psidd
 
 
 def tracked_reference(ref_c, ref_r):
@@ -142,6 +147,14 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
     saturated, and counts as inside."""
     tau, lo, up = (np.asarray(a, dtype=float) for a in (tau, lo, up))
+    if tau.ndim == 1 and tau.shape == lo.shape == up.shape:     # plain floats: per-sample path
+        out = []
+        for t, lw, uw in zip(tau.tolist(), lo.tolist(), up.tolist()):
+            w = uw - lw
+            tol = rel_tol * max(w, 0.0)
+            ok = w > min_width
+            out.append(1.0 if ok and t >= uw - tol else (-1.0 if ok and t <= lw + tol else 0.0))
+        return np.array(out)
     tol = rel_tol * np.maximum(up - lo, 0.0)
     width_ok = (up - lo) > min_width
     return np.where(width_ok & (tau >= up - tol), 1.0,
@@ -206,9 +219,13 @@ class TiltrotorWInfLaw:
         qdot = _vec("qdot", qdot, N_Q)
         ref = _vec("reference", reference, 12)
         wind = _vec("wind", wind, 3)
-        p, v, a = ref[0:4], ref[4:8], ref[8:12]
-        ref_r = regulated_reference(self.tilt_schedule, v, a, (p[3], v[3], a[3]), wind)
-        tracked = tracked_reference((p[:3], v[:3], a[:3]), ref_r)
+        r = ref.tolist()
+        al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
+                                                           (r[3], r[7], r[11]), wind.tolist())
+        ref_r = (np.array([al, al, psi]), np.array([ald, ald, psid]), np.array([aldd, aldd, psidd]))
+        # tracked_reference((p, v, a)[:3], ref_r) assembled directly
+        tracked = np.array(r[0:3] + [al, al, psi] + r[4:7] + [ald, ald, psid]
+                           + r[8:11] + [aldd, aldd, psidd])
         qdd = self.mech_law.desired_acceleration(q, qdot, integral_ec, tracked)
         if n_prev is None or np.any(np.asarray(n_prev) <= 0):
             B, theta = self.input_affine(self.model, q, qdot, wind)
@@ -221,7 +238,8 @@ class TiltrotorWInfLaw:
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
-        res = float(np.linalg.norm(u - B @ tau))
+        r = u - B @ tau
+        res = math.sqrt(float(r @ r))                   # ‖u* − Bτ̄‖
         return ControlStep(qdd, u, np.asarray(B), np.asarray(theta), tau, lo, up, n, res, ref_r)
 
 
@@ -287,14 +305,11 @@ class TiltrotorWInfController(LeafSystem):
         old = context.get_discrete_state(self._state).value()
         ie = old[self._I]
         step = self.law.step(q, qdot, ref, wind, ie, n_prev=old[self._N])
-        new = old.copy()
-        # forward-Euler integral of the controlled-DOF error over one sample
-        new[self._I] = ie + self.period * (q[CONTROLLED] - ref[0:3])
-        new[self._TAU] = step.tau_bar
-        new[self._N] = step.propeller_speed
-        new[self._U] = step.u_star
-        new[self._RES] = step.residual
-        new[self._SAT] = saturation_flags(step.tau_bar, step.lo, step.up)
+        # layout [∫e_c | τ̄ | n | u* | residual | saturation]; forward-Euler integral of the
+        # controlled-DOF error over one sample
+        new = np.concatenate([ie + self.period * (q[CONTROLLED] - ref[0:3]), step.tau_bar,
+                              step.propeller_speed, step.u_star, [step.residual],
+                              saturation_flags(step.tau_bar, step.lo, step.up)])
         discrete_state.get_mutable_vector(self._state).SetFromVector(new)
         self.last_step = step
 
