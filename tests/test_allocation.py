@@ -281,3 +281,28 @@ def test_underdetermined_picks_range_scaled_minimum_norm():
     D = np.diag((hi - lo) / 2)
     assert info["residual"] < 1e-12
     assert np.max(np.abs(tau - D @ np.linalg.pinv(B @ D) @ u)) < 1e-12
+
+
+def test_fast_default_path_equals_general_path(monkeypatch):
+    """The default call (PDAS, ε > 0, open boxes) runs a Python-float implementation of the same
+    algorithm; it must reproduce the general numpy path — solution, active set, iterations —
+    including nearly zero (surface-like) columns, warm-started or not."""
+    rng = np.random.default_rng(17)
+    probs = []
+    for k in range(120):
+        B, u, lo, hi = random_problem(rng)
+        if k % 3 == 0:
+            B[:, 4:] *= 1e-9                           # surfaces at low air speed
+        if k % 4 == 0:
+            lo[4:], hi[4:] = -1e-5, 1e-5               # and their nearly closed boxes
+        probs.append((B, u, lo, hi))
+    fast = [bounded_least_squares(*p, return_info=True) for p in probs]
+    warm = [bounded_least_squares(*p, warm_start=f[1]["active"], return_info=True)
+            for p, f in zip(probs, fast)]
+    monkeypatch.setattr(al, "_bls_fast", lambda *a, **k: None)
+    for p, (tf, inf), (tw, _) in zip(probs, fast, warm):
+        tg, ing = bounded_least_squares(*p, return_info=True)
+        assert np.max(np.abs(tf - tg)) <= 1e-13 * (1 + np.max(np.abs(tg)))
+        assert np.array_equal(inf["active"], ing["active"]) and inf["iterations"] == ing["iterations"]
+        assert inf["residual"] == pytest.approx(ing["residual"], rel=1e-12, abs=1e-14)
+        assert np.max(np.abs(tw - tg)) < 1e-9

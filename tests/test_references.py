@@ -156,3 +156,20 @@ def test_reference_in_simulated_diagram_integrates_consistently():
     sim.AdvanceTo(10.0)
     q_int = integ.get_output_port().Eval(integ.GetMyContextFromRoot(ctx))
     np.testing.assert_allclose(q_int, ref.evaluate(10.0)[0], atol=1e-5)
+
+
+def test_scalar_evaluation_equals_vectorized():
+    """The per-sample scalar path (used by the LeafSystem) equals the vectorized evaluation on
+    every piece of every catalogue trajectory, including the breakpoints themselves."""
+    from sobolev_drake.systems.reference_catalogue import TRAJECTORIES
+    for name, make in TRAJECTORIES.items():
+        tr = make()
+        ts = np.concatenate([np.linspace(-1.0, 260.0, 97), tr.breakpoints, tr.breakpoints + 1e-9])
+        for t in ts:
+            q, qd, qdd = tr.evaluate_scalar(float(t))
+            q0, qd0, qdd0 = tr.evaluate(float(t))
+            for a, b in ((q, q0), (qd, qd0), (qdd, qdd0)):
+                np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-12, err_msg=f"{name} t={t}")
+    # a user Coordinate without a scalar form falls back to the vectorized function
+    tr = PiecewiseTrajectory(["a"], [[references.Coordinate(lambda t: (t * t, 2 * t, 2 + 0 * t))]])
+    assert tr.evaluate_scalar(3.0) == ([9.0], [6.0], [2.0])

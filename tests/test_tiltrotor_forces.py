@@ -219,3 +219,54 @@ def test_aerodynamic_static_stability_signs(model):
     aoa = force([15.0, 0, -1.5]) - base          # moving down: α_NED grows
     assert aoa[7] > 0 and aoa[3] > 0              # more lift, nose-down moment (θ > 0 is nose down)
     assert base[5] < 0                            # drag
+
+
+def test_scalar_input_affine_terms_equal_numpy_formulation(model):
+    """The controller's one-pass scalar terms (B, ϑ_passive, surface air speeds, rotor inflow)
+    equal the numpy formulation (input_affine_vectorized, AeroModel.terms, surface_air_data,
+    rotor_air_velocity) for both torque placements, including stopped rotors."""
+    from sobolev_drake.systems.input_affine import input_affine_terms, input_affine_vectorized
+    prop, aero = PropulsionModel(model.params), AeroModel(model.params)
+    rng = np.random.default_rng(21)
+    for i in range(60):
+        q, qd, zeta = random_state(rng)
+        q[:2] = rng.uniform(-1.7, 1.7, 2)                  # tilts from backward to past vertical
+        n = None if i % 4 == 0 else (np.array([0.0, 35.0]) if i % 7 == 0 else rng.uniform(5, 90, 2))
+        for torque in ("through_thrust", "passive"):
+            B0, p0 = input_affine_vectorized(model, q, qd, zeta, n, torque=torque)
+            t = input_affine_terms(model, q, qd, zeta, n, torque=torque)
+            np.testing.assert_allclose(t.B, B0, rtol=1e-11, atol=1e-11 * (1 + np.abs(B0).max()))
+            np.testing.assert_allclose(t.passive, p0, rtol=1e-11, atol=1e-11 * (1 + np.abs(p0).max()))
+        np.testing.assert_allclose(t.surface_speed, aero.surface_air_data(q, qd, zeta)[1], rtol=1e-13)
+        v = prop.rotor_air_velocity(q, qd, zeta)
+        np.testing.assert_allclose(t.rotor_vxz, np.hypot(v[:, 0], v[:, 2]), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(t.rotor_phi, np.abs(np.clip(np.arctan2(v[:, 0], v[:, 2]),
+                                                               -np.pi / 2, np.pi / 2)), atol=1e-12)
+        p1, Bd1, V1 = aero.terms_scalar(q, qd, zeta)
+        p2, Bd2 = aero.terms(q, qd, zeta)
+        np.testing.assert_allclose(Bd1, Bd2, atol=1e-11 * (1 + np.abs(Bd2).max()))
+        np.testing.assert_allclose(p1, p2, atol=1e-11 * (1 + np.abs(p2).max()))
+    with pytest.raises(ValueError, match="q must be a vector of length 8"):
+        input_affine_terms(model, np.zeros(7), np.zeros(8), np.zeros(3))
+    with pytest.raises(ValueError, match="zeta must be finite"):
+        input_affine_terms(model, np.zeros(8), np.zeros(8), [0.0, np.nan, 0.0])
+
+
+def test_plant_force_system_with_force_disturbance_matches_formula(model):
+    """TiltrotorForces' scalar force-disturbance mapping equals force_disturbance_generalized,
+    and the whole thesis force equals generalized_force + that mapping."""
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    fctx = h.forces.GetMyContextFromRoot(ctx)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, qd, zeta = random_state(rng)
+        n, ts, de, fd = rng.uniform(20, 70, 2), rng.normal(size=2), rng.normal(size=4) * 0.2, rng.normal(size=3) * 10
+        h.set_state(ctx, d, q, qd)
+        for port, val in ((h.propeller_speed, n), (h.servo_torque, ts), (h.surface_deflection, de),
+                          (h.wind, zeta), (h.force_disturbance, fd)):
+            port.FixValue(fctx, val)
+        expect = generalized_force(model, q, qd, zeta, n, ts, de) + force_disturbance_generalized(model, q, fd)
+        np.testing.assert_allclose(h.forces.thesis_force(fctx), expect, rtol=1e-11, atol=1e-10)
