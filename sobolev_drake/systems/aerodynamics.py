@@ -218,16 +218,14 @@ class AeroModel:
         Vs = [0.0] * 6
         # body-axes unit-deflection force per surface 1..4: wing lift (δW), tail lift (δe), tail side (δr)
         unit = [None] * 6
-        for k in range(6):
-            rx, ry, rz = pts[k]
+        for k, (rx, ry, rz), hk, at, bt in zip(range(6), pts, hrs, atab, btab):
             u = vbx + wy * rz - wz * ry
             v = vby + wz * rx - wx * rz
             w = vbz + wx * ry - wy * rx
             V2 = u * u + v * v + w * w
-            Vs[k] = sqrt(V2)
+            V = Vs[k] = sqrt(V2)
             if V2 < 1e-24:
                 continue
-            V = Vs[k]
             up = u if u > 0.0 else 0.0
             h = sqrt(up * up + w * w)
             alpha = atan2(w, up)
@@ -236,15 +234,31 @@ class AeroModel:
             sb = 1.0 if sb > 1.0 else (-1.0 if sb < -1.0 else sb)
             cb = sqrt(u * u + w * w) / V
             beta = asin(sb)
-            cl, cda_, cm = _interp3(atab[k], alpha, start, step, nmax, imax)
-            cy, cdb, cn = _interp3(btab[k], beta, start, step, nmax, imax)
-            ks = hrs[k] * V2
+            # table look-ups at α_NED = −α, β_NED = −β (inlined _interp3)
+            x = (-alpha - start) / step
+            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
+            i = int(x)
+            i = i if i <= imax else imax
+            fr = x - i
+            r0, r1 = at[i], at[i + 1]
+            cl, cda_, cm = (r0[0] + fr * (r1[0] - r0[0]), r0[1] + fr * (r1[1] - r0[1]),
+                            r0[2] + fr * (r1[2] - r0[2]))
+            x = (-beta - start) / step
+            x = 0.0 if x < 0.0 else (nmax if x > nmax else x)
+            i = int(x)
+            i = i if i <= imax else imax
+            fr = x - i
+            r0, r1 = bt[i], bt[i + 1]
+            cy, cdb, cn = (r0[0] + fr * (r1[0] - r0[0]), r0[1] + fr * (r1[1] - r0[1]),
+                           r0[2] + fr * (r1[2] - r0[2]))
+            ks = hk * V2
             fd = -ks * (cdb + cda_)
             fy = ks * (cy + dside[k])
             fl = ks * (cl + dlift[k])
-            bx = ca * cb * fd - ca * sb * fy - sa * fl
+            cacb, sasb = ca * cb, sa * sb
+            bx = cacb * fd - ca * sb * fy - sa * fl
             by = sb * fd + cb * fy
-            bz = sa * cb * fd - sa * sb * fy + ca * fl
+            bz = sa * cb * fd - sasb * fy + ca * fl
             Fx += bx
             Fy += by
             Fz += bz

@@ -461,25 +461,37 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     [−2, 2] N m, δ ∈ ±5π/36 rad, s = 2, c = 12 m/s).  Below ≈ 8 m/s the surface range is
     < 0.03 % of δ_max: the surfaces are effectively removed from the allocation.
     """
-    lim = limits if limits is not None else _thesis_limits()
+    if limits is None:
+        if "_parsed" not in _THESIS_LIMITS:
+            _thesis_limits()
+            _THESIS_LIMITS["_parsed"] = _parse_limits(_THESIS_LIMITS)
+        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _THESIS_LIMITS["_parsed"]
+    else:
+        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _parse_limits(limits)
     v = np.asarray(v_air, dtype=float)
     if v.size == 1:  # scalar or a size-1 port value: the same airspeed for all surfaces
         v = np.full(4, float(v.ravel()[0]))
-    if v.shape != (4,) or not np.isfinite(v).all() or (v < 0).any():
+    if v.shape != (4,):
         raise ValueError(f"v_air must be a non-negative scalar or a 4-vector [WR, WL, TR, TL], got {v_air!r}")
-    s, c = float(lim["sigmoid_s"]), float(lim["sigmoid_c_m_s"])
+    # sigmf (7.89) per surface in plain floats (same overflow-safe form as :func:`sigmf`)
+    lo, hi = [f_lo, f_lo, t_lo, t_lo], [f_hi, f_hi, t_hi, t_hi]
+    for x in v.tolist():
+        if not (x >= 0 and math.isfinite(x)):
+            raise ValueError(f"v_air must be a non-negative scalar or a 4-vector [WR, WL, TR, TL], got {v_air!r}")
+        z = -s * (x - c)
+        e = math.exp(-abs(z))
+        g = e / (1.0 + e) if z >= 0 else 1.0 / (1.0 + e)
+        lo.append(d_lo * g)
+        hi.append(d_hi * g)
+    return np.array(lo), np.array(hi)
+
+
+def _parse_limits(lim):
     f_lo, f_hi = lim["thrust_N"]
     t_lo, t_hi = lim["servo_torque_Nm"]
     d_lo, d_hi = lim["surface_deflection_rad"]
-    # sigmf (7.89) per surface in plain floats (same overflow-safe form as :func:`sigmf`)
-    sg = []
-    for x in v.tolist():
-        z = -s * (x - c)
-        e = math.exp(-abs(z))
-        sg.append(e / (1.0 + e) if z >= 0 else 1.0 / (1.0 + e))
-    lo = np.array([f_lo, f_lo, t_lo, t_lo] + [d_lo * g for g in sg], dtype=float)
-    hi = np.array([f_hi, f_hi, t_hi, t_hi] + [d_hi * g for g in sg], dtype=float)
-    return lo, hi
+    return tuple(float(x) for x in (lim["sigmoid_s"], lim["sigmoid_c_m_s"], f_lo, f_hi, t_lo, t_hi,
+                                    d_lo, d_hi))
 
 
 # --------------------------------------------------------------------------------------------

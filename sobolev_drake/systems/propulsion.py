@@ -108,6 +108,14 @@ class PropellerCoefficients:
             ct += a * (Jp[i] * Pp[j])
         return ct
 
+    def ct_in_J(self, phi: float):
+        """Coefficients (highest power first) of the quartic J ↦ Ct(J, φ) at fixed φ."""
+        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
+        c = [0.0] * 5
+        for (i, j), a, _ in self._terms:
+            c[i] += a * Pp[j]
+        return c[4], c[3], c[2], c[1], c[0]
+
     def ct(self, J, phi):
         """Thrust coefficient Ct(J, φ) (vectorized over broadcast J, φ)."""
         return self._features(J, phi) @ self.ct_coef

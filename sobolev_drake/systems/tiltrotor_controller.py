@@ -227,7 +227,7 @@ class TiltrotorWInfLaw:
         tracked = np.array(r[0:3] + [al, al, psi] + r[4:7] + [ald, ald, psid]
                            + r[8:11] + [aldd, aldd, psidd])
         qdd = self.mech_law.desired_acceleration(q, qdot, integral_ec, tracked)
-        if n_prev is None or np.any(np.asarray(n_prev) <= 0):
+        if n_prev is None or min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
             B, theta = self.input_affine(self.model, q, qdot, wind)
         else:
             B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
@@ -331,7 +331,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import N_REF, cores, input_affine, input_affine_terms
+    from sobolev_drake.systems.input_affine import cores, input_affine, input_affine_terms
 
     prop, aero = cores(model.params)
     if callable(schedule):
@@ -358,10 +358,10 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     # speeds of the bounds and the rotor inflow of the thrust inversion (all at (q, q̇, ζ)).
     shared = {"key": None, "terms": None}
 
-    def terms(q, qdot, wind, n=None):
+    def terms(q, qdot, wind, n=None, reuse=True):
         key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes(),
                np.asarray(wind, float).tobytes())
-        if n is None and shared["key"] == key:
+        if reuse and shared["key"] == key:
             return shared["terms"]
         t = input_affine_terms(model, q, qdot, wind, n)
         shared["key"], shared["terms"] = key, t   # speeds and inflow do not depend on n
@@ -370,7 +370,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     def affine(model_, q, qdot, zeta, n=None):
         if model_ is not model:
             return input_affine(model_, q, qdot, zeta, n)
-        t = terms(q, qdot, zeta, np.full(2, N_REF) if n is None else n)
+        t = terms(q, qdot, zeta, n, reuse=False)
         return t.B, t.passive
 
     def bounds(q, qdot, wind):
@@ -411,12 +411,16 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
     if any(x <= 0 for x in f) or any(x <= 1.0 for x in n):
         return None
     k = coef.rho * coef.diameter ** 4
-    d, Jmax, ct = coef.diameter, coef.J_max, coef.ct_scalar
+    d, Jmax = coef.diameter, coef.J_max
     idx = range(len(f))
+    # φ is fixed during the solve: Ct(J, φ) is a quartic in J per rotor (Horner coefficients)
+    cj = [coef.ct_in_J(p) for p in ph]
 
     def g(nn, i):  # thrust − f, J clamped to the table range as in the plant's propeller model
         J = vx[i] / (nn * d)
-        return k * nn * nn * ct(J if J < Jmax else Jmax, ph[i]) - f[i]
+        J = J if J < Jmax else Jmax
+        c4, c3, c2, c1, c0 = cj[i]
+        return k * nn * nn * ((((c4 * J + c3) * J + c2) * J + c1) * J + c0) - f[i]
 
     for _ in range(iterations):
         g0 = [g(n[i], i) for i in idx]
