@@ -145,6 +145,15 @@ class TiltrotorModel(MechanicalModel):
         super().__init__(plant, coordinate_map=thesis_coordinate_map(plant), dof_names=DOF_NAMES,
                          name="tiltrotor")
 
+    def friction(self, qdot) -> np.ndarray:
+        """K(q̇) = 0: the servo friction ν α̇ (7.33) is part of the generalized forces (passive
+        term of (7.62)), not of the left-hand side.  Same as the base class, cheaper check
+        (the controller asks for it at every sample)."""
+        arr = np.asarray(qdot, dtype=float)
+        if arr.shape != (8,) or not np.isfinite(arr).all():
+            return super().friction(qdot)          # raises the descriptive error
+        return np.zeros(8)
+
     def B(self, q, qdot=None, zeta=None):
         """Input-coupling matrix B(q, q̇, ζ) of (7.62) (columns ``ACTUATOR_NAMES``)."""
         from sobolev_drake.systems.input_affine import input_affine

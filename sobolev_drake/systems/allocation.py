@@ -301,8 +301,9 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     the problem is not of that kind, fails a check or PDAS does not settle — the general path
     then handles it (and raises the descriptive errors).
     """
-    arrs = (B, u, lo, hi)
-    if not all(type(a) is np.ndarray and a.dtype == np.float64 for a in arrs) or B.ndim != 2:
+    nd, f64 = np.ndarray, np.float64
+    if not (type(B) is nd and type(u) is nd and type(lo) is nd and type(hi) is nd and B.ndim == 2
+            and B.dtype == f64 and u.dtype == f64 and lo.dtype == f64 and hi.dtype == f64):
         return None
     n, m = B.shape
     if u.shape != (n,) or lo.shape != (m,) or hi.shape != (m,) or n == 0 or m == 0:

@@ -404,10 +404,7 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
     zero thrust, non-increasing thrust, or no convergence).  All rotors iterate together
     (Python floats: a handful of scalars is far cheaper than numpy calls).
     """
-    f = [float(v) for v in np.ravel(f)]
-    n = [float(v) for v in np.ravel(n_guess)]
-    vx = [float(v) for v in np.ravel(v_xz)]
-    ph = [float(v) for v in np.ravel(phi)]
+    f, n, vx, ph = (np.asarray(a, dtype=float).ravel().tolist() for a in (f, n_guess, v_xz, phi))
     if any(x <= 0 for x in f) or any(x <= 1.0 for x in n):
         return None
     k = coef.rho * coef.diameter ** 4
