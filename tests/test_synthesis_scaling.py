@@ -91,3 +91,95 @@ def test_explicit_scaling_and_bad_input():
         state_feedback(p, scaling=(np.ones(p.n + 1), Su))
     with pytest.raises(ValueError, match="scaling"):
         state_feedback(p, scaling=(-T, Su))
+
+
+# --------------------------------------------------------------------------- output feedback
+def _of_plant(seed, n=5, sensor_noise=0.1):
+    """W-infinity plant with measurement noise (as tests/test_synthesis.py's random plants)."""
+    from sobolev_drake.synthesis.sobolev import winf_plant
+    rng = np.random.default_rng(seed)
+    nu, nw, ny = 1 + n % 2, 1 + (n // 2) % 2, max(1, n // 2)
+    A = rng.normal(size=(n, n))
+    A -= (np.linalg.eigvals(A).real.max() - 0.5) * np.eye(n)
+    B, D, C = rng.normal(size=(n, nu)), rng.normal(size=(n, nw)), rng.normal(size=(ny, n))
+    p = winf_plant(A, B, D, np.diag(rng.uniform(0.5, 2, n)), np.diag(rng.uniform(0.01, 0.2, n)), C)
+    B1 = np.hstack([p.B1, np.zeros((n, ny))])
+    D11 = np.hstack([p.D11, np.zeros((p.nz, ny))])
+    D21 = np.hstack([np.zeros((ny, nw)), sensor_noise * np.eye(ny)])
+    return GeneralizedPlant.make(p.A, B1, p.B2, p.C1, D11, p.D12, p.C2, D21)
+
+
+def _badly_scaled_of(p, S, su, sy):
+    """Same system in coordinates x = S x_bad, u = su u_bad, y = sy y_bad (w, z unchanged)."""
+    q = _badly_scaled(p, S, su)
+    return GeneralizedPlant(q.A, q.B1, q.B2, q.C1, q.D11, q.D12, q.C2 / sy[:, None], q.D21 / sy[:, None])
+
+
+def test_output_scaling_is_exact():
+    p = _of_plant(3)
+    bad = _badly_scaled_of(p, np.logspace(-3, 3, p.n), SU_BAD, np.logspace(3, -3, p.ny))
+    T, Su, Sy = balance_scaling([bad], outputs=True)
+    for v in (T, Su, Sy):
+        assert np.all(np.log2(v) == np.round(np.log2(v)))
+    q = scale_plant(bad, T, Su, Sy)
+    # rows of [C2 D21] are unit-sized after scaling (up to the power-of-two rounding)
+    rows = np.linalg.norm(np.hstack([q.C2, q.D21]), axis=1)
+    assert np.all((rows > 0.7) & (rows < 1.42))
+    # a controller of the scaled plant, mapped back, gives the same closed loop w -> z
+    from sobolev_drake.synthesis.hinf import DynamicController
+    from sobolev_drake.synthesis.scaling import unscale_controller
+    rng = np.random.default_rng(1)
+    cs = DynamicController(rng.normal(size=(2, 2)) - 3 * np.eye(2), rng.normal(size=(2, q.ny)),
+                           rng.normal(size=(q.nu, 2)), rng.normal(size=(q.nu, q.ny)))
+    c = unscale_controller(cs, Su, Sy)
+    Gs = q.closed_loop(controller=cs)
+    G = bad.closed_loop(controller=c)
+    assert np.allclose(np.sort_complex(np.linalg.eigvals(Gs[0])), np.sort_complex(np.linalg.eigvals(G[0])),
+                       rtol=1e-8, atol=1e-8)
+    s = 0.7j
+    tf = lambda A, B, C, D: C @ np.linalg.solve(s * np.eye(A.shape[0]) - A, B) + D
+    assert np.allclose(tf(*Gs), tf(*G), rtol=1e-8, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed, region", [(0, None), (3, None), (4, disk(30.0))])
+def test_badly_scaled_output_feedback_same_gamma_and_certified(seed, region):
+    from sobolev_drake.synthesis.hinf import output_feedback
+    p = _of_plant(seed)
+    ref = output_feedback(p, scaling=False, region=region)
+    S, sy = np.logspace(-3, 3, p.n), np.logspace(3, -3, p.ny)
+    bad = _badly_scaled_of(p, S, SU_BAD, sy)
+    r = output_feedback(bad, region=region)
+    assert r.certificate.ok and not r.regularized
+    assert r.gamma_opt == pytest.approx(ref.gamma_opt, rel=1e-4)
+    # independent check on the original (badly scaled) plant
+    cl = bad.closed_loop(controller=r.controller)
+    assert hinf_norm(*cl)[0] <= r.gamma * (1 + 1e-4)
+    if region is not None:
+        assert np.all(region.contains(np.linalg.eigvals(cl[0]), 1e-6 * 30))
+    # the same controller expressed for the well-scaled plant: u = su u_bad, y = sy y_bad
+    AK, BK, CK, DK = r.controller
+    c_good = (AK, BK / sy, SU_BAD * CK, SU_BAD * DK / sy)
+    assert hinf_norm(*p.closed_loop(controller=c_good))[0] <= r.gamma * (1 + 1e-4)
+    # X, Y, P mapped back to original coordinates: P > 0 and the closed-loop Lyapunov
+    # inequality holds; the upper-left blocks of P^-1 and P are X and Y
+    assert np.linalg.eigvalsh(r.P).min() > 0
+    L = cl[0].T @ r.P + r.P @ cl[0]
+    dsc = 1.0 / np.sqrt(np.diag(r.P))
+    assert np.linalg.eigvalsh(dsc[:, None] * L * dsc).max() < 0
+    assert np.allclose(r.P[:p.n, :p.n], r.Y, rtol=1e-6, atol=0)
+    assert np.allclose(np.linalg.inv(r.P)[:p.n, :p.n], r.X, rtol=1e-5, atol=1e-12 * np.abs(r.X).max())
+
+
+def test_output_feedback_explicit_scaling_and_bad_input():
+    from sobolev_drake.synthesis.hinf import output_feedback
+    p = _of_plant(0, n=3)
+    T, Su, Sy = np.full(p.n, 2.0), np.full(p.nu, 0.5), np.full(p.ny, 4.0)
+    r = output_feedback(p, scaling=(T, Su, Sy))
+    assert r.certificate.ok
+    assert r.gamma_opt == pytest.approx(output_feedback(p, scaling=False).gamma_opt, rel=1e-4)
+    with pytest.raises(ValueError, match="scaling"):
+        output_feedback(p, scaling=(T, Su))  # Sy missing
+    with pytest.raises(ValueError, match="scaling"):
+        output_feedback(p, scaling=(T, Su, -Sy))
+    with pytest.raises(ValueError, match="scaling"):
+        output_feedback(p, scaling=(T, Su, np.ones(p.ny + 1)))

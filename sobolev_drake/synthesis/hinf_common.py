@@ -1,0 +1,244 @@
+"""Shared pieces of the bounded-real-lemma syntheses (``hinf.py``, ``output_feedback.py``).
+
+Generalized plant and result types, the solver call with its fallback chain, the regularizing
+ladder, certification of results (``certificates.py``) and the warning/timing bookkeeping.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .certificates import (Certificate, as_matrix, certify_closed_loop, require_detectable,
+                           require_stabilizable)
+from .lmi import InfeasibleLMIError, SynthesisError
+from .regions import LMIRegion
+
+COUPLING_MARGIN = 1e-6  # [[X, I], [I, Y]] >= margin I keeps I - XY invertible (see reconstruct)
+EPS = 1e-7  # strictness margin of the LMIs (absolute, problems are scaled by the weights)
+
+
+class SynthesisWarning(UserWarning):
+    """The result is valid but degenerate (feedthrough infimum, regularized, large gains)."""
+
+
+@dataclass
+class GeneralizedPlant:
+    A: np.ndarray
+    B1: np.ndarray
+    B2: np.ndarray
+    C1: np.ndarray
+    D11: np.ndarray
+    D12: np.ndarray
+    C2: np.ndarray
+    D21: np.ndarray
+
+    @classmethod
+    def make(cls, A, B1, B2, C1, D11=None, D12=None, C2=None, D21=None):
+        """Validated plant; D11, D12, D21 default to zero, C2 to the identity (full state)."""
+        A = as_matrix("A", A)
+        n = A.shape[0]
+        as_matrix("A", A, (n, n))
+        B1 = as_matrix("B1", B1, (n, None))
+        B2 = as_matrix("B2", B2, (n, None))
+        C1 = as_matrix("C1", C1, (None, n))
+        nw, nu, nz = B1.shape[1], B2.shape[1], C1.shape[0]
+        D11 = np.zeros((nz, nw)) if D11 is None else as_matrix("D11", D11, (nz, nw))
+        D12 = np.zeros((nz, nu)) if D12 is None else as_matrix("D12", D12, (nz, nu))
+        C2 = np.eye(n) if C2 is None else as_matrix("C2", C2, (None, n))
+        D21 = np.zeros((C2.shape[0], nw)) if D21 is None else as_matrix("D21", D21, (C2.shape[0], nw))
+        return cls(A, B1, B2, C1, D11, D12, C2, D21)
+
+    n = property(lambda s: s.A.shape[0])
+    nw = property(lambda s: s.B1.shape[1])
+    nu = property(lambda s: s.B2.shape[1])
+    nz = property(lambda s: s.C1.shape[0])
+    ny = property(lambda s: s.C2.shape[0])
+
+    def closed_loop(self, K=None, controller=None):
+        """(A_cl, B_cl, C_cl, D_cl) of w -> z with u = K x or the dynamic controller."""
+        if K is not None:
+            K = as_matrix("K", K, (self.nu, self.n))
+            return (self.A + self.B2 @ K, self.B1, self.C1 + self.D12 @ K, self.D11)
+        AK, BK, CK, DK = controller
+        A = np.block([[self.A + self.B2 @ DK @ self.C2, self.B2 @ CK], [BK @ self.C2, AK]])
+        B = np.vstack([self.B1 + self.B2 @ DK @ self.D21, BK @ self.D21])
+        C = np.hstack([self.C1 + self.D12 @ DK @ self.C2, self.D12 @ CK])
+        D = self.D11 + self.D12 @ DK @ self.D21
+        return A, B, C, D
+
+    def convex_combination(self, other, t):
+        return GeneralizedPlant(*[(1 - t) * a + t * b for a, b in zip(self.as_tuple(), other.as_tuple())])
+
+    def as_tuple(self):
+        return (self.A, self.B1, self.B2, self.C1, self.D11, self.D12, self.C2, self.D21)
+
+
+@dataclass
+class DynamicController:
+    """x_K' = AK x_K + BK y,  u = CK x_K + DK y."""
+
+    AK: np.ndarray
+    BK: np.ndarray
+    CK: np.ndarray
+    DK: np.ndarray
+
+    def __iter__(self):
+        return iter((self.AK, self.BK, self.CK, self.DK))
+
+
+@dataclass
+class SynthesisResult:
+    kind: str  # "state_feedback" | "output_feedback"
+    gamma: float  # certified bound on the performance-channel H-infinity norm
+    K: np.ndarray | None = None
+    controller: DynamicController | None = None
+    P: np.ndarray | None = None  # closed-loop Lyapunov matrix
+    X: np.ndarray | None = None
+    Y: np.ndarray | None = None
+    gamma_opt: float = np.nan  # LMI optimum (before any regularization)
+    feedthrough_bound: float = 0.0
+    solver: str = ""
+    backend: str = ""
+    status: str = ""
+    timings: dict = field(default_factory=dict)
+    certificate: Certificate | None = None
+    certificates: list = field(default_factory=list)  # polytopic: one per vertex
+    region: LMIRegion | None = None
+    regularized: bool = False
+    warnings: list = field(default_factory=list)
+
+    @property
+    def well_posed(self):
+        return not self.warnings
+
+
+def _check_gamma_request(gamma, bound, what="gamma"):
+    if gamma is not None and gamma <= bound * (1 + 1e-9):
+        raise ValueError(f"{what}={gamma:g} is not achievable: it must exceed the feedthrough "
+                         f"(Parrott) bound {bound:.6g}")
+
+
+FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend fails
+
+
+def _solve(prog, backend, options, timings, label):
+    """Solve; with the default backend, fall back to Drake/Clarabel then CSDP on failure."""
+    chain = [backend] if backend is not None else [None, *FALLBACKS]
+    errors = []
+    for b in chain:
+        try:
+            out = prog.solve(b, options if b == backend else None)
+        except InfeasibleLMIError as e:
+            errors.append(str(e))
+            continue
+        timings[f"{label}_build"] = timings.get(f"{label}_build", 0.0) + out.build_time
+        timings[f"{label}_solve"] = timings.get(f"{label}_solve", 0.0) + out.solve_time
+        if out.success and np.all(np.isfinite(out.x)):
+            if errors:
+                out.status += f" (after fallback: {'; '.join(errors)})"
+            return out
+        errors.append(f"{out.backend}/{out.solver}: status {out.status}")
+    raise InfeasibleLMIError(f"LMI problem ({label}) not solved: " + "; ".join(errors),
+                             errors[-1] if errors else "")
+
+
+def _ladder(solve_at, g_opt, delta, deliberate, res):
+    """Re-solve at gamma = (1+d) g_opt minimizing a gain bound.
+
+    ``deliberate`` (feedthrough bound / user request): d = delta. Otherwise the first result
+    failed its certificate for numerical reasons: try d = 1e-4, 1e-3, 1e-2 until one passes.
+    """
+    steps = [delta] if deliberate else [1e-4, 1e-3, 1e-2]
+    last = None
+    for d in steps:
+        try:
+            r = solve_at((1 + d) * g_opt)
+        except SynthesisError as e:
+            last = e
+            continue
+        r.regularized = True
+        if r.certificate.ok or d == steps[-1]:
+            return r, d
+    if last is not None:
+        raise last
+    return res, steps[-1]
+
+
+def compress_performance(p):
+    """Same plant with z replaced by U^T z, U an orthonormal basis of range [C1 D11 D12].
+
+    |z| is unchanged (the dropped components vanish identically); the W-infinity channel
+    has 2n rows but rank <= n + nw + nu, so the BRL block shrinks (faster SDP).
+    """
+    M = np.hstack([p.C1, p.D11, p.D12])
+    if M.shape[0] <= M.shape[1]:
+        return p
+    U, sv, _ = np.linalg.svd(M, full_matrices=False)
+    r = max(1, int(np.sum(sv > 1e-12 * max(sv.max(), 1e-300))))
+    U = U[:, :r]
+    return GeneralizedPlant(p.A, p.B1, p.B2, U.T @ p.C1, U.T @ p.D11, U.T @ p.D12, p.C2, p.D21)
+
+
+def _finish(res, plants, region, rtol, verify, status):
+    certs = []
+    for p in plants:
+        cl = p.closed_loop(K=res.K) if res.kind == "state_feedback" else p.closed_loop(controller=res.controller)
+        certs.append(certify_closed_loop(*cl, res.gamma, region=region, rtol=rtol, solver_status=status))
+    res.certificates = certs
+    res.certificate = max(certs, key=lambda c: c.achieved) if certs else None
+    if verify:
+        for i, c in enumerate(certs):
+            if not c.ok:
+                where = f" (vertex {i})" if len(certs) > 1 else ""
+                raise SynthesisError(f"{res.kind} result from {res.backend}/{res.solver} rejected{where}: "
+                                     + "; ".join(c.failures) + f" [solver status: {status}]")
+    return res
+
+
+def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns):
+    """Certify the unregularized optimum; decide whether the regularizing ladder must run.
+
+    The SDP optimum is approached from above, so without a requested gamma the result is
+    certified against the solver's gamma plus a 1e-6 relative slack.  Returns
+    (res or None, on_bound, need_regularization); re-raises the certificate failure when the
+    optimum fails and regularization is not allowed.  Appends the on-bound warning to ``warns``.
+    """
+    first_error = None
+    try:
+        res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
+        _finish(res, plants, region, rtol, False, out.status)
+    except SynthesisError as e:
+        first_error, res = e, None
+    on_bound = bound > 0 and g_opt <= bound * (1 + 1e-3)
+    if on_bound:
+        warns.append(f"optimal gamma {g_opt:.6g} sits on the feedthrough bound {bound:.6g}: the "
+                     f"infimum needs unbounded gains, the LMI optimum's gains depend on solver noise")
+    need = regularize is True or (regularize == "auto" and gamma is None
+                                  and (on_bound or res is None or not res.certificate.ok))
+    if res is None and not need:
+        raise first_error
+    return res, on_bound, need
+
+
+def _publish(res, warns, t0, plants, region, rtol, verify):
+    """Attach and emit the warnings, total time, and run the final certificate check."""
+    res.warnings = warns
+    res.timings["total"] = time.perf_counter() - t0
+    for w in warns:
+        warnings.warn(w, SynthesisWarning, stacklevel=3)  # at the caller of the public function
+    return _finish(res, plants, region, rtol, verify, res.status)
+
+
+def _validate(plants, need_detectable):
+    p0 = plants[0]
+    for p in plants:
+        if tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in p0.as_tuple()):
+            raise ValueError("all vertex plants must have the same dimensions")
+        require_stabilizable(p.A, p.B2)
+        if need_detectable:
+            require_detectable(p.A, p.C2)
+

@@ -1,0 +1,157 @@
+"""Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
+
+Scherer, Gahinet & Chilali (1997) / Gahinet & Apkarian (1994) linearizing variables
+(X, Y, Ak, Bk, Ck, Dk): the bounded-real-lemma LMI of the closed loop becomes linear (the
+linearized form of thesis (6.22)); pole regions use (6.40).  The controller is reconstructed
+from M N^T = I - X Y (:func:`reconstruct_controller`).  The LMI is solved for an exactly
+rescaled plant (``scaling.py``: states, inputs and measurements; w and z untouched) and the
+controller is mapped back and certified on the original plant.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .certificates import parrott_bound
+from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
+                          _check_gamma_request, _finish, _first_attempt, _ladder, _publish,
+                          _solve, _validate, compress_performance)
+from .lmi import Affine, LMIProgram, SynthesisError, bmat
+from .regions import region_lmi
+from .scaling import resolve_scaling, scale_plant, unscale_controller
+
+
+# --------------------------------------------------------------------------- output feedback
+def _of_program(p, *, region, gamma2, input_weight, gain_bound, strictly_proper, margin=EPS):
+    p = compress_performance(p)
+    n, nu, ny = p.n, p.nu, p.ny
+    prog = LMIProgram()
+    X, Y = prog.sym(n), prog.sym(n)
+    Ak, Bk, Ck = prog.full(n, n), prog.full(n, ny), prog.full(nu, n)
+    Dk = Affine.lift(np.zeros((nu, ny))) if strictly_proper else prog.full(nu, ny)
+    g2 = prog.scalar() if gamma2 is None else None
+    Ww = np.eye(p.nw) if input_weight is None else input_weight
+    gblk = (-g2 * Ww) if g2 is not None else -gamma2 * Ww
+    I = np.eye(n)
+    AX = p.A @ X + p.B2 @ Ck
+    AC = p.A + p.B2 @ Dk @ p.C2
+    YA = Y @ p.A + Bk @ p.C2
+    M21 = Ak + AC.T
+    M31 = (p.B1 + p.B2 @ Dk @ p.D21).T
+    M32 = (Y @ p.B1 + Bk @ p.D21).T
+    M41 = p.C1 @ X + p.D12 @ Ck
+    M42 = p.C1 + p.D12 @ Dk @ p.C2
+    M43 = p.D11 + p.D12 @ Dk @ p.D21
+    prog.add_lmi(bmat([[AX.sym(), M21.T, M31.T, M41.T],
+                       [M21, YA.sym(), M32.T, M42.T],
+                       [M31, M32, gblk, M43.T],
+                       [M41, M42, M43, -np.eye(p.nz)]]), margin)
+    XY = bmat([[X, I], [I, Y]])
+    prog.add_pos(XY, COUPLING_MARGIN)
+    if region is not None:
+        prog.add_lmi(region_lmi(region, XY, bmat([[AX, AC], [Ak, YA]])), EPS)
+    if gain_bound:
+        k = prog.scalar()
+        Th = bmat([[Ak, Bk], [Ck, Dk]])
+        m1, m2 = Th.shape
+        prog.add_pos(bmat([[k * np.eye(m2), Th.T], [Th, k * np.eye(m1)]]))
+        prog.add_lmi(X - k * I)
+        prog.add_lmi(Y - k * I)
+        prog.minimize(k)
+    else:
+        prog.minimize(g2)
+    return prog, (X, Y, Ak, Bk, Ck, Dk), g2
+
+
+def reconstruct_controller(p, X, Y, Ak, Bk, Ck, Dk, rank_tol=0.0):
+    """Controller from the linearizing variables; M N^T = I - X Y by SVD (balanced factors).
+
+    At the LMI optimum I - XY tends to be rank deficient (a lower-order controller suffices);
+    the synthesis keeps it invertible with a margin on [[X, I], [I, Y]] (``COUPLING_MARGIN``),
+    which costs ~1e-6 relative in gamma and avoids spurious huge/unstable controller modes.
+    Optional truncation of singular values below ``rank_tol * s_max`` gives a reduced-order
+    controller (approximate; the certificate decides). Returns (controller, P) with P the
+    closed-loop Lyapunov matrix (None when truncated).
+    """
+    n = p.n
+    U, s, Vt = np.linalg.svd(np.eye(n) - X @ Y)
+    r = int(np.sum(s > rank_tol * max(s.max(), 1e-300)))
+    if r == 0:
+        raise SynthesisError("I - XY vanishes: no controller can be reconstructed")
+    M = U[:, :r] * np.sqrt(s[:r])
+    N = Vt[:r].T * np.sqrt(s[:r])
+    Mp, Np = np.linalg.pinv(M), np.linalg.pinv(N)  # exact inverses when r = n
+    DK = Dk
+    CK = (Ck - DK @ p.C2 @ X) @ Mp.T
+    BK = Np @ (Bk - Y @ p.B2 @ DK)
+    rest = Ak - Y @ (p.A + p.B2 @ DK @ p.C2) @ X - N @ BK @ p.C2 @ X - Y @ p.B2 @ CK @ M.T
+    AK = Np @ rest @ Mp.T
+    P = None
+    if r == n:
+        Pi1 = np.block([[X, np.eye(n)], [M.T, np.zeros((n, n))]])
+        Pi2 = np.block([[np.eye(n), Y], [np.zeros((n, n)), N.T]])
+        P = np.linalg.solve(Pi1.T, Pi2.T).T  # P Pi1 = Pi2
+        P = 0.5 * (P + P.T)
+    return DynamicController(AK, BK, CK, DK), P
+
+
+def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
+                    regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
+                    strictly_proper=False, margin=EPS, scaling=True):
+    """Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
+
+    Keywords as :func:`~sobolev_drake.synthesis.hinf.state_feedback`. ``scaling``: True
+    (default) solves the LMI for the plant in coordinates x = T x~, u = Su u~, y = Sy y~
+    (``scaling.balance_scaling`` with outputs; powers of two, gamma and poles unchanged), a
+    tuple (T, Su, Sy) gives them, False solves in the given coordinates.  The controller is
+    mapped back to y -> u, X and Y to the original state coordinates (X = T X~ T,
+    Y = T^-1 Y~ T^-1), and the certificate is computed on the original plant.
+    """
+    p = plant
+    fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
+    if strictly_proper:
+        fb = np.linalg.norm(p.D11, 2)
+    _check_gamma_request(gamma, fb)
+    timings, warns = {}, []
+    t0 = time.perf_counter()
+    T, Su, Sy = resolve_scaling(scaling, [p], outputs=True)
+    sp_ = scale_plant(p, T, Su, Sy)
+    _validate([sp_], True)  # stabilizability/detectability are invariant; test the balanced plant
+    kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin)
+    prog, V, g2 = _of_program(sp_, gamma2=None if gamma is None else gamma ** 2,
+                              gain_bound=gamma is not None, **kw)
+    out = _solve(prog, backend, solver_options, timings, "lmi")
+    g_opt = float(np.sqrt(max(g2.value(out.x)[0, 0], 0.0))) if gamma is None else float(gamma)
+
+    def build(out, g):
+        vals = [v.value(out.x) for v in V]
+        Xs, Ys = 0.5 * (vals[0] + vals[0].T), 0.5 * (vals[1] + vals[1].T)
+        ctrl_s, Ps = reconstruct_controller(sp_, Xs, Ys, *vals[2:])
+        ctrl = unscale_controller(ctrl_s, Su, Sy)
+        P = None
+        if Ps is not None:  # closed-loop state [x; x_K] = diag(T, I) [x~; x_K]
+            d = 1.0 / np.concatenate([T, np.ones(Ps.shape[0] - p.n)])
+            P = d[:, None] * Ps * d
+        return SynthesisResult("output_feedback", g, controller=ctrl, P=P, X=T[:, None] * Xs * T,
+                               Y=Ys / T[:, None] / T, gamma_opt=g_opt, feedthrough_bound=fb,
+                               solver=out.solver, backend=out.backend, status=out.status,
+                               timings=timings, region=region)
+
+    res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
+                                         regularize, warns)
+    if need:
+        def solve_at(g):
+            prog2, V2, _ = _of_program(sp_, gamma2=g ** 2, gain_bound=True, **kw)
+            V[:] = V2
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
+            return _finish(r, [p], region, rtol, False, r.status)
+        V = list(V)
+        res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
+                     "minimizing a bound on the (scaled) controller matrices")
+    if res.controller.AK.shape[0] < p.n:
+        warns.append(f"I - XY numerically rank deficient: controller order reduced to "
+                     f"{res.controller.AK.shape[0]} (of {p.n})")
+    return _publish(res, warns, t0, [p], region, rtol, verify)
