@@ -270,3 +270,17 @@ def test_plant_force_system_with_force_disturbance_matches_formula(model):
             port.FixValue(fctx, val)
         expect = generalized_force(model, q, qd, zeta, n, ts, de) + force_disturbance_generalized(model, q, fd)
         np.testing.assert_allclose(h.forces.thesis_force(fctx), expect, rtol=1e-11, atol=1e-10)
+
+
+def test_scalar_propeller_coefficients_equal_vectorized():
+    """ct_scalar / ct_cq_scalar and the per-φ quartic in J (Newton thrust inversion) equal the
+    vectorized Ct, Cq of the data file."""
+    c = PropellerCoefficients()
+    for J in np.linspace(0.0, 0.75, 7):
+        for phi in np.linspace(0.0, np.pi / 2, 5):
+            ct, cq = c.ct_cq_scalar(float(J), float(phi))
+            assert ct == pytest.approx(float(c.ct(J, phi)), rel=1e-13, abs=1e-15)
+            assert cq == pytest.approx(float(c.cq(J, phi)), rel=1e-13, abs=1e-15)
+            assert c.ct_scalar(float(J), float(phi)) == pytest.approx(ct, rel=1e-14, abs=1e-16)
+            c4, c3, c2, c1, c0 = c.ct_in_J(float(phi))
+            assert (((c4 * J + c3) * J + c2) * J + c1) * J + c0 == pytest.approx(ct, rel=1e-12, abs=1e-15)
