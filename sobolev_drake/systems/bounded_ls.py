@@ -303,10 +303,14 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     if not (all(isf(x) for x in ul) and np.isfinite(B).all()):
         return None
     rng = range(m)
-    tp = [min(max(0.0, a), b_) for a, b_ in zip(lol, hil)]          # τ̄_p = clip(0, lo, hi)
-    sc = [0.5 * (b_ - a) for a, b_ in zip(lol, hil)]                 # D = (hi − lo)/2
-    l = [(a - t) / d for a, t, d in zip(lol, tp, sc)]
-    h = [(b_ - t) / d for b_, t, d in zip(hil, tp, sc)]
+    tp, sc, l, h = [], [], [], []
+    for a, b_ in zip(lol, hil):
+        t = min(max(0.0, a), b_)                                     # τ̄_p = clip(0, lo, hi)
+        d = 0.5 * (b_ - a)                                           # D = (hi − lo)/2
+        tp.append(t)
+        sc.append(d)
+        l.append((a - t) / d)
+        h.append((b_ - t) / d)
     A = B * np.array(sc)
     b = u - B @ np.array(tp)
     eps = reg * max(float((A * A).sum()), 1e-300)
@@ -322,36 +326,45 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     else:
         s0 = _solve(H, g).tolist()
         low, up = [s0[i] < l[i] for i in rng], [s0[i] > h[i] for i in rng]
-    c = float(np.trace(H)) / m
+    c = float(H.trace()) / m
     for it in range(max_iter):
-        free = [i for i in rng if not (low[i] or up[i])]
-        act = [i for i in rng if low[i] or up[i]]
-        s = [h[i] if up[i] else (l[i] if low[i] else 0.0) for i in rng]
+        free, act, s = [], [], []
+        for i in rng:
+            if up[i]:
+                act.append(i)
+                s.append(h[i])
+            elif low[i]:
+                act.append(i)
+                s.append(l[i])
+            else:
+                free.append(i)
+                s.append(0.0)
         if free:
             if act:
                 fi, ai = np.array(free, dtype=np.intp), np.array(act, dtype=np.intp)
-                Hf = H[fi]
-                xf = _solve(Hf[:, fi], g[fi] - Hf[:, ai] @ np.array([s[i] for i in act]))
+                fc = fi[:, None]
+                xf = _solve(H[fc, fi], g[fi] - H[fc, ai] @ np.array([s[i] for i in act]))
             else:
                 xf = _solve(H, g)
             for i, v in zip(free, xf.tolist()):
                 s[i] = v
-        lam = (g - H @ np.array(s)).tolist()
+        sv = np.array(s)
+        lam = (g - H @ sv).tolist()
         for i in free:
             lam[i] = 0.0
-        new_up = [lam[i] + c * (s[i] - h[i]) > 0 for i in rng]
-        new_low = [lam[i] + c * (s[i] - l[i]) < 0 and not new_up[i] for i in rng]
+        new_up, new_low = [], []
+        for i in rng:
+            nu = lam[i] + c * (s[i] - h[i]) > 0
+            new_up.append(nu)
+            new_low.append(lam[i] + c * (s[i] - l[i]) < 0 and not nu)
         if new_up == up and new_low == low:
             break
         low, up = new_low, new_up
     else:
         return None
     if free:                                                        # _polish
-        sv = np.array(s)
         if act:
-            ai = np.array(act, dtype=np.intp)
-            rhs = b - A[:, ai] @ sv[ai]
-            x = _lstsq_min_norm(A[:, np.array(free, dtype=np.intp)], rhs, 1e-10).tolist()
+            x = _lstsq_min_norm(A[:, fi], b - A[:, ai] @ sv[ai], 1e-10).tolist()
         else:
             x = _lstsq_min_norm(A, b, 1e-10).tolist()
         ok = True

@@ -323,10 +323,13 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     (:func:`plant_trim_schedule`); ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``
     (the thesis author's simulator; it rises much faster above 24 m/s than our trims); or a
     callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
-    ``systems.allocation.bounded_least_squares``.
+    ``systems.allocation.bounded_least_squares`` warm-started from the previous sample's active
+    set (same solution, fewer iterations).
 
     Bounds (7.85)–(7.89) use the air speed of each surface [WR WL TR TL] from the aerodynamic
     model (measured wind ζ); the thrust inversion (7.90) uses each hub's rotor-frame inflow.
+    B, ϑ_passive, these air speeds and the inflow come from one scalar pass of the force model
+    per sample (``input_affine.input_affine_terms``), shared by the composed callables.
     """
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
