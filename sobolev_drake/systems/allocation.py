@@ -26,9 +26,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
-from sobolev_drake.systems.bounded_ls import (  # noqa: F401  (re-exported; tests use the helpers)
-    _bls_fast, _box_qp_active_set, _box_qp_osqp, _box_qp_pdas, _check_problem, _fallback, _polish,
-    bounded_least_squares)
+from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
+from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
 
 # --------------------------------------------------------------------------------------------
 # tilt-rotor bounds (7.85)–(7.89)

@@ -37,7 +37,6 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
