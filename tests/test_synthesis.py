@@ -80,20 +80,20 @@ def random_plant(rng, n, sensor_noise=0.1):
     return p, GeneralizedPlant.make(p.A, B1, p.B2, p.C1, D11, p.D12, p.C2, D21)
 
 
-@pytest.mark.parametrize("seed", range(20))
+@pytest.mark.parametrize("seed", range(21))
 def test_random_winf_plants_backends_agree(seed):
     rng = np.random.default_rng(100 + seed)
-    n = [2, 3, 4, 5, 6][seed % 5] if seed < 18 else [8, 12][seed - 18]
+    n = [2, 3, 4, 5, 6][seed % 5] if seed < 18 else [8, 12, 7][seed - 18]
     sf_plant, of_plant = random_plant(rng, n)
     region = disk(4 * max(1.0, np.abs(np.linalg.eigvals(sf_plant.A)).max())) if seed % 2 else None
     sf = [state_feedback(sf_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
     assert abs(sf[0].gamma_opt - sf[1].gamma_opt) <= 1e-4 * sf[0].gamma_opt
     checks = list(sf)
-    if n <= 8:  # output feedback LMIs grow as 2n; keep the test fast
+    if n <= 8:  # output feedback LMIs grow as 2n; keep the test fast (20 plants of 2-8 states)
         of = [output_feedback(of_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
-        # output feedback: measured spread between Clarabel (PyPI) and Drake's Clarabel reaches
-        # ~1.7e-4 relative on these plants (both certified); 3e-4 keeps a real check
-        assert abs(of[0].gamma_opt - of[1].gamma_opt) <= 3e-4 * of[0].gamma_opt
+        # the LMI optimum gamma_opt (not the certified norm) of both backends; measured
+        # spread with the gamma-form BRL and scaling: <= 7e-5 (seed 18), mostly < 1e-5
+        assert abs(of[0].gamma_opt - of[1].gamma_opt) <= 1e-4 * of[0].gamma_opt
         checks += of
     for r in checks:
         c = r.certificate
