@@ -154,18 +154,18 @@ def test_quadrotor_polytopic_certificate_every_vertex_and_inside(quad_smoke):
     _, res = quad_smoke
     for name in ("W∞", "H∞"):
         m = res.metrics[name]
-        K, P = np.array(m["K_scaled"]), np.array(m["P"])
+        K, P = np.array(m["K"]), np.array(m["P"])
         gamma = m["gamma"] * (1 + qp.W_RTOL)
         X = np.linalg.inv(P)
         assert np.linalg.eigvalsh(P).min() > 0
         verts = []
         for pv in m["vertex_params"]:
             A, B, D = qp.closed_form_linearization(**{k: pv[k] for k in qp.UNCERTAIN})
-            verts.append((A, B * m["input_scale"], D))
+            verts.append((A, B, D))  # B in Ω² units, as designed
         pts = verts + random_interior_points(verts, 3, rng=1)
         for A, B, D in pts:
             plant = (sb.winf_plant(A, B, D, qp.GAMMA0, qp.GAMMA1) if name == "W∞"
-                     else sb.hinf_plant(A, B, D, qp.GAMMA0, m["rho"] * np.eye(4)))
+                     else sb.hinf_plant(A, B, D, qp.GAMMA0, m["rho"] / m["input_scale"] ** 2 * np.eye(4)))
             Acl, B1, C, Dcl = plant.closed_loop(K=K)
             M = _brl(Acl, B1, C, Dcl, P, gamma)
             assert np.linalg.eigvalsh(0.5 * (M + M.T)).max() <= 1e-9 * np.abs(M).max(), name

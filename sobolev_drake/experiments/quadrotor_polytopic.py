@@ -13,15 +13,23 @@ Uncertainty (Corollary 1): m, Ixx, Iyy, Izz ±10 % about m = 2.24 kg, Ixx = Iyy 
 Izz = 0.0615 (the thesis' boxes), 2⁴ = 16 vertices from ``polytopic.interval_vertices``; one
 common Lyapunov matrix and the disk r = 100 (6.43) at every vertex.
 
-Scaling (a workaround, not a change of problem): the LMIs are solved with the input
-ũ = Ω²/Ω²_hover (B̃ = B Ω²_hover).  The W∞ cost does not weight u, so this is exactly the same
-W∞ problem; for H∞ it only rescales ρ (R = ρ on ũ is ρ/Ω²_hover² on Ω²).  With Ω² itself
-(B entries ~1e-5) Clarabel fails.
+Input units: the LMIs are posed in Ω² itself (B entries ~1e-5).  The synthesis balances the
+problem automatically (``hinf.state_feedback(scaling=True)``: exact diagonal state similarity
+and input scaling, certificate in the original units), which replaced the hand scaling
+ũ = Ω²/Ω²_hover used before (measured on the 16-vertex W∞ problem: same γ* = 77.609, certified
+at every vertex either way; full run: W∞ ISE 112.3 / IADU 3516 without, 113.3 / 3539 with
+the hand scaling — the optimum's gains differ at solver-noise level, see below; H∞ ρ found
+254.8 vs 264.2, ISE 111.7 vs 113.4, IADU 4157 vs 4143).  The H∞ input
+weight is still quoted on the normalized input, R = ρ/Ω²_hover² on Ω² (ρ on Ω²/Ω²_hover), so
+ρ keeps its meaning and :data:`RHO_GRID` / :data:`RHO_TUNED` are unchanged.
 
 Designs: ``W∞`` with the thesis' Γ0, Γ1 (Υ0 = I6).  γ* sits on the feedthrough bound ‖Γ1^½D‖ at
-every vertex (state feedback cannot change D11); the library's gain-bound regularization fails in
-Clarabel on this 16-vertex problem, so the LMI optimum is used as is (``regularize=False``; the
-certificate is still checked at every vertex, with a 1 % tolerance on γ, :data:`W_RTOL`).  ``H∞``: z = [Γ0^½x; ρ^½ũ] with the same region,
+every vertex (state feedback cannot change D11).  The library's gain-bound regularization
+(γ = 1.01 γ*, minimal ‖K‖) is certified at all 16 vertices but takes ~200 s (cvxpy/Clarabel
+fails, the Drake/Clarabel fallback stops "AlmostSolved") and the minimal-gain controller is
+slow (max |eig| 2.0 vs 6.8): flown 40 s, ISE 320 vs 113, IADU 2059 vs 3539 (measured with the
+hand-scaled input).  So the LMI optimum is used as is (``regularize=False``; the certificate is
+still checked at every vertex, with a 1 % tolerance on γ, :data:`W_RTOL`).  ``H∞``: z = [Γ0^½x; ρ^½ Ω²/Ω²_hover] with the same region,
 ρ chosen by the thesis' rule "similar ISE to W∞" (scan + bisection on log ρ, reusing ONE Drake
 diagram: the gains are a numeric parameter of
 :class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback`).
@@ -60,7 +68,7 @@ DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) be
 #: certificate tolerance of the unregularized W∞ optimum: it sits on the feedthrough bound and
 #: Clarabel stops "optimal_inaccurate" with ‖T‖∞ up to ~0.2 % above its γ (measured)
 W_RTOL = 1e-2
-RHO_TUNED = 143.3  # smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2)
+RHO_TUNED = 254.8  # smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2)
 
 
 def _params():
@@ -100,25 +108,31 @@ class _B0Holder:  # the attributes QuadrotorModel.B0_closed_form reads, without 
 
 
 def input_scale(params=None):
-    """Ω²_hover of the nominal vehicle: the LMIs use ũ = Ω²/Ω²_hover."""
+    """Ω²_hover of the nominal vehicle (the unit of the H∞ input weight ρ)."""
     return (params or _params()).hover_input()
 
 
+def hinf_input_weight(rho, params=None):
+    """R on Ω² of the H∞ design: ρ on the normalized input Ω²/Ω²_hover, i.e. ρ / Ω²_hover²."""
+    if rho is None or not rho > 0:
+        raise ValueError(f"the H∞ design needs a positive input weight rho, got {rho!r}")
+    return float(rho) / input_scale(params) ** 2 * np.eye(4)
+
+
 def vertices(names=UNCERTAIN, spread=SPREAD, params=None):
-    """[(params dict, (A, B̃, D)), ...] at the 2^k corners (B̃ in scaled input units)."""
+    """[(params dict, (A, B, D)), ...] at the 2^k corners (B in Ω² units)."""
     from sobolev_drake.synthesis.polytopic import interval_vertices
     p = params or _params()
-    s = input_scale(p)
     nominal = {k: getattr(p, k) for k in UNCERTAIN}
 
     def fn(**kw):
-        A, B, D = closed_form_linearization(**kw, params=p)
-        return A, B * s, D
+        return closed_form_linearization(**kw, params=p)
     return interval_vertices(fn, nominal, {k: spread for k in names})
 
 
 def design(which, verts, *, rho=None, backend=None):
-    """Robust state feedback on the vertex list ``[(A, B̃, D), ...]``: "W∞" or "H∞" (needs ρ)."""
+    """Robust state feedback on the vertex list ``[(A, B, D), ...]``: "W∞" or "H∞" (needs ρ, the
+    weight on Ω²/Ω²_hover); K in Ω² units."""
     from sobolev_drake.synthesis import polytopic, regions
     disk = regions.disk(RADIUS)
     t0 = time.perf_counter()
@@ -128,7 +142,7 @@ def design(which, verts, *, rho=None, backend=None):
     elif which == "H∞":
         if rho is None or not rho > 0:
             raise ValueError(f"the H∞ design needs a positive input weight rho, got {rho!r}")
-        res, notes = quiet(polytopic.robust_hinf_state_feedback, verts, GAMMA0, float(rho) * np.eye(4),
+        res, notes = quiet(polytopic.robust_hinf_state_feedback, verts, GAMMA0, hinf_input_weight(rho),
                            region=disk, backend=backend)
     else:
         raise ValueError(f"which must be 'W∞' or 'H∞', got {which!r}")
@@ -166,13 +180,13 @@ class Rig(LoggedRig):
                         ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
                     log_period, record)
 
-    def run(self, K_scaled, duration):
-        """Fly u = Ω²_hover + (Ω²_hover K̃)(x̂ − x̂_r) for ``duration`` s from q(0) = Q0."""
+    def run(self, K, duration):
+        """Fly Ω² = Ω²_hover + K (x̂ − x̂_r) for ``duration`` s from q(0) = Q0."""
         from sobolev_drake.simulation import simulate
         ctx = self.context
         ctx.SetTime(0.0)
         self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
-        self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), self.hover * np.asarray(K_scaled))
+        self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), np.asarray(K))
         self._clear_logs(ctx)
         t0 = time.perf_counter()
         self.sim.set_monitor(self._monitor)  # stops diverging runs (saturated, tumbling) early
@@ -297,7 +311,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, log=print):
                          "max_abs_eig_over_vertices": max_eig, "solver": r.solver,
                          "solve_s": designs[name]["solve_s"], "notes": designs[name]["notes"],
                          "rho": designs[name].get("rho"), "search": designs[name].get("search"),
-                         "K_scaled": np.asarray(r.K).tolist(), "P": np.asarray(r.P).tolist(),
+                         "K": np.asarray(r.K).tolist(), "P": np.asarray(r.P).tolist(),
                          "vertex_params": [pv for pv, _ in vert], "input_scale": input_scale(), "sim_wall_s": d["wall_s"], **idx}
         rows.append([name, designs[name].get("rho", "—"), len(certs), f"{r.gamma:.4g}", f"{max_eig:.1f} ≤ {RADIUS:g}",
                      idx["ise"], idx["iadu"], f"{idx['saturation_s']:.2f}"])
