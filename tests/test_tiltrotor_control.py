@@ -108,6 +108,15 @@ def test_saturation_flags():
     f = tc.saturation_flags([100, 50, -2, 1.0, 0, 0, 0, 0], np.r_[0, 0, -2, -2, 0, 0, -0.1, -0.1],
                             np.r_[100, 100, 2, 2, 0, 0, 0.1, 0.1])
     assert list(f) == [1, 0, -1, 0, 0, 0, 0, 0]
+    # the per-sample (1-D, plain-float) path equals the vectorized one row by row
+    rng = np.random.default_rng(3)
+    lo = -rng.uniform(0, 2, (50, 8)) * (rng.uniform(size=(50, 8)) > 0.2)
+    up = lo + rng.uniform(0, 2, (50, 8)) * (rng.uniform(size=(50, 8)) > 0.2)
+    tau = np.clip(rng.uniform(-2.5, 2.5, (50, 8)), lo, up)
+    tau[::3] = lo[::3] + 1e-4 * (up[::3] - lo[::3])          # near the lower bound
+    F = tc.saturation_flags(tau, lo, up)
+    assert np.array_equal(F, np.array([tc.saturation_flags(t, a, b) for t, a, b in zip(tau, lo, up)]))
+    assert np.any(F == 1) and np.any(F == -1) and np.any(F == 0)
 
 
 def test_tilt_schedule_polynomial_derivatives():

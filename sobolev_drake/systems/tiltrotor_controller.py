@@ -145,14 +145,16 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
     whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
     saturated, and counts as inside."""
-    tau, lo, up = (np.asarray(a, dtype=float) for a in (tau, lo, up))
+    tau, lo, up = np.asarray(tau, dtype=float), np.asarray(lo, dtype=float), np.asarray(up, dtype=float)
     if tau.ndim == 1 and tau.shape == lo.shape == up.shape:     # plain floats: per-sample path
         out = []
         for t, lw, uw in zip(tau.tolist(), lo.tolist(), up.tolist()):
             w = uw - lw
-            tol = rel_tol * max(w, 0.0)
-            ok = w > min_width
-            out.append(1.0 if ok and t >= uw - tol else (-1.0 if ok and t <= lw + tol else 0.0))
+            if w > min_width:                    # then max(w, 0) = w
+                tol = rel_tol * w
+                out.append(1.0 if t >= uw - tol else (-1.0 if t <= lw + tol else 0.0))
+            else:
+                out.append(0.0)
         return np.array(out)
     tol = rel_tol * np.maximum(up - lo, 0.0)
     width_ok = (up - lo) > min_width
