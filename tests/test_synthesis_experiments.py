@@ -22,7 +22,8 @@ def test_linear_simple_drake_diagram_matches_exact_discretization():
 def test_linear_simple_smoke(tmp_path):
     res = ls.run(tmp_path, smoke=True)
     assert (tmp_path / "table_6_1.md").exists() and (tmp_path / "table_6_1.json").exists()
-    assert set(res.metrics) == {"W-inf", "W-inf-D", "W-inf-O.F.", "W-inf-O.F.D"}
+    assert set(res.metrics) == {"W-inf", "W-inf-D", "W-inf-O.F.", "W-inf-O.F.D",
+                                "W-inf-D, disk r = 1000", "W-inf-O.F.D, disk r = 1000"}
     for m in res.metrics.values():
         assert m["achieved"] <= m["gamma"] * (1 + 1e-4)
     assert any("degenerate" in c.text and c.held for c in res.claims)
@@ -102,3 +103,23 @@ def test_linear_simple_bad_initial_states(simple_designs):
     _, _, rof = simple_designs["W-inf-O.F."]  # P on [x; x_K]: no disturbance states
     with pytest.raises(ValueError, match=r"res.P must be the Lyapunov matrix on \[x; d; x_K\]"):
         ls.consistent_controller_state(rof)
+
+
+def test_linear_simple_brl_scale_is_normalization_free(simple_designs):
+    """brl_scale finds the factor that turns the stored P into a gamma^2-form bounded-real
+    certificate: ~1 for the state feedback (gamma^2 form), and scaling P by c divides it by c;
+    an indefinite P is rejected."""
+    kind, K, res = simple_designs["W-inf"]
+    plant = ls.winf_plant(ls.A, ls.B, ls.D, ls.GAMMA0, ls.GAMMA1)
+    cl = plant.closed_loop(K=K)
+    s1 = ls.brl_scale(*cl, res.P, res.gamma)
+    assert s1 == pytest.approx(1.0, rel=1e-3)
+    assert ls.brl_scale(*cl, 7.0 * res.P, res.gamma) == pytest.approx(s1 / 7.0, rel=1e-5)
+    # the certificate it returns holds: s P satisfies the inequality (up to the tolerance)
+    P = s1 * res.P
+    A_, B_, C_, D_ = cl
+    M = np.block([[A_.T @ P + P @ A_ + C_.T @ C_, P @ B_ + C_.T @ D_],
+                  [(P @ B_ + C_.T @ D_).T, D_.T @ D_ - res.gamma ** 2 * np.eye(B_.shape[1])]])
+    assert np.linalg.eigvalsh(M).max() <= 1e-6 * np.abs(M).max()
+    with pytest.raises(ValueError, match="bounded-real"):
+        ls.brl_scale(*cl, -np.eye(2), res.gamma)
