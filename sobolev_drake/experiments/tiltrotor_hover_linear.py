@@ -247,6 +247,15 @@ _METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "certified", "achieve
                 "max_real", "max_abs", "kind", "order")
 
 
+_COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "synthesis [s]", "ISE", "IADU",
+            "ISE (thesis)", "IADU (thesis)", "notes"]
+
+
+def _title(duration):
+    return (f"Table 7.2 beside ours (duration {duration:g} s; ‖T_ζz‖∞: wind → W∞ channel, "
+            f"‖T_vz‖∞: von Kármán noise → W∞ channel)")
+
+
 def _gamma_cell(ctrl):
     if ctrl.get("certified") is None:
         return f"{ctrl['gamma']:.4g} (solver value, not a bound)"
@@ -348,12 +357,11 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             html = out_dir / "tiltrotor-hover-linear.html"
             viz.save_recording_html(meshcat, d["recorder"], html)
             res.outputs["recording"] = html
-        mjson.write_text(json.dumps(metrics, indent=1, default=str))  # survives an interrupted run
-    cols = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "synthesis [s]", "ISE", "IADU",
-            "ISE (thesis)", "IADU (thesis)", "notes"]
-    md, js, text = _write_table(out_dir, "tiltrotor-hover-linear_table", cols, rows,
-                                f"Table 7.2 beside ours (duration {duration:g} s; ‖T_ζz‖∞: wind → "
-                                f"W∞ channel, ‖T_vz‖∞: von Kármán noise → W∞ channel)")
+        # table and metrics after every design: they survive an interrupted run
+        md, js, text = _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows,
+                                    _title(duration))
+        mjson.write_text(json.dumps(metrics, indent=1, default=str))
+    md, js, text = _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows, _title(duration))
     if all_data:
         res.outputs.update(_plot(all_data, out_dir))
     mjson.write_text(json.dumps(metrics, indent=1, default=str))
