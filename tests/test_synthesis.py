@@ -27,7 +27,7 @@ def sgc_example7():
     return GeneralizedPlant.make(A, B1, B2, C1, None, D12, C2, D21)
 
 
-@pytest.mark.parametrize("backend", ["cvxpy", "drake", "drake:csdp"])
+@pytest.mark.parametrize("backend", ["clarabel", "cvxpy", "drake", "drake:csdp", "ipm"])
 def test_sgc_example7_output_feedback(backend):
     ctrl, gamma, res = hinfsyn(sgc_example7(), backend=backend)
     assert abs(gamma - 9.5081) < 1e-3
@@ -184,3 +184,45 @@ def test_performance_compression_preserves_norm():
     assert q.nz < p.nz
     K = rng.normal(size=(1, 4))
     assert np.isclose(hinf_norm(*p.closed_loop(K=K))[0], hinf_norm(*q.closed_loop(K=K))[0], rtol=1e-9)
+
+
+def test_svec_conic_data_reproduces_the_lmis():
+    """Direct Clarabel data: A x + s = b with s = svec(-F(x) - margin I) for every LMI."""
+    rng = np.random.default_rng(2)
+    prog = LMIProgram()
+    X, W, g = prog.sym(3), prog.full(2, 3), prog.scalar()
+    A, B = rng.normal(size=(3, 3)), rng.normal(size=(3, 2))
+    prog.add_lmi(bmat([[(A @ X + B @ W).sym(), B], [B.T, -g * np.eye(2)]]), 1e-3)
+    prog.add_pos(X, 0.5)
+    Amat, b, sizes = prog._svec_data()
+    x = rng.normal(size=prog.nvar)
+    s_vec = b - Amat @ x
+    k = 0
+    for (_, F, margin), n in zip(prog.lmis, sizes):
+        S = -F.value(x) - margin * np.eye(n)
+        j, i = np.meshgrid(np.arange(n), np.arange(n))
+        mask = i <= j
+        order = np.lexsort((i[mask], j[mask]))  # upper triangle column by column
+        vals = S[mask][order] * np.where(i[mask][order] == j[mask][order], 1.0, np.sqrt(2.0))
+        assert np.allclose(s_vec[k:k + len(vals)], vals)
+        k += len(vals)
+    assert k == len(b)
+
+
+def test_direct_clarabel_equals_cvxpy_clarabel():
+    rng = np.random.default_rng(104)
+    sf_plant, of_plant = random_plant(rng, 6)
+    for fn, p in ((state_feedback, sf_plant), (output_feedback, of_plant)):
+        a, b = (fn(p, backend=bk, region=disk(30.0)) for bk in ("clarabel", "cvxpy"))
+        assert a.backend == "clarabel" and b.backend == "cvxpy"
+        assert abs(a.gamma_opt - b.gamma_opt) <= 1e-7 * b.gamma_opt
+
+
+@pytest.mark.parametrize("seed, n", [(101, 3), (104, 6), (106, 3)])
+def test_ipm_backend_state_feedback_matches_clarabel(seed, n):
+    rng = np.random.default_rng(seed)
+    sf_plant, _ = random_plant(rng, n)
+    region = disk(4 * max(1.0, np.abs(np.linalg.eigvals(sf_plant.A)).max())) if n == 3 else None
+    a, b = (state_feedback(sf_plant, backend=bk, region=region) for bk in ("ipm", "clarabel"))
+    assert a.certificate.ok and a.backend == "ipm"
+    assert abs(a.gamma_opt - b.gamma_opt) <= 1e-5 * b.gamma_opt

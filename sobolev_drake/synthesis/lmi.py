@@ -1,16 +1,23 @@
 """LMI building blocks shared by every linear synthesis in this package.
 
 An LMI is stored once, as data: a symmetric matrix function F(x) = F0 + sum_i x_i F_i of the
-decision vector x (kept as ``vec(F) = f0 + M x`` with a sparse M, row-major vec). Both
-backends receive exactly this data, so "the same LMIs" are solved by
+decision vector x (kept as ``vec(F) = f0 + M x`` with a sparse M, row-major vec). Every
+backend receives exactly this data, so "the same LMIs" are solved by
 
-* ``"cvxpy"`` (Clarabel through cvxpy, default; ``"cvxpy:scs"``, ``"cvxpy:mosek"``), and
+* ``"clarabel"`` (default): the PyPI Clarabel called directly with the conic data
+  (``_svec_data``), no modelling layer: the same solver and problem as ``"cvxpy"`` (identical
+  gamma on the benchmark plants) without cvxpy's import (1.5-5 s per process) and
+  canonicalization;
+* ``"cvxpy"`` (Clarabel through cvxpy; ``"cvxpy:scs"``, ``"cvxpy:mosek"``);
 * ``"drake"`` (``MathematicalProgram`` + ``AddLinearMatrixInequalityConstraint``, Clarabel by
-  default; ``"drake:scs"``, ``"drake:csdp"``, ``"drake:mosek"``).
+  default; ``"drake:scs"``, ``"drake:csdp"``, ``"drake:mosek"``);
+* ``"ipm"``: own dense primal-dual interior-point method (``sdp_ipm.py``) with the m x m
+  Schur complement; several times faster than Clarabel on the 20-state state-feedback
+  benchmark, but experimental: it stops with "MaxIterations" on some problems (then it
+  reports "not solved"; it is never chosen automatically).
 
-The default backend is the faster one measured by ``benchmarks/synthesis.py`` on this
-machine (cvxpy/Clarabel, see DESIGN.md 4.4: the PyPI Clarabel uses a faster linear-algebra
-backend than the Clarabel bundled with Drake).
+Clarabel is the default because the PyPI build uses a faster linear-algebra backend than the
+Clarabel bundled with Drake (DESIGN.md 4.4, ``benchmarks/synthesis.py``).
 
 Matrix expressions (:class:`Affine`) support ``+ - @ .T``, scalar products, :func:`bmat` and
 :func:`kron`, which is all the bounded-real-lemma and LMI-region constraints need.
@@ -24,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-DEFAULT_BACKEND = "cvxpy"
-BACKENDS = ("cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
+DEFAULT_BACKEND = "clarabel"
+BACKENDS = ("clarabel", "ipm", "cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
             "drake", "drake:clarabel", "drake:scs", "drake:csdp", "drake:mosek")
 
 
@@ -246,9 +253,77 @@ class LMIProgram:
             raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
         front, _, solver = backend.partition(":")
         solver = solver or "clarabel"
+        if front == "clarabel":
+            return self._solve_clarabel(options or {})
+        if front == "ipm":
+            return self._solve_ipm(options or {})
         if front == "cvxpy":
             return self._solve_cvxpy(solver, options or {})
         return self._solve_drake(solver, options or {})
+
+    def _svec_data(self):
+        """Conic data of the LMIs for a PSD-triangle cone solver: (A, b, sizes) with
+        A x + s = b, s in the cones (s = svec(-F(x) - margin I)).
+
+        svec: upper triangle, column by column, off-diagonal entries times sqrt(2) (Clarabel's
+        PSDTriangleConeT convention). F is stored row-major, so entry (i, j) is row i n + j.
+        """
+        blocks_A, blocks_b, sizes = [], [], []
+        for _, F, margin in self.lmis:
+            n = F.shape[0]
+            j, i = np.triu_indices(n)  # (i <= j) ordered by column j, then row i
+            i, j = j, i
+            order = np.lexsort((i, j))
+            i, j = i[order], j[order]
+            rows = i * n + j
+            scale = np.where(i == j, 1.0, np.sqrt(2.0))
+            blocks_A.append(sp.diags(scale) @ F._ncols(self.nvar)[rows])
+            blocks_b.append(scale * (-F.const - margin * np.eye(n))[i, j])
+            sizes.append(n)
+        return sp.vstack(blocks_A, format="csc"), np.concatenate(blocks_b), sizes
+
+    def _solve_clarabel(self, options):
+        """PyPI Clarabel called directly with the stored LMI data (no modelling layer)."""
+        import clarabel
+        t0 = time.perf_counter()
+        A, b, sizes = self._svec_data()
+        c = self.objective._ncols(self.nvar).toarray().ravel()
+        P = sp.csc_matrix((self.nvar, self.nvar))
+        settings = clarabel.DefaultSettings()
+        settings.verbose = False
+        for k, v in options.items():
+            if not hasattr(settings, k):
+                raise ValueError(f"unknown Clarabel setting {k!r}")
+            setattr(settings, k, v)
+        solver = clarabel.DefaultSolver(P, c, A, b, [clarabel.PSDTriangleConeT(n) for n in sizes],
+                                        settings)
+        t1 = time.perf_counter()
+        sol = solver.solve()
+        t2 = time.perf_counter()
+        status = str(sol.status).split(".")[-1]
+        ok = status in ("Solved", "AlmostSolved")
+        xv = np.asarray(sol.x, dtype=float) if ok else np.full(self.nvar, np.nan)
+        return SolveOutcome(xv, ok, status, "CLARABEL", "clarabel", t1 - t0, t2 - t1,
+                            inaccurate=status.startswith("Almost"),
+                            extra={"iterations": sol.iterations})
+
+    def _solve_ipm(self, options):
+        """Own dense HKM interior-point method (``sdp_ipm.py``) on the stored LMI data."""
+        from .sdp_ipm import solve_sdp
+        t0 = time.perf_counter()
+        C, A = [], []
+        for _, F, margin in self.lmis:
+            n = F.shape[0]
+            C.append(-F.const - margin * np.eye(n))
+            # A_i = F_i (S = -F(x) - margin I = C - sum x_i F_i)
+            A.append(F._ncols(self.nvar).T.toarray().reshape(self.nvar, n, n))
+        c = self.objective._ncols(self.nvar).toarray().ravel()
+        t1 = time.perf_counter()
+        x, status, info = solve_sdp(c, C, A, **options)
+        t2 = time.perf_counter()
+        ok = status in ("Solved", "AlmostSolved")
+        return SolveOutcome(x if ok else np.full(self.nvar, np.nan), ok, status, "IPM", "ipm",
+                            t1 - t0, t2 - t1, inaccurate=status.startswith("Almost"), extra=info)
 
     def _solve_cvxpy(self, solver, options):
         import cvxpy as cp
