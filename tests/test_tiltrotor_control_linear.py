@@ -85,6 +85,9 @@ def test_indices_ise_and_iadu_closed_form():
     assert idx["ise"] == pytest.approx(a**2 * T + a**2 * T**3 / 3, rel=1e-4)
     assert idx["iadu"] == pytest.approx(4 * s * T, rel=1e-9)
     assert idx["final_pos_err_m"] == pytest.approx(a)
+    assert idx["ise_first_10s"] == pytest.approx(idx["ise"], rel=1e-12)  # T = 10 s: all of it
+    half = {k: (v[..., : t.size // 2 + 1] if k != "t" else v[: t.size // 2 + 1]) for k, v in data.items()}
+    assert hl.indices(half, _Trim())["ise"] == pytest.approx(a**2 * 5 + a**2 * 5**3 / 3, rel=1e-4)
 
 
 # --------------------------------------------------------------------------- smoke run
