@@ -9,7 +9,8 @@
   (X, Y, Ak, Bk, Ck, Dk), the linearized form of (6.22); the controller is reconstructed from an
   SVD factorization M N^T = I - X Y.
 
-gamma^2 is minimized directly (as the thesis' gamma* in (6.7)/(6.22)). Both syntheses solve
+gamma is minimized directly (the thesis' gamma* in (6.7)/(6.22); the LMIs are written in the
+symmetric gamma form, equivalent to the gamma^2 form, better conditioned). Both syntheses solve
 the LMIs for an exactly rescaled plant (``scaling.py``) and map the controller back. Every
 result is checked independently (``certificates.py``) on the original plant before it is
 returned. When the optimum sits on the feedthrough (Parrott) bound the infimum is approached
@@ -41,23 +42,32 @@ __all__ = ["GeneralizedPlant", "DynamicController", "SynthesisResult", "Synthesi
 
 
 def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS):
-    """BRL (gamma^2 form, Schur complement of (6.5)) for each vertex with a common X, W."""
+    """BRL for each vertex with a common X, W; returns (prog, X, W, gamma variable or None).
+
+    Symmetric gamma form [[He(AX + B2 W), B1, (C1 X + D12 W)'], [B1', -gamma I, D11'],
+    [., D11, -gamma I]] (equivalent to the Schur complement of (6.5) in the gamma^2 form with
+    X scaled by gamma).  Measured: the gamma^2 form fails in every backend on the two-wheeled
+    classic H-infinity plant with rho = 1000 (NumericalError / certificate off by 2 %); the
+    gamma form solves it ("Solved", certified, Clarabel and the own IPM agree to 5e-7).
+    """
     plants = [compress_performance(p) for p in plants]
     p0 = plants[0]
     n, nu = p0.n, p0.nu
     prog = LMIProgram()
     X = prog.sym(n)
     W = prog.full(nu, n)
-    g2 = prog.scalar() if gamma2 is None else None
+    g = prog.scalar() if gamma2 is None else None
+    gam = None if gamma2 is None else float(np.sqrt(gamma2))
     prog.add_pos(X, EPS)
     for p in plants:
         Ww = np.eye(p.nw) if input_weight is None else input_weight
-        gblk = (-g2 * Ww) if g2 is not None else -gamma2 * Ww
+        gblk = (-g * Ww) if g is not None else -gam * Ww
+        zblk = (-g * np.eye(p.nz)) if g is not None else -gam * np.eye(p.nz)
         AX = p.A @ X + p.B2 @ W
         CX = p.C1 @ X + p.D12 @ W
         prog.add_lmi(bmat([[AX.sym(), p.B1, CX.T],
                            [p.B1.T, gblk, p.D11.T],
-                           [CX, p.D11, -np.eye(p.nz)]]), margin)
+                           [CX, p.D11, zblk]]), margin)
         if region is not None:
             prog.add_lmi(region_lmi(region, X, AX), EPS)
     if gain_bound:
@@ -66,8 +76,8 @@ def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS)
         prog.add_pos(bmat([[X, np.eye(n)], [np.eye(n), kx * np.eye(n)]]))  # X^-1 <= kx I
         prog.minimize(kw + kx)
     else:
-        prog.minimize(g2)
-    return prog, X, W, g2
+        prog.minimize(g)
+    return prog, X, W, g
 
 
 
@@ -77,7 +87,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     """H-infinity state feedback u = K x minimizing gamma (or feasibility at a given gamma).
 
     ``vertices``: optional list of extra plants sharing one Lyapunov matrix (polytopic,
-    Corollary 1). ``input_weight``: replaces I in the -gamma^2 I block (used by the thesis'
+    Corollary 1). ``input_weight``: replaces I in the -gamma I block of w (i.e. -gamma^2 I in (6.5)) (used by the thesis'
     disturbance-model LMI (6.31)). ``regularize``: "auto" re-solves with a gain bound when the
     optimum sits on the feedthrough bound or the certificate fails; True always; False never.
     ``scaling``: True (default) solves the LMI in balanced coordinates (``balance_scaling``:
@@ -96,17 +106,20 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     T, Su = resolve_scaling(scaling, plants)
     splants = [scale_plant(p, T, Su) for p in plants]
     _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
-    prog, X, W, g2 = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
+    prog, X, W, gv = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
                                  input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
     out = _solve(prog, backend, solver_options, timings, "lmi")
-    g_opt = float(np.sqrt(max(g2.value(out.x)[0, 0], 0.0))) if gamma is None else float(gamma)
+    g_opt = float(max(gv.value(out.x)[0, 0], 0.0)) if gamma is None else float(gamma)
+    lam = g_opt  # gamma in the LMI solved last
 
     def build(out, g):
-        Xv = X.value(out.x)
+        # the gamma-form X is gamma times the gamma^2-form one (X = P^-1 of A'P + PA + C'C +
+        # (PB + C'D)(gamma^2 I - D'D)^-1 (.)' < 0), which is what the result reports
+        Xv = X.value(out.x) / lam
         Xv = 0.5 * (Xv + Xv.T)
         if np.linalg.eigvalsh(Xv).min() <= 0:
             raise SynthesisError(f"solver returned X not positive definite (status {out.status})")
-        Ks = np.linalg.solve(Xv, W.value(out.x).T).T  # K = W X^-1 (6.7), scaled coordinates
+        Ks = np.linalg.solve(Xv, W.value(out.x).T / lam).T  # K = W X^-1 (6.7), scaled coords
         K = unscale_gain(Ks, T, Su)  # u = Su Ks T^-1 x
         P = np.linalg.inv(Xv) / T[:, None] / T  # P = T^-1 Ps T^-1, X = T Xs T
         return SynthesisResult("state_feedback", g, K=K, P=P, X=T[:, None] * Xv * T, gamma_opt=g_opt,
@@ -119,8 +132,8 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
         def solve_at(g):
             prog2, X2, W2, _ = _sf_program(splants, region=region, gamma2=g ** 2, input_weight=input_weight,
                                            gain_bound=True, margin=margin)
-            nonlocal X, W
-            X, W = X2, W2
+            nonlocal X, W, lam
+            X, W, lam = X2, W2, g
             r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
             return _finish(r, plants, region, rtol, False, r.status)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)

@@ -136,15 +136,19 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     out = _solve(prog, backend, solver_options, timings, "lmi")
     g_opt = float(max(gv.value(out.x)[0, 0], 0.0)) if gamma is None else float(gamma)
 
+    lam = [g_opt]  # gamma in the LMI solved last
+
     def build(out, g):
         vals = [v.value(out.x) for v in V]
         Xs, Ys = 0.5 * (vals[0] + vals[0].T), 0.5 * (vals[1] + vals[1].T)
         ctrl_s, Ps = reconstruct_controller(sp_, Xs, Ys, *vals[2:])
         ctrl = unscale_controller(ctrl_s, Su, Sy)
+        # reported X, Y, P in the gamma^2 normalization (P_gamma^2 = gamma P_gamma)
+        Xs, Ys = Xs / lam[0], Ys * lam[0]
         P = None
         if Ps is not None:  # closed-loop state [x; x_K] = diag(T, I) [x~; x_K]
             d = 1.0 / np.concatenate([T, np.ones(Ps.shape[0] - p.n)])
-            P = d[:, None] * Ps * d
+            P = lam[0] * d[:, None] * Ps * d
         return SynthesisResult("output_feedback", g, controller=ctrl, P=P, X=T[:, None] * Xs * T,
                                Y=Ys / T[:, None] / T, gamma_opt=g_opt, feedthrough_bound=fb,
                                solver=out.solver, backend=out.backend, status=out.status,
@@ -156,6 +160,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
         def solve_at(g):
             prog2, V2, _ = _of_program(sp_, gamma2=g ** 2, gain_bound=True, **kw)
             V[:] = V2
+            lam[0] = g
             r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
             return _finish(r, [p], region, rtol, False, r.status)
         V = list(V)
