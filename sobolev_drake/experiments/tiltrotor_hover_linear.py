@@ -122,8 +122,13 @@ def _reference_xyz_psi():
     return mission_reference(1)
 
 
-def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None):
+def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None,
+                    max_wall_s=240.0):
     """Fly ``ctrl`` on the nonlinear plant (Table 7.1 path, von Kármán wind); returns logs.
+
+    The run stops early (``data["stopped"]`` says why, ``data["t"][-1]`` when) if the state
+    stops being finite, |φ| or |θ| exceeds 90° (the linear design has lost the aircraft), or
+    the wall time exceeds ``max_wall_s`` (stiff or chattering closed loop).
 
     ``turbulence``: VonKarmanParameters replacing the §7.3.1 defaults (for sensitivity runs).
     With a ``meshcat`` the run is recorded (``data["recorder"]``)."""
@@ -163,7 +168,23 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     h.set_state(ctx, diagram, Q0, np.zeros(8))
     sim.get_mutable_integrator().set_target_accuracy(1e-3)
     sim.get_mutable_integrator().set_maximum_step_size(0.01)
+    from pydrake.systems.framework import EventStatus
     t0 = time.perf_counter()
+    why = []
+
+    def monitor(root_ctx):
+        xs = h.x.Eval(h.x.get_system().GetMyContextFromRoot(root_ctx))
+        if not np.all(np.isfinite(xs)):
+            why.append("state not finite")
+        elif np.max(np.abs(xs[2:4])) > np.pi / 2:
+            why.append("|roll| or |pitch| > 90°")
+        elif time.perf_counter() - t0 > max_wall_s:
+            why.append(f"wall time > {max_wall_s:g} s")
+        else:
+            return EventStatus.Succeeded()
+        return EventStatus.ReachedTermination(diagram, why[-1])
+
+    sim.set_monitor(monitor)
     sim.AdvanceTo(duration)
     wall = time.perf_counter() - t0
     data = {k: s.FindLog(ctx).data().copy() for k, s in sinks.items()}
@@ -171,6 +192,7 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     n = min(v.shape[-1] for v in data.values())
     data = {k: v[..., :n] for k, v in data.items()}
     data["wall_s"] = wall
+    data["stopped"] = (f"stopped at t = {ctx.get_time():.2f} s: {why[-1]}" if why else "")
     data["recorder"] = recorder
     data["ctx_integrals"] = c.GetMyContextFromRoot(ctx).get_continuous_state_vector().CopyToVector()[:4]
     return data
@@ -275,20 +297,20 @@ def _claims(res, metrics, smoke):
     for name, m in base.items():
         res.claims.append(Claim(
             f"{name}: tracks the Table 7.1 path on the nonlinear plant (finite, |φ|, |θ| < 60°)",
-            m["finite"] and m["max_attitude_deg"] < 60,
+            m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
             f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
             f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°"))
     if smoke:
         return
     for ref, dm in (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"),
                     ("W∞-O.F.", "W∞-O.F.D"), ("W∞-O.F.", "W∞-O.F.D (thesis LMI)")):
-        if ref in base and dm in base:
+        if ref in base and dm in base and not (base[ref]["stopped"] or base[dm]["stopped"]):
             col = DESIGN_SPECS[dm][1]
             ri, ru = base[dm]["ise"] / base[ref]["ise"], base[dm]["iadu"] / base[ref]["iadu"]
             res.claims.append(Claim(
                 f"{dm} has smaller ISE and IADU than {ref} (thesis {th[col][0] / th[ref][0]:.0%} / "
                 f"{th[col][1] / th[ref][1]:.0%})", ri < 1 and ru < 1, f"ours {ri:.0%} / {ru:.0%}"))
-    if "W∞" in base and "W∞-O.F." in base:
+    if "W∞" in base and "W∞-O.F." in base and not (base["W∞"]["stopped"] or base["W∞-O.F."]["stopped"]):
         a, b = base["W∞"], base["W∞-O.F."]
         res.claims.append(Claim("W∞-O.F. has larger ISE but smaller IADU than W∞ (thesis 60.7 vs "
                                 "21.4, 1376 vs 2182)", b["ise"] > a["ise"] and b["iadu"] < a["iadu"],
@@ -349,11 +371,11 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             continue
         idx = indices(d, trim)
         all_data[name] = d
-        m.update(idx, sim_wall_s=d["wall_s"])
+        m.update(idx, sim_wall_s=d["wall_s"], stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
         metrics[name] = m
         rows.append([name, _gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
                      f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
-                     "; ".join(ctrl["notes"])[:300]])
+                     "; ".join(([d["stopped"].upper()] if d["stopped"] else []) + ctrl["notes"])[:300]])
         if record and name == record_design and d["recorder"] is not None:
             from sobolev_drake import viz
             from sobolev_drake.experiments.tiltrotor_missions import draw_paths
