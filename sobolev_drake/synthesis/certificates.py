@@ -211,3 +211,15 @@ def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, so
             fails.append(f"closed-loop eigenvalue outside region {region}: margin {margin:.3g}")
     return Certificate(stable, mre, float(achieved), float(gamma), rtol, region_ok, margin,
                        solver_status, ev, fails)
+
+
+def brl_residual(Acl, Bcl, Ccl, Dcl, P, gamma):
+    """Largest eigenvalue of the gamma^2-form bounded-real matrix of the closed loop,
+    [[A'P + PA + C'C, PB + C'D], [(PB + C'D)', D'D - gamma^2 I]], relative to its largest entry.
+
+    <= 0 means V = x'Px certifies ||T_zw|| <= gamma (and ||z||^2 <= gamma^2 ||w||^2 + V(x(0)))."""
+    P = 0.5 * (P + P.T)
+    PB = P @ Bcl + Ccl.T @ Dcl
+    M = np.block([[Acl.T @ P + P @ Acl + Ccl.T @ Ccl, PB],
+                  [PB.T, Dcl.T @ Dcl - gamma ** 2 * np.eye(Bcl.shape[1])]])
+    return float(np.linalg.eigvalsh(0.5 * (M + M.T)).max() / max(np.abs(M).max(), 1e-300))

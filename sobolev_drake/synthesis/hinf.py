@@ -28,7 +28,7 @@ import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
                           SynthesisResult, SynthesisWarning, _check_gamma_request, _finish,
-                          _first_attempt, _ladder, _publish, _solve, _validate,
+                          _first_attempt, _ladder, _publish, _solve, _strict_check, _validate,
                           compress_performance)
 from .lmi import LMIProgram, SynthesisError, bmat
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
@@ -108,9 +108,14 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
     prog, X, W, gv = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
                                  input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
-    out = _solve(prog, backend, solver_options, timings, "lmi")
-    g_opt = float(max(gv.value(out.x)[0, 0], 0.0)) if gamma is None else float(gamma)
-    lam = g_opt  # gamma in the LMI solved last
+    gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
+    lam = g_opt = None  # gamma in the LMI solved last; LMI optimum
+
+    def check(o):  # certificate of the candidate optimum (automatic backend chain)
+        nonlocal lam, g_opt
+        lam = g_opt = gval(o)
+        r = build(o, lam * (1 + 1e-6) if gamma is None else lam)
+        return _strict_check(r, plants, region, rtol, o.status)
 
     def build(out, g):
         # the gamma-form X is gamma times the gamma^2-form one (X = P^-1 of A'P + PA + C'C +
@@ -124,8 +129,11 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
         P = np.linalg.inv(Xv) / T[:, None] / T  # P = T^-1 Ps T^-1, X = T Xs T
         return SynthesisResult("state_feedback", g, K=K, P=P, X=T[:, None] * Xv * T, gamma_opt=g_opt,
                                feedthrough_bound=fb, solver=out.solver, backend=out.backend,
-                               status=out.status, timings=timings, region=region)
+                               status=out.status, timings=timings, region=region,
+                               fallback=out.extra.get("fallback", ""))
 
+    out = _solve(prog, backend, solver_options, timings, "lmi", check)
+    g_opt = lam = gval(out)
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
                                          regularize, warns)
     if need:
@@ -134,7 +142,10 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                                            gain_bound=True, margin=margin)
             nonlocal X, W, lam
             X, W, lam = X2, W2, g
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
+
+            def check2(o):
+                return _strict_check(build(o, g), plants, region, rtol, o.status)
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2), g)
             return _finish(r, plants, region, rtol, False, r.status)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .certificates import (Certificate, as_matrix, certify_closed_loop, require_detectable,
-                           require_stabilizable)
+from .certificates import (Certificate, as_matrix, brl_residual, certify_closed_loop,
+                           require_detectable, require_stabilizable)
 from .lmi import InfeasibleLMIError, SynthesisError
 from .regions import LMIRegion
 
@@ -110,6 +110,7 @@ class SynthesisResult:
     region: LMIRegion | None = None
     regularized: bool = False
     warnings: list = field(default_factory=list)
+    fallback: str = ""  # automatic backend chain: why earlier backends were not used ("" = none)
 
     @property
     def well_posed(self):
@@ -123,27 +124,77 @@ def _check_gamma_request(gamma, bound, what="gamma"):
 
 
 FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend fails
+AUTO_CHAIN = ("ipm", "clarabel", *FALLBACKS)  # backend="auto"
 
 
-def _solve(prog, backend, options, timings, label):
-    """Solve; with the default backend, fall back to Drake/Clarabel then CSDP on failure."""
-    chain = [backend] if backend is not None else [None, *FALLBACKS]
+def _solve(prog, backend, options, timings, label, check=None):
+    """Solve the LMI program with ``backend``; None and "auto" are chains of backends.
+
+    ``None`` (default): direct Clarabel, then on solver failure Drake/Clarabel, then CSDP.
+    ``"auto"``: the own interior-point method ("ipm", 4-8x faster on the 20-state benchmark)
+    first; its outcome is kept only if the solver reports (almost) solved *and* ``check(out)``
+    (the result built from it, with :func:`_strict_check`) passes; otherwise the default chain
+    runs.  ``solver_options`` apply to an explicitly named backend only.  A fallback is recorded
+    in ``out.status`` ("after fallback: ...") and ``out.extra["fallback"]``.
+    """
+    if backend is None:
+        chain = [None, *FALLBACKS]
+    elif str(backend).lower() == "auto":
+        chain = list(AUTO_CHAIN)
+    else:
+        chain = [backend]
+    explicit = len(chain) == 1
     errors = []
     for b in chain:
         try:
-            out = prog.solve(b, options if b == backend else None)
+            out = prog.solve(b, options if explicit else None)
         except InfeasibleLMIError as e:
             errors.append(str(e))
             continue
         timings[f"{label}_build"] = timings.get(f"{label}_build", 0.0) + out.build_time
         timings[f"{label}_solve"] = timings.get(f"{label}_solve", 0.0) + out.solve_time
         if out.success and np.all(np.isfinite(out.x)):
-            if errors:
-                out.status += f" (after fallback: {'; '.join(errors)})"
-            return out
+            why = _rejection(check, out) if b == "ipm" and not explicit and check else None
+            if why is None:
+                if errors:
+                    out.extra["fallback"] = "; ".join(errors)
+                    out.status += f" (after fallback: {out.extra['fallback']})"
+                return out
+            errors.append(f"{out.backend}/{out.solver}: status {out.status}, result rejected: {why}")
+            continue
         errors.append(f"{out.backend}/{out.solver}: status {out.status}")
     raise InfeasibleLMIError(f"LMI problem ({label}) not solved: " + "; ".join(errors),
                              errors[-1] if errors else "")
+
+
+BRL_TOL = 1e-7  # relative; Clarabel's results measure <= 1e-10 on the test plants
+
+
+def _rejection(check, out):
+    """None if the result built from ``out`` passes its certificate, else the reason."""
+    try:
+        res = check(out)
+    except (SynthesisError, np.linalg.LinAlgError, ValueError) as e:
+        return str(e)
+    cert = res.certificate
+    return None if cert.ok else "; ".join(cert.failures)
+
+
+def _strict_check(res, plants, region, rtol, status):
+    """Certificate of ``res`` plus the Lyapunov test: the reported P must satisfy the
+    gamma^2-form bounded-real inequality of every closed loop (``brl_residual`` <= BRL_TOL).
+    Used to accept a result of the automatic chain's first (own IPM) backend: its norm can
+    pass while P, on degenerate problems (uncontrollable disturbance-model states), does not."""
+    _finish(res, plants, region, rtol, False, status)
+    if res.P is not None and res.certificate.ok:
+        for p in plants:
+            cl = p.closed_loop(K=res.K) if res.kind == "state_feedback" else p.closed_loop(controller=res.controller)
+            r = brl_residual(*cl, res.P, res.gamma)
+            if r > BRL_TOL:
+                res.certificate.failures.append(f"P violates the gamma^2-form bounded-real "
+                                                f"inequality (relative eigenvalue {r:.2e})")
+                break
+    return res
 
 
 def _ladder(solve_at, g_opt, delta, deliberate, res):

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 
 DEFAULT_BACKEND = "clarabel"
-BACKENDS = ("clarabel", "ipm", "cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
+BACKENDS = ("clarabel", "ipm", "auto", "cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
             "drake", "drake:clarabel", "drake:scs", "drake:csdp", "drake:mosek")
 
 
@@ -257,6 +257,15 @@ class LMIProgram:
             return self._solve_clarabel(options or {})
         if front == "ipm":
             return self._solve_ipm(options or {})
+        if front == "auto":  # own IPM, Clarabel when it does not converge (no certificate here)
+            out = self._solve_ipm({})
+            if out.success:
+                return out
+            first = f"ipm/IPM: status {out.status}"
+            out = self._solve_clarabel({})
+            out.extra["fallback"] = first
+            out.status += f" (after fallback: {first})"
+            return out
         if front == "cvxpy":
             return self._solve_cvxpy(solver, options or {})
         return self._solve_drake(solver, options or {})

@@ -17,7 +17,7 @@ import numpy as np
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
                           _check_gamma_request, _finish, _first_attempt, _ladder, _publish,
-                          _solve, _validate, compress_performance)
+                          _solve, _strict_check, _validate, compress_performance)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
@@ -133,10 +133,14 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin)
     prog, V, gv = _of_program(sp_, gamma2=None if gamma is None else gamma ** 2,
                               gain_bound=gamma is not None, **kw)
-    out = _solve(prog, backend, solver_options, timings, "lmi")
-    g_opt = float(max(gv.value(out.x)[0, 0], 0.0)) if gamma is None else float(gamma)
+    gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
+    lam, g_opt = [None], None  # gamma in the LMI solved last; LMI optimum
 
-    lam = [g_opt]  # gamma in the LMI solved last
+    def check(o):  # certificate of the candidate optimum (automatic backend chain)
+        nonlocal g_opt
+        lam[0] = g_opt = gval(o)
+        r = build(o, lam[0] * (1 + 1e-6) if gamma is None else lam[0])
+        return _strict_check(r, [p], region, rtol, o.status)
 
     def build(out, g):
         vals = [v.value(out.x) for v in V]
@@ -152,8 +156,12 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
         return SynthesisResult("output_feedback", g, controller=ctrl, P=P, X=T[:, None] * Xs * T,
                                Y=Ys / T[:, None] / T, gamma_opt=g_opt, feedthrough_bound=fb,
                                solver=out.solver, backend=out.backend, status=out.status,
-                               timings=timings, region=region)
+                               timings=timings, region=region,
+                               fallback=out.extra.get("fallback", ""))
 
+    out = _solve(prog, backend, solver_options, timings, "lmi", check)
+    g_opt = gval(out)
+    lam[0] = g_opt
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
                                          regularize, warns)
     if need:
@@ -161,7 +169,10 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
             prog2, V2, _ = _of_program(sp_, gamma2=g ** 2, gain_bound=True, **kw)
             V[:] = V2
             lam[0] = g
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize"), g)
+
+            def check2(o):
+                return _strict_check(build(o, g), [p], region, rtol, o.status)
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2), g)
             return _finish(r, [p], region, rtol, False, r.status)
         V = list(V)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 
 def _blas_thread_setters():
@@ -77,7 +78,8 @@ def solve_sdp(c, C, A, **kw):
         return _solve_sdp(c, C, A, **kw)
 
 
-def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, stall=4):
+def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, stall=4,
+               gapdef="trSZ", adaptive=True, refine=1, window=12):
     """Solve min c'x s.t. C[b] - sum_i x_i A[b][i] >= 0.
 
     ``C``: list of symmetric (n_b, n_b) arrays; ``A``: list of (m, n_b, n_b) arrays.
@@ -99,9 +101,12 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
         Z.append(zeta * np.eye(n))
         S.append(eta * np.eye(n))
     normc, normC = 1.0 + np.linalg.norm(c), 1.0 + np.sqrt(sum(np.sum(Cb * Cb) for Cb in C))
-    Af = [Ab.reshape(m, -1) for Ab in A]
+    # the A_i are very sparse (a matrix variable's entry touches a few rows/columns of a
+    # block): the Schur complement product A (Z A S^-1)^T is a sparse-dense product
+    Af = [sp.csr_matrix(Ab.reshape(m, -1)) for Ab in A]
     status, it = "MaxIterations", 0
-    best = None
+    best, history = None, []
+    stp = step
     for it in range(1, max_iter + 1):
         rp = -c - sum(Af[b] @ Z[b].ravel() for b in range(nb))
         Ax = [np.tensordot(x, A[b], axes=1) for b in range(nb)]
@@ -110,13 +115,17 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
         mu = gap / nn
         pobj = c @ x
         dobj = -sum(np.sum(C[b] * Z[b]) for b in range(nb))
-        relgap = abs(pobj - dobj) / (1.0 + abs(pobj) + abs(dobj))
+        relgap = (gap if gapdef == "trSZ" else abs(pobj - dobj)) / (1.0 + abs(pobj) + abs(dobj))
         pres = np.linalg.norm(rp) / normc
         dres = np.sqrt(sum(np.sum(R * R) for R in Rd)) / normC
         err = max(relgap, pres, dres)
         if best is None or err < best[0]:
             best = (err, x.copy(), it)
         elif best[0] < 1e-5 and it - best[2] >= stall:  # no progress: numerical limit reached
+            break
+        history.append(err)
+        if it > window and min(history[-window:]) > 0.5 * min(history[:-window]):
+            status = "Stalled"  # no halving of the error in `window` iterations: give up early
             break
         if verbose:
             print(f"{it:3d} {pobj:+.6e} {dobj:+.6e} gap {relgap:.1e} p {pres:.1e} d {dres:.1e} mu {mu:.1e}")
@@ -131,7 +140,7 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
             for b in range(nb):
                 Gb = np.matmul(np.matmul(Z[b], A[b]), Si[b])  # Z A_j S^-1 for all j
                 G.append(Gb)
-                M += Af[b] @ Gb.reshape(m, -1).T
+                M += np.asarray(Af[b] @ Gb.reshape(m, -1).T)
             M = 0.5 * (M + M.T)
             try:
                 cho = sla.cho_factor(M)
@@ -143,32 +152,43 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
 
         def direction(sigma_mu, corr):
             # HKM: dZ = sigma mu S^-1 - Z - (Z dS + corr) S^-1, dS = Rd - sum dx_i A_i
+            T0 = []
             rhs = rp.copy()
             for b in range(nb):
-                T = sigma_mu * Si[b] - Z[b] - Z[b] @ Rd[b] @ Si[b]
+                T = sigma_mu * Si[b] - Z[b]
                 if corr is not None:
                     T = T - corr[b] @ Si[b]
-                rhs -= Af[b] @ T.ravel()
+                T0.append(T)
+                rhs -= Af[b] @ (T - Z[b] @ Rd[b] @ Si[b]).ravel()
             dx = sla.cho_solve(cho, rhs)
-            dS = [Rd[b] - np.tensordot(dx, A[b], axes=1) for b in range(nb)]
-            dZ = []
-            for b in range(nb):
-                T = sigma_mu * Si[b] - Z[b] - Z[b] @ dS[b] @ Si[b]
-                if corr is not None:
-                    T = T - corr[b] @ Si[b]
-                dZ.append(0.5 * (T + T.T))
+            for k in range(refine + 1):
+                dS = [Rd[b] - np.tensordot(dx, A[b], axes=1) for b in range(nb)]
+                dZ = []
+                for b in range(nb):
+                    T = T0[b] - Z[b] @ dS[b] @ Si[b]
+                    dZ.append(0.5 * (T + T.T))
+                # residual of the dual equations <A_i, dZ> = rp with the true operator:
+                # M is ill-conditioned near the optimum (cond ~ 1/mu^2), so one step of
+                # iterative refinement keeps the dual iterates feasible
+                if k == refine:
+                    break
+                r = rp - sum(Af[b] @ dZ[b].ravel() for b in range(nb))
+                if np.linalg.norm(r) <= 1e-14 * normc:
+                    break
+                dx = dx + sla.cho_solve(cho, r)
             return dx, dS, dZ
 
         def steps(dS, dZ):
-            ap = min(1.0, step * min(_max_step(S[b], dS[b]) for b in range(nb)))
-            ad = min(1.0, step * min(_max_step(Z[b], dZ[b]) for b in range(nb)))
+            ap = min(1.0, stp * min(_max_step(S[b], dS[b]) for b in range(nb)))
+            ad = min(1.0, stp * min(_max_step(Z[b], dZ[b]) for b in range(nb)))
             return ap, ad
 
         try:
             dx, dS, dZ = direction(0.0, None)  # predictor (affine scaling)
             ap, ad = steps(dS, dZ)
             mu_aff = sum(np.sum((S[b] + ap * dS[b]) * (Z[b] + ad * dZ[b])) for b in range(nb)) / nn
-            sigma = min(1.0, (mu_aff / mu) ** 3)
+            expon = max(1.0, 3.0 * min(ap, ad) ** 2) if adaptive else 3.0
+            sigma = min(1.0, (mu_aff / mu) ** expon)
             corr = [dZ[b] @ dS[b] for b in range(nb)]  # Mehrotra second-order term
             dx, dS, dZ = direction(sigma * mu, corr)
             ap, ad = steps(dS, dZ)
@@ -177,6 +197,8 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
         except (np.linalg.LinAlgError, sla.LinAlgError):
             status = "NumericalError"
             break
+        if adaptive:
+            stp = max(step - 0.08, min(step, 0.9 + 0.09 * min(ap, ad)))
         x = x + ap * dx
         S = [S[b] + ap * dS[b] for b in range(nb)]
         Z = [Z[b] + ad * dZ[b] for b in range(nb)]
