@@ -75,12 +75,38 @@ def test_match_parameter_monotone_and_largest_bracket():
     f = lambda q: (np.log10(q) - 0.5) ** 2 * 0.5  # noqa: E731  zero at √10, 0.5 at 10^(0.5±1)
     p, v, _ = bl.match_parameter(f, 0.5, np.logspace(-2, 3, 6), iters=40, rtol=1e-8)
     assert p == pytest.approx(10 ** 1.5, rel=1e-4)
-    # failures (nan) are skipped; without a bracket the closest grid point is returned
+    # failures (nan) are skipped; without a bracket (and no refinement) the closest grid point
     g = lambda q: float("nan") if q > 5 else q  # noqa: E731
     p, v, _ = bl.match_parameter(g, 100.0, [1.0, 2.0, 10.0])
     assert p == 2.0
     with pytest.raises(ValueError, match="grid"):
         bl.match_parameter(np.log10, 0.0, [1.0])
+
+
+def test_match_parameter_finds_dip_between_grid_points():
+    """V-shaped f (the O.F. settling time vs ρ): both grid neighbours of the dip lie above the
+    target; refinement halves the intervals around the closest point and finds the crossing
+    on the large-p side of the dip."""
+    f = lambda q: abs(np.log10(q) - 0.5) + 0.1  # noqa: E731  minimum 0.1 at p = 10^0.5
+    p, v, _ = bl.match_parameter(f, 0.15, [1.0, 10.0, 100.0])
+    assert p in (1.0, 10.0)  # no refinement: a grid point, target missed
+    p, v, hist = bl.match_parameter(f, 0.15, [1.0, 10.0, 100.0], refine=3, iters=40, rtol=1e-8)
+    assert p == pytest.approx(10 ** 0.55, rel=1e-5) and v == pytest.approx(0.15, abs=1e-6)
+
+
+def test_settling_time_of_an_exponential():
+    """2 % settling of θ0 e^(-t/τ) is τ ln 50 (linear interpolation between 1 ms samples)."""
+    tau = 0.3
+    t = np.arange(0.0, 5.0, 1e-3)
+    ts = bl.settling_time(t, bl.THETA0 * np.exp(-t / tau))
+    assert ts == pytest.approx(tau * np.log(50.0), abs=1e-6)
+    # an undershoot that re-enters the band counts until it is inside for good
+    from scipy.optimize import brentq
+    shape = lambda s: np.exp(-s / 0.1) - 0.05 * np.exp(-s / 1.0)  # noqa: E731
+    ts2 = bl.settling_time(t, bl.THETA0 * shape(t))
+    exact = brentq(lambda s: shape(s) + 0.02, 0.5, 2.0)  # the slow negative tail decides
+    assert ts2 == pytest.approx(exact, abs=1e-6) and exact == pytest.approx(np.log(2.5), abs=0.01)
+    assert bl.settling_time(t, np.zeros_like(t)) == 0.0
 
 
 # ----------------------------------------------------------------------------- smoke runs
@@ -101,7 +127,7 @@ def test_balance_smoke_table_and_finite_numbers(balance_smoke):
     assert (out / "balance-linear_table.md").exists()
     table = json.loads((out / "balance-linear_table.json").read_text())
     assert [r[0] for r in table["rows"]] == list(bl.DESIGNS)
-    assert len(table["thesis_rows"]) == 4 and table["thesis_rows"][1][3] == 1.8  # W∞ ISE θ (thesis)
+    assert len(table["thesis_rows"]) == 4 and table["thesis_rows"][1][4] == 1.8  # W∞ ISE θ (thesis)
     for name in bl.DESIGNS:
         m = res.metrics[name]
         for k in ("ise_theta", "ise_phidot", "iadu", "gamma"):
@@ -127,6 +153,86 @@ def test_balance_closed_loop_poles_in_disks(balance_smoke):
         ev = np.linalg.eigvals(Acl)
         assert ev.real.max() < 0, name
         assert np.abs(ev).max() <= r * (1 + 1e-6), (name, np.abs(ev).max())
+
+
+def test_balance_tuned_rho_gives_equal_settling_on_nonlinear_plant(balance_smoke):
+    """The thesis' tuning rule, checked as a fact of the smoke runs (nonlinear plant, ρ from
+    RHO_TUNED): each H∞ design settles within 10 % of its W∞ counterpart."""
+    _, res = balance_smoke
+    for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
+        ta, tb = res.metrics[a]["settling_s"], res.metrics[b]["settling_s"]
+        assert 0.2 < tb < bl.SETTLE_WINDOW - 1, (b, tb)  # settled well inside the window
+        assert abs(ta - tb) <= 0.1 * tb, (a, ta, b, tb)
+        assert res.metrics[a]["rho"] == bl.RHO_TUNED[a]
+
+
+def _winf_channel_peak(A, B, D, C, ctrl, G0, G1, omega):
+    """max σ(T_zw(jω)) of z = [Γ0^½x; Γ1^½ẋ] for plant + dynamic controller on y = Cx,
+    assembled here (not by the synthesis)."""
+    AK, BK, CK, DK = ctrl
+    n, nk = A.shape[0], AK.shape[0]
+    Acl = np.block([[A + B @ DK @ C, B @ CK], [BK @ C, AK]])
+    Bcl = np.vstack([D, np.zeros((nk, D.shape[1]))])
+    xdot_row = np.hstack([A + B @ DK @ C, B @ CK])  # ẋ = xdot_row ξ + D w
+    G0h, G1h = np.sqrt(G0), np.sqrt(G1)  # diagonal weights
+    Ccl = np.vstack([np.hstack([G0h, np.zeros((n, nk))]), G1h @ xdot_row])
+    Dcl = np.vstack([np.zeros((n, D.shape[1])), G1h @ D])
+    I = np.eye(n + nk)
+    return max(np.linalg.norm(Ccl @ np.linalg.solve(1j * w * I - Acl, Bcl) + Dcl, 2) for w in omega)
+
+
+def test_balance_of_designs_regularized_and_certified_independently(balance_smoke):
+    """O.F. designs are the regularized ones (γ = (1+δ)γ*), and the W∞-O.F. γ bounds the
+    W∞ channel of the closed loop assembled independently (frequency sweep)."""
+    _, res = balance_smoke
+    A, B, D = bl.linearize()
+    for name in ("H∞-O.F.", "W∞-O.F."):
+        m = res.metrics[name]
+        assert m["regularized"] and m["gamma"] == pytest.approx((1 + bl.OF_REG_DELTA) * m["gamma_opt"], rel=1e-6)
+    c = [np.array(v) for v in (res.metrics["W∞-O.F."]["controller"][k] for k in ("AK", "BK", "CK", "DK"))]
+    peak = _winf_channel_peak(A, B, D, bl.C_OF, c, bl.GAMMA0_OF, bl.GAMMA1_OF, np.logspace(-3, 4, 1500))
+    g = res.metrics["W∞-O.F."]["gamma"]
+    assert 0.9 * g < peak <= g * (1 + 1e-4)
+
+
+def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backend_independent():
+    """Singular O.F. problem (y = [θ, ϕ̇] noise-free): the least-gain controller at
+    γ = (1+δ)γ* needs a Lyapunov variable Y and a controller peak gain that grow as δ → 0.
+    Given γ, the least-gain controller is the same with Clarabel and Drake/Clarabel."""
+    from sobolev_drake.experiments import _balance_linear_posedness as bp
+    from sobolev_drake.synthesis import regions
+    from sobolev_drake.synthesis import sobolev as sb
+    from sobolev_drake.synthesis.hinf import output_feedback
+    lin = bl.linearize()
+    A, B, D = lin
+    disk = regions.disk(bl.RADIUS["of"])
+    rho = bl.RHO_TUNED["H∞-O.F."]
+    r0, _, _ = bl.design("H∞-O.F.", lin, rho=rho, regularize=False)
+    plant = sb.hinf_plant(A, B, D, bl.GAMMA0_OF, np.array([[rho]]), bl.C_OF)
+    rows = bp.gain_growth(plant, disk, r0.gamma_opt, (0.2, 0.05), backend=bl.OF_BACKEND)
+    assert all("error" not in r and r["certified"] for r in rows)
+    assert rows[1]["norm_Y"] > 3 * rows[0]["norm_Y"] and rows[1]["peak_gain"] > 1.5 * rows[0]["peak_gain"]
+    # the raw LMI optimum sits farther out on that curve
+    assert np.linalg.norm(r0.Y, 2) > 3 * rows[1]["norm_Y"]
+    # the experiment's W∞-O.F. design (pinned backend) re-solved by Drake at the same γ
+    rw, _, _ = bl.design("W∞-O.F.", lin)
+    assert rw.regularized and rw.certificate.ok and rw.solver.lower().startswith("clarabel")
+    pw = sb.winf_plant(A, B, D, bl.GAMMA0_OF, bl.GAMMA1_OF, bl.C_OF)
+    rd, _ = bl.quiet(output_feedback, pw, region=disk, gamma=rw.gamma, backend="drake")
+    np.testing.assert_allclose(rd.controller.DK, rw.controller.DK, rtol=1e-2, atol=0.05)
+    pk = [bp.controller_peak_gain(r.controller) for r in (rw, rd)]
+    assert abs(pk[0] - pk[1]) <= 1e-2 * max(pk)
+
+
+def test_balance_controller_peak_gain_and_bad_input():
+    from sobolev_drake.experiments import _balance_linear_posedness as bp
+    # K(s) = 2/(s+1) + 0.5: peak 2.5 at ω → 0
+    k = bp.controller_peak_gain((np.array([[-1.0]]), np.array([[1.0]]), np.array([[2.0]]), np.array([[0.5]])))
+    assert k == pytest.approx(2.5, rel=1e-3)
+    with pytest.raises(ValueError, match="ctrl"):
+        bp.controller_peak_gain((np.eye(2), np.ones((3, 1)), np.ones((1, 2)), np.zeros((1, 1))))
+    with pytest.raises(ValueError, match="regularize"):
+        bl.design("W∞-O.F.", bl.closed_form_linearization(), regularize="yes")
 
 
 def test_quadrotor_smoke_table_and_finite_numbers(quad_smoke):

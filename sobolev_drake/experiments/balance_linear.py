@@ -15,14 +15,27 @@ as the disk, DESIGN §4.4):
 * ``W∞``  — state feedback (6.7), Γ0 = diag(0.2, 2, 0.3), Γ1 = diag(2.6, 0.25, 0.625), r = 40;
 * ``W∞-O.F.`` — dynamic output feedback (6.22), y = [θ, ϕ̇] (θ̇ not measured),
   Γ0 = diag(10, 1, 10), Γ1 = diag(0.66, 0.35, 0.3355), r = 150;
-* ``H∞`` / ``H∞-O.F.`` — classic z = [Q^½x; R^½u] with the same region.  The thesis does not give
-  their weights, only the rule "similar 2 % settling time of θ from x(0) = [π/4 0 0]".  We take
-  Q = Γ0 of the matching W∞ design and R = ρ, and pick ρ by bisection on log ρ so that the
-  settling time of the NONLINEAR closed loop matches the W∞ one.  The search reuses ONE Drake
-  diagram (the controllers' gains are numeric parameters of the library's
+* ``H∞`` / ``H∞-O.F.`` — classic z = [Q^½x; R^½u] with the same region (r = 40 for both
+  state-feedback designs, r = 150 for both O.F. designs, as 6.5.2 says).  The thesis does not
+  give their weights, only the rule "similar 2 % settling time of θ from x(0) = [π/4 0 0]".  We
+  take Q = Γ0 of the matching W∞ design and R = ρ, and pick ρ by scanning a log grid (two points
+  per decade) and bisecting on log ρ so that the settling time of the NONLINEAR closed loop
+  matches the W∞ one.  The search reuses ONE Drake diagram (the controllers' gains are numeric
+  parameters of the library's
   :class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback` /
   :class:`~sobolev_drake.systems.linear_controllers.LinearDynamicOutputFeedback`, reset in the
   context) because Python LeafSystems are not garbage-collected in drake 1.51.
+
+Output feedback is a singular H∞ problem here (y = [θ, ϕ̇] without noise, D21 = 0): the LMI
+optimum γ* is not attained — it is approached with Y and the controller gains growing without
+bound, so "the optimal controller" is wherever the SDP solver stops (the synthesis change of
+fe3bb08/d69ca1e moved the W∞-O.F. feedthrough D_K from [60, −37] to [257, −27] and with it
+the settling times).  Both O.F. designs are therefore regularized at γ = (1+δ)γ*, δ =
+:data:`OF_REG_DELTA`, minimizing a gain bound (DESIGN.md 4.4); the evidence (gain growth
+towards γ*, backend spread of the raw and regularized designs) is in
+:mod:`._balance_linear_posedness` and the ``balance-linear_of_posedness`` table.  The O.F.
+settling time is V-shaped in ρ (the slow tail of θ changes sign near ρ ≈ 4.6), so the search
+refines around the dip when the grid has no bracket.
 
 Every controller is then flown on the nonlinear Drake model from θ(0) = π/4 with wϕ = 2 N m on
 5 ≤ t ≤ 10 s and wθ = 2 sin(2πt/5) N m on 15 < t ≤ 20 s.  Indices: ISE ∫θ², ∫ϕ̇², IADU ∫|du/dt|,
@@ -58,14 +71,23 @@ THESIS_TABLE_6_2 = {"H∞": (1.7, 82.9, 48.2, 1.47), "W∞": (1.8, 65.8, 33.5, 1
                     "H∞-O.F.": (1.6, 96.1, 4544.0, 13.5), "W∞-O.F.": (1.8, 71.6, 682.0, 9.2)}
 SETTLE_FRACTION = 0.02
 SETTLE_WINDOW = 5.0  # the disturbances start at t = 5 s
-#: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design)
-RHO_GRID = {"sf": np.logspace(-3, 2, 6), "of": np.logspace(-3, 2, 6)}
-#: ρ found by a full run (used by smoke mode, which skips the search).  H∞-O.F.: with the
-#: output-feedback synthesis of 2026-11-21 (balanced scaling, symmetric γ form) no ρ in
-#: 1e-3..1e3 settles as fast as W∞-O.F. (0.89 s; best 1.40 s at ρ = 10, the settling time is
-#: not monotone in ρ), so the search returns the closest grid point; before that change it
-#: matched at ρ = 13.34 (0.81 s both).
-RHO_TUNED = {"H∞": 10.0, "H∞-O.F.": 10.0}
+#: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design); two
+#: points per decade: the O.F. settling time is V-shaped in ρ (minimum ≈ 0.65 s near ρ ≈ 4.6,
+#: where the slow tail of θ changes sign), a decade grid straddles the dip (ρ = 1, 10) and finds
+#: no match although one exists (commit 8ff5f2a reported "no ρ matches" for that reason)
+RHO_GRID = {"sf": np.logspace(-3, 3, 13), "of": np.logspace(-3, 3, 13)}
+#: relative γ relaxation of the regularized O.F. designs (see _balance_linear_posedness): at
+#: δ = 0.05 Clarabel, cvxpy/Clarabel and Drake/Clarabel return the same settling time to
+#: 1e-3 s; at δ ≤ 0.02 the gain-bound LMI is so ill-conditioned that solvers fail or disagree
+OF_REG_DELTA = 0.05
+#: backend of the O.F. designs when none is given.  Their anchor γ* is the non-attained
+#: infimum and solvers stop at different depths (γ* of W∞-O.F.: Clarabel 3.0431, Drake/Clarabel
+#: 3.0421, own IPM 2.8669), so (1+δ)γ* and with it the controller would follow the default
+#: backend chain; given γ, all backends return the same least-gain controller
+OF_BACKEND = "clarabel"
+#: ρ found by a full run (used by smoke mode, which skips the search; 2026-11-21, settling
+#: 2.046 s vs W∞ 2.040 s and 0.781 s vs W∞-O.F. 0.777 s)
+RHO_TUNED = {"H∞": 6.978, "H∞-O.F.": 7.774}
 
 
 # --------------------------------------------------------------------------- helpers
@@ -84,26 +106,37 @@ def quiet(fn, *args, **kw):
     return res, sorted({str(w.message) for w in caught})
 
 
-def match_parameter(f, target, grid, *, iters=10, rtol=0.01):
+def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
     """Find p with f(p) ≈ target: scan ``grid`` (ascending, > 0), then bisect on log p.
 
-    f may fail (return nan) or be non-monotone: every grid interval where f - target changes
-    sign brackets a solution; the one with the LARGEST p is refined (for an input weight ρ that
-    is the least aggressive controller meeting the target, i.e. the choice most favourable to
-    the baseline's control effort).  Without a bracket the grid point closest to the target is
-    returned.  Returns (p, f(p), history [(p, f(p)), ...]).
+    f may fail (return nan) or be non-monotone: every interval between neighbouring evaluated
+    points where f - target changes sign brackets a solution; the one with the LARGEST p is
+    refined (for an input weight ρ that is the least aggressive controller meeting the
+    target, i.e. the choice most favourable to the baseline's control effort).  Without a
+    bracket — e.g. a V-shaped f whose minimum dips below the target between two grid points,
+    as the O.F. settling time does — the intervals next to the point closest to the target
+    are halved (geometric midpoints) up to ``refine`` times; if still no bracket, that point
+    is returned.  Returns (p, f(p), history [(p, f(p)), ...]).
     """
     grid = sorted(float(g) for g in grid)
     if len(grid) < 2 or grid[0] <= 0:
         raise ValueError(f"grid must hold >= 2 positive values, got {grid}")
     hist = [(g, float(f(g))) for g in grid]
-    ok = [(p, v) for p, v in hist if np.isfinite(v)]
-    if not ok:
+    if not any(np.isfinite(v) for _, v in hist):
         raise RuntimeError("match_parameter: f failed on the whole grid")
-    brackets = [(a, b) for a, b in zip(hist[:-1], hist[1:])
-                if np.isfinite(a[1]) and np.isfinite(b[1]) and (a[1] - target) * (b[1] - target) <= 0]
+    for level in range(refine + 1):
+        pts = sorted(dict(hist).items())
+        brackets = [(a, b) for a, b in zip(pts[:-1], pts[1:])
+                    if np.isfinite(a[1]) and np.isfinite(b[1]) and (a[1] - target) * (b[1] - target) <= 0]
+        if brackets or level == refine:
+            break
+        i = min((k for k, (_, v) in enumerate(pts) if np.isfinite(v)), key=lambda k: abs(pts[k][1] - target))
+        for j in (i - 1, i + 1):
+            if 0 <= j < len(pts):
+                q = float(np.sqrt(pts[i][0] * pts[j][0]))
+                hist.append((q, float(f(q))))
     if not brackets:
-        p, v = min(ok, key=lambda h: abs(h[1] - target))
+        p, v = min(((p, v) for p, v in hist if np.isfinite(v)), key=lambda h: abs(h[1] - target))
         return p, v, hist
     (lo, flo), (hi, fhi) = brackets[-1]
     for _ in range(iters):
@@ -150,8 +183,16 @@ def closed_form_linearization(params=None):
     return A, B, D
 
 
-def design(which, lin, *, rho=None, backend=None):
-    """Synthesize ``which`` ∈ DESIGNS on ``lin = (A, B, D)``; H∞ designs need ``rho`` (R = ρ)."""
+def design(which, lin, *, rho=None, backend=None, regularize=None):
+    """Synthesize ``which`` ∈ DESIGNS on ``lin = (A, B, D)``; H∞ designs need ``rho`` (R = ρ).
+
+    ``regularize``: None = the experiment's choice — O.F. designs regularized at
+    γ = (1 + :data:`OF_REG_DELTA`)γ* with γ* from :data:`OF_BACKEND` unless ``backend`` is
+    given (their LMI optimum is a non-attained infimum, see
+    :mod:`._balance_linear_posedness`), state feedback with the synthesis default ("auto":
+    W∞ sits on its feedthrough bound and is regularized at δ = 0.01 by the library).
+    False gives the raw LMI optimum; True/"auto" are passed to the synthesis.
+    Returns (result, warning texts, seconds)."""
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
     if which not in DESIGNS:
@@ -169,8 +210,18 @@ def design(which, lin, *, rho=None, backend=None):
         fn = sb.hinf_output_feedback_qr if of else sb.hinf_state_feedback_qr
         R = np.array([[float(rho)]])
         args = (A, B, C_OF, D, G0, R) if of else (A, B, D, G0, R)
+    if of and backend is None:
+        backend = OF_BACKEND
+    if regularize is None:
+        kw = {"regularize": True, "delta": OF_REG_DELTA} if of else {}
+    elif regularize is True and of:
+        kw = {"regularize": True, "delta": OF_REG_DELTA}
+    elif regularize in (True, False, "auto"):
+        kw = {"regularize": regularize}
+    else:
+        raise ValueError(f"regularize must be None, True, False or 'auto', got {regularize!r}")
     t0 = time.perf_counter()
-    res, notes = quiet(fn, *args, region=disk, backend=backend)
+    res, notes = quiet(fn, *args, region=disk, backend=backend, **kw)
     return res, notes, time.perf_counter() - t0
 
 
@@ -310,7 +361,7 @@ def synthesize_all(lin, rigs, *, search=True, log=print):
             return settling_time(**_ts_args(rigs[kind].run(result_gains(cache[rho][0]), SETTLE_WINDOW)))
 
         if search:
-            rho, ts_h, hist = match_parameter(ts_of_rho, ts_w, RHO_GRID[kind])
+            rho, ts_h, hist = match_parameter(ts_of_rho, ts_w, RHO_GRID[kind], refine=3)
         else:
             rho, ts_h, hist = RHO_TUNED[h_name], float("nan"), []
             cache[rho] = design(h_name, lin, rho=rho)
@@ -364,12 +415,16 @@ def _plot(runs, out_dir):
 @register("balance-linear", "Two-wheeled vehicle: linear W∞ vs H∞ (state and output feedback, "
           "disk regions) on the nonlinear Drake model (Table 6.2)", default_duration=25.0,
           thesis_ref="6.5.2, Table 6.2")
-def run(out_dir, *, duration=None, record=False, smoke=False):
+def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
+    """Table 6.2.  ``smoke``: no ρ search (:data:`RHO_TUNED`), 5 s runs (long enough for the
+    settling times, before the disturbances), no diagnostics.  ``diagnose`` (default: not
+    smoke): O.F. well-posedness table (backend spread, gain growth towards γ*)."""
     from sobolev_drake import viz
     from sobolev_drake.report import write_table
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    duration = (1.0 if smoke else 25.0) if duration is None else float(duration)
+    duration = (SETTLE_WINDOW if smoke else 25.0) if duration is None else float(duration)
+    diagnose = (not smoke) if diagnose is None else bool(diagnose)
     lin = linearize()
     rigs = {"sf": Rig("sf"), "of": Rig("of")}
     designs = synthesize_all(lin, rigs, search=not smoke)
@@ -383,40 +438,56 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
         idx = indices(d)
         cert = r.certificate
         ev = cert.eigenvalues
-        m = {"gamma": float(r.gamma), "achieved": float(cert.achieved), "certified": bool(cert.ok),
+        m = {"gamma": float(r.gamma), "gamma_opt": float(r.gamma_opt), "achieved": float(cert.achieved),
+             "certified": bool(cert.ok), "regularized": bool(r.regularized),
+             "norm_Y": float(np.linalg.norm(r.Y, 2)) if r.Y is not None else None,
              "max_abs_eig": float(np.abs(ev).max()), "max_real_eig": float(ev.real.max()),
              "radius": RADIUS[kind], "solver": r.solver, "solve_s": dz["solve_s"], "notes": dz["notes"],
-             "rho": dz.get("rho"), "settling_target_s": dz["settling_target"], "sim_wall_s": d["wall_s"],
-             **idx}
+             "rho": dz.get("rho"), "settling_target_s": dz["settling_target"],
+             "settling_search": dz.get("search", []), "sim_wall_s": d["wall_s"], **idx}
         if r.K is not None:
             m["K"] = np.asarray(r.K).tolist()
         else:
             m["controller"] = {k: np.asarray(v).tolist() for k, v in zip(("AK", "BK", "CK", "DK"), r.controller)}
         metrics[name] = m
-        rows.append([name, dz.get("rho", "—"), f"{idx['settling_s']:.3f}", idx["ise_theta"], idx["ise_phidot"],
-                     idx["iadu"], idx["gain"], f"{np.abs(ev).max():.1f} ≤ {RADIUS[kind]:g}"])
+        reg = (f"γ*(1+{(r.gamma / r.gamma_opt - 1):.2g})" if r.regularized else "γ*")
+        rows.append([name, dz.get("rho", "—"), f"{r.gamma:.4g} ({reg})", f"{idx['settling_s']:.3f}",
+                     idx["ise_theta"], idx["ise_phidot"], idx["iadu"], idx["gain"], f"{idx['max_abs_u']:.0f}",
+                     f"{np.abs(ev).max():.1f} ≤ {RADIUS[kind]:g}"])
         th = THESIS_TABLE_6_2[name]
-        th_rows.append([name, "—", "similar", *th, f"≤ {RADIUS[kind]:g}"])
+        th_rows.append([name, "—", "—", "similar", *th, "—", f"≤ {RADIUS[kind]:g}"])
     # relative numbers as in the thesis (H∞ = 100 %)
     for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
         for k in ("ise_theta", "ise_phidot", "iadu", "gain"):
             metrics[b][f"{k}_rel_to_{a}"] = metrics[b][k] / metrics[a][k] if metrics[a][k] else float("nan")
-    cols = ["design", "H∞ input weight ρ", "θ settling [s]", "ISE θ", "ISE ϕ̇", "IADU", "‖x‖/‖w‖",
-            "max |eig| ≤ r"]
+    cols = ["design", "H∞ input weight ρ", "certified γ", "θ settling [s]", "ISE θ", "ISE ϕ̇", "IADU",
+            "‖x‖/‖w‖", "max |u| [N m]", "max |eig| ≤ r"]
     md, js, text = write_table(out_dir, "balance-linear_table", cols, rows, thesis_rows=th_rows,
                                title=f"Table 6.2 beside ours (nonlinear plant, {duration:g} s)")
     res = ExperimentResult(name="balance-linear", metrics=metrics, table_markdown=text)
     res.outputs.update({"table_md": md, "table_json": js})
     res.outputs.update(_plot(runs, out_dir))
+    _claims(res, metrics, full=duration >= 20.0)
+    if diagnose:
+        from ._balance_linear_posedness import diagnose as _diagnose
+        _diagnose(res, lin, rigs["of"], designs, out_dir)
     mpath = out_dir / "balance-linear_metrics.json"
     mpath.write_text(json.dumps(metrics, indent=1, default=str), encoding="utf-8")
     res.outputs["metrics_json"] = mpath
-    full = duration >= 20.0
+    if record:
+        rig = Rig("sf", record=True)
+        rig.run(result_gains(designs["W∞"]["res"]), duration)
+        res.outputs["meshcat_html"] = viz.save_recording_html(rig.meshcat, rig.recorder,
+                                                              out_dir / "balance-linear_Winf.html")
+    return res
+
+
+def _claims(res, metrics, *, full):
     for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
         ma, mb = metrics[a], metrics[b]
-        res.claims.append(Claim(f"{b} and {a} tuned to similar θ settling time (2 %)",
+        res.claims.append(Claim(f"{b} and {a} tuned to similar θ settling time (2 %, within 10 %)",
                                 abs(mb["settling_s"] - ma["settling_s"]) <= 0.1 * max(mb["settling_s"], 1e-9),
-                                f"{mb['settling_s']:.3f} s vs {ma['settling_s']:.3f} s"))
+                                f"{mb['settling_s']:.3f} s vs {ma['settling_s']:.3f} s (ρ = {ma['rho']:.4g})"))
         res.claims.append(Claim(f"{b} ISE θ similar to {a} (thesis {THESIS_TABLE_6_2[b][0] / THESIS_TABLE_6_2[a][0]:.0%})",
                                 0.8 <= mb["ise_theta"] / ma["ise_theta"] <= 1.25,
                                 f"ours {mb['ise_theta'] / ma['ise_theta']:.0%}"))
@@ -430,9 +501,3 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
     for name, m in metrics.items():
         res.claims.append(Claim(f"{name}: closed-loop poles of the linearization inside the disk r = {m['radius']:g}",
                                 m["max_abs_eig"] <= m["radius"] * (1 + 1e-6), f"max |eig| {m['max_abs_eig']:.2f}"))
-    if record:
-        rig = Rig("sf", record=True)
-        rig.run(result_gains(designs["W∞"]["res"]), duration)
-        res.outputs["meshcat_html"] = viz.save_recording_html(rig.meshcat, rig.recorder,
-                                                              out_dir / "balance-linear_Winf.html")
-    return res
