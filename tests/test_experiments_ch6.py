@@ -224,6 +224,21 @@ def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backen
     assert abs(pk[0] - pk[1]) <= 1e-2 * max(pk)
 
 
+def test_balance_variant_rows_and_claims_margin():
+    """Variant table rows carry W∞/H∞ ratios; "W∞ lower" needs a margin (LOWER), so a 1 %
+    difference does not count as a win."""
+    from sobolev_drake.experiments import _balance_linear_variants as bv
+    h = {"settling_s": 2.0, "ise_theta": 1.0, "ise_phidot": 60.0, "iadu": 50.0, "gain": 1.5, "max_abs_u": 40.0}
+    w_clear = {**h, "ise_phidot": 40.0, "iadu": 30.0, "gain": 1.2}
+    w_tie = {**h, "ise_phidot": 59.5, "iadu": 30.0, "gain": 1.2}
+    vs = [{"label": "a", "rho": 3.0, "W": w_clear, "H": h}, {"label": "b", "rho": 4.0, "W": w_tie, "H": h}]
+    rows = bv.variant_rows(vs)
+    assert len(rows) == 4 and all(len(r) == len(bv.VARIANT_COLUMNS) for r in rows)
+    assert rows[1][5] == "40.0 (67%)" and rows[0][2] == "3"
+    held = [c[1] for c in bv.variant_claims(vs)]
+    assert held == [True, False]
+
+
 def test_balance_controller_peak_gain_and_bad_input():
     from sobolev_drake.experiments import _balance_linear_posedness as bp
     # K(s) = 2/(s+1) + 0.5: peak 2.5 at ω → 0
