@@ -27,7 +27,7 @@ def sgc_example7():
     return GeneralizedPlant.make(A, B1, B2, C1, None, D12, C2, D21)
 
 
-@pytest.mark.parametrize("backend", ["clarabel", "cvxpy", "drake", "drake:csdp", "ipm"])
+@pytest.mark.parametrize("backend", ["clarabel", "cvxpy", "drake", "drake:csdp", "ipm", "auto"])
 def test_sgc_example7_output_feedback(backend):
     ctrl, gamma, res = hinfsyn(sgc_example7(), backend=backend)
     assert abs(gamma - 9.5081) < 1e-3
@@ -38,16 +38,21 @@ def test_sgc_example7_output_feedback(backend):
     assert np.all(np.linalg.eigvals(cl[0]).real < 0)
 
 
-def test_sgc_loose_scs_rejected_or_verified():
-    """SCS at loose tolerance: either a SynthesisError, or a result that passes the checks."""
-    try:
-        _, gamma, res = hinfsyn(sgc_example7(), backend="cvxpy:scs", regularize=False,
-                                solver_options={"eps_abs": 1e-3, "eps_rel": 1e-3, "max_iters": 2000})
+@pytest.mark.parametrize("backend, options", [
+    ("cvxpy:scs", {"eps_abs": 1e-3, "eps_rel": 1e-3, "max_iters": 2000}), ("cvxpy:scs", None),
+    ("drake:scs", None)])
+def test_sgc_scs_rejected_or_verified(backend, options):
+    """SCS (loose or default tolerance): a SynthesisError, or a result that passes the checks.
+    Measured: every SCS variant is rejected (unstable loop or norm 6.5e-4 .. 12x above gamma)."""
+    try:  # (regularize="auto" adds up to three more SCS solves: 15-40 s, measured rejected too)
+        _, gamma, res = hinfsyn(sgc_example7(), backend=backend, regularize=False,
+                                solver_options=options)
     except SynthesisError as e:
         assert "rejected" in str(e) or "not solved" in str(e)
     else:
         cl = sgc_example7().closed_loop(controller=res.controller)
         assert hinf_norm(*cl)[0] <= gamma * (1 + 1e-4)
+        assert abs(gamma - 9.5081) < 1e-3
 
 
 def test_hinf_norm_matches_sweep_with_feedthrough():
@@ -80,19 +85,33 @@ def random_plant(rng, n, sensor_noise=0.1):
     return p, GeneralizedPlant.make(p.A, B1, p.B2, p.C1, D11, p.D12, p.C2, D21)
 
 
-@pytest.mark.parametrize("seed", range(21))
-def test_random_winf_plants_backends_agree(seed):
+# (seed, states, disk region?): 2-12 states; output feedback on all but the 12-state disk case
+# (Drake/Clarabel needs 85 s CPU for that one; cvxpy 14 s), which seeds 21-22 replace by
+# 10- and 12-state output-feedback plants without region (measured: 3.5 s cvxpy, 4.6 s Drake)
+RANDOM_CASES = [(s, [2, 3, 4, 5, 6][s % 5], bool(s % 2)) for s in range(18)] + \
+    [(18, 8, False), (19, 12, True), (20, 7, False), (21, 10, False), (22, 12, False)]
+# output-feedback LMI optima that do NOT agree to 1e-4 between Drake and cvxpy (measured):
+# seed 21, 10 states: gamma_opt 21.14045 (Drake, "AlmostSolved") vs 21.13787 (cvxpy), 1.22e-4;
+# the infimum needs |Y| -> infinity (|Y| ~ 5e5 at both points) and both solvers stop early:
+# the certified norms of both controllers (21.12466, 21.12442) are 6e-4 *below* both gamma_opt
+# and agree to 1.1e-5.  Checked separately in test_unattained_infimum_output_feedback.
+OF_UNATTAINED = {21}
+
+
+@pytest.mark.parametrize("seed, n, with_disk", RANDOM_CASES)
+def test_random_winf_plants_backends_agree(seed, n, with_disk):
     rng = np.random.default_rng(100 + seed)
-    n = [2, 3, 4, 5, 6][seed % 5] if seed < 18 else [8, 12, 7][seed - 18]
     sf_plant, of_plant = random_plant(rng, n)
-    region = disk(4 * max(1.0, np.abs(np.linalg.eigvals(sf_plant.A)).max())) if seed % 2 else None
+    region = disk(4 * max(1.0, np.abs(np.linalg.eigvals(sf_plant.A)).max())) if with_disk else None
     sf = [state_feedback(sf_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
     assert abs(sf[0].gamma_opt - sf[1].gamma_opt) <= 1e-4 * sf[0].gamma_opt
     checks = list(sf)
-    if n <= 8:  # output feedback LMIs grow as 2n; keep the test fast (20 plants of 2-8 states)
+    if not (n > 8 and with_disk) and seed not in OF_UNATTAINED:
         of = [output_feedback(of_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
         # the LMI optimum gamma_opt (not the certified norm) of both backends; measured
-        # spread with the gamma-form BRL and scaling: <= 7e-5 (seed 18), mostly < 1e-5
+        # spread with the gamma-form BRL and scaling: <= 7e-5 (seed 18), mostly < 1e-5.
+        # Both are Clarabel: on plants whose infimum needs Y -> infinity the own IPM certifies
+        # gammas up to 5.3e-4 lower (seed 18), i.e. Clarabel stops early on those.
         assert abs(of[0].gamma_opt - of[1].gamma_opt) <= 1e-4 * of[0].gamma_opt
         checks += of
     for r in checks:
@@ -100,6 +119,20 @@ def test_random_winf_plants_backends_agree(seed):
         assert c.ok and c.achieved <= r.gamma * (1 + 1e-4)
         if region is not None:
             assert np.all(region.contains(c.eigenvalues, 1e-6 * max(1, np.abs(c.eigenvalues).max())))
+
+
+def test_unattained_infimum_output_feedback():
+    """Seed 21 (10 states): the OF infimum is approached with Y growing without bound; the
+    solvers' LMI optima differ by ~1.2e-4 but both controllers certify, their achieved norms
+    agree to 1e-4 and lie below both gamma_opt (the LMI points are not at the infimum)."""
+    rng = np.random.default_rng(121)
+    _, of_plant = random_plant(rng, 10)
+    of = [output_feedback(of_plant, backend=b) for b in ("cvxpy", "drake")]
+    ach = [r.certificate.achieved for r in of]
+    assert all(r.certificate.ok for r in of)
+    assert abs(ach[0] - ach[1]) <= 1e-4 * ach[0]
+    assert max(ach) < min(r.gamma_opt for r in of)
+    assert min(np.linalg.norm(r.Y, 2) for r in of) > 1e5 * max(np.linalg.norm(r.X, 2) for r in of) / 10
 
 
 @pytest.mark.parametrize("region", [disk(5.0), half_plane(1.0), sector(np.pi / 4), strip(0.5, 8.0),
@@ -226,3 +259,58 @@ def test_ipm_backend_state_feedback_matches_clarabel(seed, n):
     a, b = (state_feedback(sf_plant, backend=bk, region=region) for bk in ("ipm", "clarabel"))
     assert a.certificate.ok and a.backend == "ipm"
     assert abs(a.gamma_opt - b.gamma_opt) <= 1e-5 * b.gamma_opt
+
+
+def _bench3_plant():
+    """3-state W-infinity output-feedback plant (benchmarks/synthesis.py) on which the own IPM
+    stalls: the infimum needs Y -> infinity (Clarabel: |Y| ~ 7e6) and the IPM's point
+    (gamma 1.002) fails the norm certificate by 18 %."""
+    A = np.array([[0, 0, 1.0], [0, -0.5, 2], [30, 1, -0.5]])
+    B, D = np.array([[0.0], [2], [-3]]), np.array([[0.0, 0], [1, 0], [0, 1]])
+    return winf_plant(A, B, D, np.eye(3), 0.1 * np.eye(3), np.array([[1.0, 0, 0]]))
+
+
+def test_auto_backend_falls_back_and_says_so():
+    p = _bench3_plant()
+    r = output_feedback(p, backend="auto")
+    assert r.backend == "clarabel" and "ipm" in r.fallback and "after fallback" in r.status
+    assert r.certificate.ok
+    ref = output_feedback(p)
+    assert r.gamma_opt == pytest.approx(ref.gamma_opt, rel=1e-9) and ref.fallback == ""
+    # a well-posed plant: the IPM result is kept (no fallback) and agrees with Clarabel
+    rng = np.random.default_rng(106)
+    sf_plant, _ = random_plant(rng, 3)
+    a, b = (state_feedback(sf_plant, backend=bk, region=disk(30.0)) for bk in ("auto", "clarabel"))
+    assert a.backend == "ipm" and a.fallback == "" and a.certificate.ok
+    assert abs(a.gamma_opt - b.gamma_opt) <= 1e-5 * b.gamma_opt
+
+
+def test_strict_check_rejects_a_wrong_lyapunov_matrix():
+    from sobolev_drake.synthesis.hinf_common import _strict_check
+    p = sgc_example7()
+    r = state_feedback(p, region=disk(50.0))
+    assert _strict_check(r, [p], r.region, 1e-4, "").certificate.ok
+    r.P = 0.2 * r.P  # same controller and norm, P no longer a bounded-real certificate
+    c = _strict_check(r, [p], r.region, 1e-4, "").certificate
+    assert not c.ok and "bounded-real" in c.failures[-1]
+
+
+@pytest.mark.parametrize("backend", [None, "auto"])
+def test_reported_P_satisfies_gamma2_form_brl(backend):
+    """SynthesisResult.P is the closed-loop Lyapunov matrix in the gamma^2 form:
+    [[A'P + PA + C'C, PB + C'D], [., D'D - gamma^2 I]] <= 0, for state and output feedback;
+    state feedback: P = X^-1; output feedback: P = [[Y, N], [N', *]], P^-1 = [[X, M], [M', *]]."""
+    from sobolev_drake.synthesis.certificates import brl_residual
+    rng = np.random.default_rng(104)
+    sf_plant, of_plant = random_plant(rng, 6)
+    for p in (sgc_example7(), sf_plant):
+        r = state_feedback(p, backend=backend, region=disk(30.0))
+        assert np.allclose(r.P, np.linalg.inv(r.X), rtol=1e-6, atol=1e-9 * np.abs(r.P).max())
+        assert brl_residual(*p.closed_loop(K=r.K), r.P, r.gamma) <= 1e-8
+    for p in (sgc_example7(), of_plant):
+        r = output_feedback(p, backend=backend)
+        n = p.n
+        assert r.P.shape == (2 * n, 2 * n) and np.allclose(r.P[:n, :n], r.Y, rtol=1e-6)
+        Pi = np.linalg.inv(r.P)
+        assert np.allclose(Pi[:n, :n], r.X, rtol=1e-5, atol=1e-8 * np.abs(r.X).max())
+        assert brl_residual(*p.closed_loop(controller=r.controller), r.P, r.gamma) <= 1e-8

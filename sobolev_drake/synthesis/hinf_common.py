@@ -92,6 +92,28 @@ class DynamicController:
 
 @dataclass
 class SynthesisResult:
+    """Result of :func:`state_feedback` / :func:`output_feedback` (certified before return).
+
+    Normalization of the Lyapunov matrices (whatever form the LMI was solved in -- the
+    symmetric gamma form, see ``hinf.py`` -- and whatever internal scaling): the gamma^2 form
+    in the original coordinates.  ``P`` is the closed-loop Lyapunov matrix with
+
+        [[A_cl'P + P A_cl + C_cl'C_cl, P B_cl + C_cl'D_cl], [., D_cl'D_cl - gamma^2 I]] <= 0,
+
+    so V = x_cl'P x_cl gives ||z||^2 <= gamma^2 ||w||^2 + V(x_cl(0)) (thesis (6.33);
+    ``certificates.brl_residual`` evaluates the inequality; tested for both kinds).
+
+    * state feedback (x_cl = x): ``X = P^-1`` (the variable of (6.5)/(6.7), K = W X^-1);
+      ``Y`` is None;
+    * output feedback (x_cl = [x; x_K]): ``Y`` = upper-left n x n block of P and ``X`` = the
+      upper-left block of P^-1 (Gahinet-Apkarian variables, [[X, I], [I, Y]] > 0); ``P`` is
+      None when the controller order was reduced (I - XY rank deficient).
+
+    ``gamma`` is the certified bound (>= ``gamma_opt``, the LMI optimum; relaxed when
+    ``regularized``); ``backend``/``solver`` name what produced the result and ``fallback``
+    why earlier backends of a chain (default / "auto") were not used.
+    """
+
     kind: str  # "state_feedback" | "output_feedback"
     gamma: float  # certified bound on the performance-channel H-infinity norm
     K: np.ndarray | None = None

@@ -12,12 +12,17 @@ backend receives exactly this data, so "the same LMIs" are solved by
 * ``"drake"`` (``MathematicalProgram`` + ``AddLinearMatrixInequalityConstraint``, Clarabel by
   default; ``"drake:scs"``, ``"drake:csdp"``, ``"drake:mosek"``);
 * ``"ipm"``: own dense primal-dual interior-point method (``sdp_ipm.py``) with the m x m
-  Schur complement; several times faster than Clarabel on the 20-state state-feedback
-  benchmark, but experimental: it stops with "MaxIterations" on some problems (then it
-  reports "not solved"; it is never chosen automatically).
+  Schur complement; 4-8x faster than Clarabel on the 12-20-state benchmark plants, but it
+  stops with "Stalled" on problems whose infimum needs unbounded Lyapunov variables (e.g. the
+  3-state output-feedback benchmark plant), and on degenerate problems (uncontrollable
+  disturbance-model states) its optimum can differ from Clarabel's;
+* ``"auto"``: "ipm", and "clarabel" when the IPM does not converge.  The syntheses
+  (``hinf_common._solve``) additionally reject an IPM result whose certificate fails or whose
+  P does not satisfy the bounded-real inequality, and record the fallback.
 
-Clarabel is the default because the PyPI build uses a faster linear-algebra backend than the
-Clarabel bundled with Drake (DESIGN.md 4.4, ``benchmarks/synthesis.py``).
+Clarabel is the default because it is the robust choice (the PyPI build uses a faster
+linear-algebra backend than the Clarabel bundled with Drake, DESIGN.md 4.4,
+``benchmarks/synthesis.py``); "auto" is the fast opt-in.
 
 Matrix expressions (:class:`Affine`) support ``+ - @ .T``, scalar products, :func:`bmat` and
 :func:`kron`, which is all the bounded-real-lemma and LMI-region constraints need.
@@ -352,6 +357,8 @@ class LMIProgram:
             prob.solve(solver=name, **options)
         except cp.error.SolverError as e:
             raise InfeasibleLMIError(f"cvxpy/{solver} failed: {e}", "solver_error") from e
+        except Exception as e:  # e.g. MOSEK without a license raises its own error type
+            raise SynthesisError(f"cvxpy/{solver} not usable: {type(e).__name__}: {e}") from e
         t2 = time.perf_counter()
         status = str(prob.status)
         ok = status in ("optimal", "optimal_inaccurate")
@@ -394,6 +401,8 @@ class LMIProgram:
         try:
             det = res.get_solver_details()
             detail = str(getattr(det, "status", getattr(det, "solution_status", "")))
+            if hasattr(det, "scs_status"):  # SCS exit flags: 1 solved, 2 solved/inaccurate
+                detail = {1: "solved", 2: "solved inaccurate"}.get(det.scs_status, f"scs_status {det.scs_status}")
         except Exception:  # details type differs per solver; purely informative
             pass
         xv = np.asarray(res.GetSolution(x), dtype=float)
