@@ -92,7 +92,7 @@ def solve_sdp(c, C, A, **kw):
 
 
 def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, stall=4,
-               gapdef="trSZ", adaptive=True, refine=1, window=12):
+               gapdef="both", adaptive=True, refine=1, window=12):
     """Solve min c'x s.t. C[b] - sum_i x_i A[b][i] >= 0.
 
     ``C``: list of symmetric (n_b, n_b) arrays; ``A``: list of (m, n_b, n_b) arrays.
@@ -100,7 +100,7 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
     < 1e-5 after progress stopped), "Stalled" (error not halved in ``window`` iterations),
     "MaxIterations" or "NumericalError".  ``adaptive``: SDPT3's step factor 0.9 + 0.09 min(steps)
     and centering exponent max(1, 3 min(steps)^2); ``refine``: refinement steps of the
-    search direction; ``gapdef``: "trSZ" (<S, Z>) or "pd" (|primal - dual objective|).
+    search direction; ``gapdef``: "both" (default), "trSZ" (<S, Z>) or "pd" (|primal - dual objective|).
     """
     m = c.size
     nb = len(C)
@@ -131,7 +131,10 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
         mu = gap / nn
         pobj = c @ x
         dobj = -sum(np.sum(C[b] * Z[b]) for b in range(nb))
-        relgap = (gap if gapdef == "trSZ" else abs(pobj - dobj)) / (1.0 + abs(pobj) + abs(dobj))
+        # both gaps: <S, Z> alone misses a dual residual that is small but multiplies a huge x
+        # (measured: objectives 0.33 vs 0.45 with <S, Z> ~ 1e-11 on a disturbance-model plant)
+        pd = abs(pobj - dobj)
+        relgap = {"trSZ": gap, "pd": pd}.get(gapdef, max(gap, pd)) / (1.0 + abs(pobj) + abs(dobj))
         pres = np.linalg.norm(rp) / normc
         dres = np.sqrt(sum(np.sum(R * R) for R in Rd)) / normC
         err = max(relgap, pres, dres)
