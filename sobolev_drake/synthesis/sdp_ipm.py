@@ -120,6 +120,7 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
     # the A_i are very sparse (a matrix variable's entry touches a few rows/columns of a
     # block): the Schur complement product A (Z A S^-1)^T is a sparse-dense product
     Af = [sp.csr_matrix(Ab.reshape(m, -1)) for Ab in A]
+    As = [sp.csr_matrix(Ab.reshape(m * Ab.shape[1], Ab.shape[2])) for Ab in A]
     status, it = "MaxIterations", 0
     best, history = None, []
     stp = step
@@ -155,11 +156,13 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
             Si = [np.linalg.inv(Sb) for Sb in S]
             # Schur complement M_ij = sum_b tr(A_i Z A_j S^-1)
             M = np.zeros((m, m))
-            G = []
             for b in range(nb):
-                Gb = np.matmul(np.matmul(Z[b], A[b]), Si[b])  # Z A_j S^-1 for all j
-                G.append(Gb)
-                M += np.asarray(Af[b] @ Gb.reshape(m, -1).T)
+                n = dims[b]
+                # Z A_j S^-1 for all j as one sparse product and one large GEMM, laid out as
+                # Gt[(p, q), j] so that M += A Gt is a sparse-times-contiguous product
+                T = As[b] @ Si[b]  # rows (j, r): A_j S^-1
+                R = T.reshape(m, n, n).transpose(1, 2, 0).reshape(n, n * m)  # [r, (q, j)]
+                M += np.asarray(Af[b] @ (Z[b] @ R).reshape(n * n, m))
             M = 0.5 * (M + M.T)
             try:
                 cho = sla.cho_factor(M)

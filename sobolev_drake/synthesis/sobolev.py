@@ -52,7 +52,7 @@ def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
 def hinf_plant(A, B, D, Q, R, C=None):
     """Generalized plant of the classic H-infinity channel z = [Q^1/2 x ; R^1/2 u]."""
     A, B, D = _abd(A, B, D)
-    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
+    n, nu = A.shape[0], B.shape[1]
     Qh = sqrtm_psd(check_weight("Q", Q, n, definite=False))
     Rh = sqrtm_psd(check_weight("R", R, nu, definite=True))
     C1 = np.vstack([Qh, np.zeros((nu, n))])
