@@ -8,9 +8,9 @@ Backends: ``clarabel`` (direct, default of the library), ``auto`` (own IPM, cert
 fallback to Clarabel), ``ipm`` (own Schur-complement IPM alone), ``cvxpy``, ``drake`` (see
 ``synthesis/lmi.py``).  "backend" is the one that produced the result (after any fallback).
 Measured (this machine, 2 cores shared, CPU seconds, 2026-11-21): 20 states SF+disk: clarabel
-5.1, auto/ipm 0.61, cvxpy 5.0, drake 32; 20 states OF: clarabel 12.5, auto 5.4, cvxpy 12.6,
-drake 74.  The IPM stalls on the 3-state OF plant (infimum needs |Y| -> infinity): auto falls
-back to Clarabel there.  Usage::
+5.1-5.6, auto/ipm 0.58-0.61, cvxpy 5.0, drake 32; 20 states OF: clarabel 12.5-13.0, auto/ipm
+4.7-5.3, cvxpy 12.6, drake 74.  The IPM stalls on the 3-state OF plant (infimum needs
+|Y| -> infinity): auto falls back to Clarabel there.  Usage::
 
     python benchmarks/synthesis.py [--backends clarabel,auto,ipm,cvxpy,drake] [--sizes 2,3,12,20]
                                    [--no-of] [--of-max 20]
