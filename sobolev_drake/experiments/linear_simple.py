@@ -41,8 +41,11 @@ table of every run has the current numbers):
   attains (the matched d can be estimated arbitrarily fast from x): the returned controllers
   have entries 1e6..1e7, closed-loop poles ~5e4 rad/s, and an LMI gamma that depends on the
   solver (0.10 then 0.127) and exceeds the certified norm (0.084 then 0.032).  A disk region
-  bounds the bandwidth and makes the design well posed: the extra rows "disk r = 1000"
-  (gamma ~1.2, certified within 3 %, v-only ISE x1 1.6e-3 < W-inf's 3.7e-3, ISE x1 1.8).
+  bounds the bandwidth: the extra rows "disk r = 1000" (gamma ~1.2, certified within 3 %,
+  v-only ISE x1 1.6e-3 < W-inf's 3.7e-3, ISE x1 1.8).  Even so the LMI optimum is not
+  solver independent: the own IPM certifies gamma 1.0266 (entries ~1e6) where Clarabel and
+  Drake report "Solved" at 1.18 / 1.29 — a solver "success" 15-25 % above the optimum; the
+  report carries both (claim "solver independent" does not hold).
 
 The thesis' own W-inf-D is a static K x from (6.31), which is degenerate (see above), so the
 comparison is necessarily between different controller classes.
@@ -107,16 +110,20 @@ def design():
     return out, notes
 
 
-def design_well_posed(radius=WELL_POSED_DISK):
+def design_well_posed(radius=WELL_POSED_DISK, backend=None):
     """The disturbance-model designs with a disk pole region (6.39) of ``radius``: bounded
-    controller bandwidth, so the optimum is attained (not an infimum) and certified tightly.
+    controller bandwidth; the delivered controllers are certified tightly (within ~3 % of the
+    LMI gamma).  Measured: the disk does not make the LMI optimum solver independent — the
+    own interior-point backend (``backend="ipm"``) reaches gamma 1.0266 (certified 1.0265,
+    controller entries up to ~1e6) where Clarabel and Drake stop at 1.18 / 1.29 reporting
+    "Solved"; ``run`` re-solves with the IPM and reports both.
     Returns {name: (kind, controller, result)}."""
     out = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, kind, Cm in (("W-inf-D", "of_x", None), ("W-inf-O.F.D", "of_y", C)):
             r = winf_disturbance_augmented(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, C=Cm,
-                                           region=regions.disk(radius))
+                                           region=regions.disk(radius), backend=backend)
             out[f"{name}, disk r = {radius:g}"] = (kind, r.controller, r)
     return out
 
@@ -443,12 +450,26 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
                             m["gamma"] > 1.1 * m["achieved"] and m["max_abs_controller_entry"] > 1e5,
                             f"gamma {m['gamma']:.3g} vs certified {m['achieved']:.3g}, "
                             f"max entry {m['max_abs_controller_entry']:.3g}"))
-        claims.append(Claim(f"{name} with the disk r = {WELL_POSED_DISK:g} is well posed (LMI gamma within 5 % "
-                            "of the certified norm) and still attenuates v better than W-inf",
+        claims.append(Claim(f"{name} with the disk r = {WELL_POSED_DISK:g}: the delivered controller is certified "
+                            "tightly (LMI gamma within 5 % of its norm) and attenuates v better than W-inf",
                             wp["gamma"] <= 1.05 * wp["achieved"] and wp["ISE_x1_v_only"] < base["ISE_x1_v_only"],
                             f"gamma {wp['gamma']:.3g} vs {wp['achieved']:.3g}, v-only ISE x1 "
                             f"{wp['ISE_x1_v_only']:.3g} vs {base['ISE_x1_v_only']:.3g}, max entry "
                             f"{wp['max_abs_controller_entry']:.3g}"))
+    try:  # cross-check of the disk-limited optimum with a second, independent solver
+        ipm = {k: v[2] for k, v in design_well_posed(backend="ipm").items()}
+    except Exception as exc:  # noqa: BLE001 - reported, not fatal
+        ipm, notes = {}, notes + [f"IPM cross-check of the disk-limited designs failed: {exc}"]
+    for name, r in ipm.items():
+        wp = metrics[name]
+        wp.update(gamma_ipm=r.gamma, achieved_ipm=r.certificate.achieved,
+                  max_abs_controller_entry_ipm=float(max(np.abs(m).max() for m in r.controller)))
+        claims.append(Claim(f"{name}: the default solver's LMI optimum is solver independent (own IPM "
+                            "within 5 %)", wp["gamma"] <= 1.05 * r.gamma,
+                            f"default (Clarabel, 'Solved') gamma {wp['gamma']:.4g} (certified "
+                            f"{wp['achieved']:.4g}) vs IPM gamma {r.gamma:.4g} (certified "
+                            f"{r.certificate.achieved:.4g}, max entry "
+                            f"{wp['max_abs_controller_entry_ipm']:.3g})"))
     mD, mB = metrics["W-inf-D"], base
     notes.append(
         f"W-inf-D vs W-inf ISE x1 ({mD['ISE_x1']:.3g} vs {mB['ISE_x1']:.3g}): the x(0)-only run gives "
