@@ -314,3 +314,23 @@ def test_reported_P_satisfies_gamma2_form_brl(backend):
         Pi = np.linalg.inv(r.P)
         assert np.allclose(Pi[:n, :n], r.X, rtol=1e-5, atol=1e-8 * np.abs(r.X).max())
         assert brl_residual(*p.closed_loop(controller=r.controller), r.P, r.gamma) <= 1e-8
+
+
+def test_singular_output_feedback_problem_is_flagged():
+    """A noise-free measurement (D21 = 0) makes the OF problem singular: the result says so
+    (warning, well_posed False) and regularize=True returns the least-gain controller; the
+    regular SGC plant (D21 = 2) carries no such warning."""
+    from sobolev_drake.synthesis.output_feedback import singular_problem
+
+    p = sgc_example7()
+    assert singular_problem(p) == ""
+    r = output_feedback(p)
+    assert r.well_posed and not any("singular" in w for w in r.warnings)
+    ps = GeneralizedPlant.make(p.A, p.B1, p.B2, p.C1, None, p.D12, p.C2, np.zeros((1, 1)))
+    assert singular_problem(ps) == "rank D21 = 0 < 1"
+    with pytest.warns(UserWarning, match="singular problem"):
+        rs = output_feedback(ps)
+    assert not rs.well_posed and not rs.regularized
+    rr = output_feedback(ps, regularize=True)
+    assert rr.regularized and rr.certificate.ok
+    assert rr.gamma == pytest.approx(1.01 * rr.gamma_opt, rel=1e-9)

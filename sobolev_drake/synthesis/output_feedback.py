@@ -108,6 +108,19 @@ def reconstruct_controller(p, X, Y, Ak, Bk, Ck, Dk, rank_tol=0.0):
     return DynamicController(AK, BK, CK, DK), P
 
 
+def singular_problem(plant, tol=1e-9):
+    """"" for a regular output-feedback problem, else which rank condition fails: D12 without
+    full column rank (an input reaches z without cost) or D21 without full row rank (a
+    measurement without noise, e.g. y = C x)."""
+    msgs = []
+    for name, M, full in (("D12", plant.D12, plant.D12.shape[1]), ("D21", plant.D21, plant.D21.shape[0])):
+        s = np.linalg.svd(M, compute_uv=False) if M.size else np.zeros(0)
+        r = int(np.sum(s > tol * max(1.0, s.max() if s.size else 0.0)))
+        if r < full:
+            msgs.append(f"rank {name} = {r} < {full}")
+    return ", ".join(msgs)
+
+
 def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
                     regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
                     strictly_proper=False, margin=EPS, scaling=True):
@@ -178,6 +191,12 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
                      "minimizing a bound on the (scaled) controller matrices")
+    if not need and gamma is None:
+        sing = singular_problem(p)
+        if sing:
+            warns.append(f"singular problem ({sing}): the optimum is generally an unattained infimum "
+                         "and the controller of the LMI optimum depends on where the solver stops; "
+                         "regularize=True gives the least-gain controller at (1+delta) gamma_opt")
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")
