@@ -109,6 +109,7 @@ def _solve(lin, kind, backend):
     # 0.035458). The thesis' non-strict LMIs are degenerate: plain Clarabel without the
     # fallback chain, whose CSDP step ran > 30 min on (6.36) without an answer.
     thesis_form = kind.startswith("dm_thesis")
+    dm_backend = backend or "clarabel"
     if backend is None:
         backend = "clarabel" if thesis_form else "auto"
     if kind in ("sf", "sf_disk"):
@@ -149,15 +150,22 @@ def _solve(lin, kind, backend):
     # The thesis adds the disk to its output-feedback designs against "undesired fast poles";
     # the well-posed W∞-D is an output-feedback synthesis too and without it has closed-loop
     # poles near 6e4 rad/s (measured), which no explicit integrator can fly.
-    r = hinf.output_feedback(plant, region=disk, backend=backend)
+    # Singular problem (filter states unmeasured, D21 rank deficient; flagged by the synthesis):
+    # the v -> z optimum is approached with unbounded controller entries even inside the disk,
+    # so the controller depends on where the solver stops.  Measured: IPM ("auto") gamma
+    # 0.03491 gave a controller so stiff that 0.2 s of flight took 240 s of wall time;
+    # Clarabel's 0.03546 flies.  The least-gain re-solve (regularize=True) did not finish in
+    # 15 min on this 28-state problem, so the design is pinned to Clarabel and says so.
+    r = hinf.output_feedback(plant, region=disk, backend=dm_backend)
     return r, (np.eye(20) if C is None else C), notes
 
 
 def design(lin, which, *, backend=None):
     """Synthesize one of :data:`DESIGNS` on the linearization ``lin`` (fields A, B, D).
 
-    ``backend``: LMI backend; None picks "auto" for the certified designs and "clarabel"
-    (no fallback chain) for the thesis' degenerate non-strict LMIs.
+    ``backend``: LMI backend; None picks "auto" for the W-inf state/output-feedback designs and
+    "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate LMIs
+    whose controller depends on the solver: see ``_solve``).
 
     Returns a dict: ``kind`` ("sf" with ``K`` or "dyn" with ``AK, BK, CK, DK`` acting on
     y = ``C`` Δx), ``gamma``, ``certified`` (None when there is no verified bound to check),
