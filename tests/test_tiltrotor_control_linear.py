@@ -185,3 +185,13 @@ def test_thesis_disturbance_model_weight_is_singular():
         rep = sb.disturbance_model_degeneracy(Ad, Bd, Cd, hl.UPSILON0, ups1)
         assert rep.singular and rep.kernel_dim == 5
         assert np.linalg.matrix_rank(rep.weight) == 6
+
+
+def test_flight_monitor_stops_early_and_says_why():
+    """The run stops at the first monitor call past the wall-time limit and reports it (the
+    same monitor stops lost aircraft, |φ| or |θ| > 90°, and non-finite states)."""
+    from sobolev_drake.models.tiltrotor_trim import trim_hover
+
+    d = hl.simulate_design({"kind": "sf", "K": np.zeros((4, 20))}, trim_hover(), 5.0, max_wall_s=0.0)
+    assert d["stopped"].startswith("stopped at t = ") and "wall time > 0 s" in d["stopped"]
+    assert d["t"][-1] < 0.5
