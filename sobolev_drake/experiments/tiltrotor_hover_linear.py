@@ -123,7 +123,7 @@ def _reference_xyz_psi():
 
 
 def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None,
-                    max_wall_s=240.0):
+                    max_wall_s=240.0, controller_state0=None):
     """Fly ``ctrl`` on the nonlinear plant (Table 7.1 path, von Kármán wind); returns logs.
 
     The run stops early (``data["stopped"]`` says why, ``data["t"][-1]`` when) if the state
@@ -131,6 +131,7 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     the wall time exceeds ``max_wall_s`` (stiff or chattering closed loop).
 
     ``turbulence``: VonKarmanParameters replacing the §7.3.1 defaults (for sensitivity runs).
+    ``controller_state0``: initial state of a dynamic controller (default 0).
     With a ``meshcat`` the run is recorded (``data["recorder"]``)."""
     from pydrake.systems.analysis import Simulator
     from sobolev_drake.models.tiltrotor import add_tiltrotor
@@ -166,6 +167,13 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     ctx = sim.get_mutable_context()
     turb.seed(ctx, seed)
     h.set_state(ctx, diagram, Q0, np.zeros(8))
+    if controller_state0 is not None:
+        cv = c.GetMyMutableContextFromRoot(ctx).get_mutable_continuous_state_vector()
+        v = cv.CopyToVector()
+        if np.shape(controller_state0) != (v.size - 4,):
+            raise ValueError(f"controller_state0 must have shape ({v.size - 4},), got {np.shape(controller_state0)}")
+        v[4:] = controller_state0
+        cv.SetFromVector(v)
     sim.get_mutable_integrator().set_target_accuracy(1e-3)
     sim.get_mutable_integrator().set_maximum_step_size(0.01)
     from pydrake.systems.framework import EventStatus
