@@ -22,14 +22,15 @@ from pydrake.multibody.plant import MultibodyPlant
 def check_vector(name: str, value, size: int) -> np.ndarray:
     """Return ``value`` as a float vector of length ``size`` or raise a clear ``ValueError``.
 
-    Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument.
+    Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument.  Called at every
+    integrator stage by the controllers: the common case is one shape test and one reduction.
     """
     arr = np.asarray(value, dtype=float)
-    if arr.ndim != 1 or arr.shape[0] != size:
+    if arr.shape == (size,) and np.isfinite(arr).all():
+        return arr
+    if arr.shape != (size,):
         raise ValueError(f"{name} must be a vector of length {size}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {arr}")
-    return arr
+    raise ValueError(f"{name} must be finite, got {arr}")
 
 
 class MechanicalModel:

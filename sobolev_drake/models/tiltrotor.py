@@ -21,7 +21,7 @@ from pydrake.systems.framework import LeafSystem
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.handles import PlantHandles
 from sobolev_drake.models.tiltrotor_params import DOF_NAMES, TiltrotorParams
-from sobolev_drake.systems.propulsion import body_kinematics_scalar
+from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
 
 #: Drake joint of each thesis coordinate
 JOINTS = ("tilt_right", "tilt_left", "base_roll", "base_pitch", "base_yaw", "base_x", "base_y", "base_z")
@@ -234,18 +234,15 @@ class TiltrotorForces(LeafSystem):
             fx, fy, fz = p_f.Eval(context).tolist()
             if fx != 0.0 or fy != 0.0 or fz != 0.0:
                 # inertial force at C1: generalized force [0, 0, Wηᵀ (d × Rᵀ F), R Rᵀ F]
-                (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
+                _, (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
                 bx = r00 * fx + r10 * fy + r20 * fz
                 by = r01 * fx + r11 * fy + r21 * fz
                 bz = r02 * fx + r12 * fy + r22 * fz
                 dx, dy, dz = self._dC1
-                tx, ty, tz = dy * bz - dz * by, dz * bx - dx * bz, dx * by - dy * bx
-                tau[2] += tx
-                tau[3] += cf * ty - sf * tz
-                tau[4] += -st * tx + ct * sf * ty + cf * ct * tz
-                tau[5] += r00 * bx + r01 * by + r02 * bz
-                tau[6] += r10 * bx + r11 * by + r12 * bz
-                tau[7] += r20 * bx + r21 * by + r22 * bz
+                w = body_wrench_scalar(kin, (bx, by, bz), (dy * bz - dz * by, dz * bx - dx * bz,
+                                                           dx * by - dy * bx))
+                for i in range(6):
+                    tau[2 + i] += w[i]
         tau = np.array(tau)
         if p_dist.HasValue(context):
             tau += p_dist.Eval(context)

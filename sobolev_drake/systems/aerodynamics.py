@@ -31,7 +31,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
 from sobolev_drake.models.tiltrotor_params import SURFACES, R_W, TiltrotorParams, cross_rows
-from sobolev_drake.systems.propulsion import body_kinematics_scalar
+from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
 
 _COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
 
@@ -209,8 +209,7 @@ class AeroModel:
         (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
         imax = int(nmax) - 1
         sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
-        ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
-         (wx, wy, wz), (vbx, vby, vbz)) = kin
+        _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
         de, dr = 0.5 * (delta[2] + delta[3]), 0.5 * (delta[2] - delta[3])
         dlift = (0.0, cda * delta[0], cda * delta[1], cde * de, cde * de, 0.0)
         dside = (0.0, 0.0, 0.0, cdr * dr, cdr * dr, 0.0)
@@ -268,9 +267,7 @@ class AeroModel:
             if columns and 1 <= k <= 4:
                 # lift direction z_w = [−sα, 0, cα], side direction y_w = [−cα sβ, cβ, −sα sβ]
                 unit[k] = (-sa * ks, ca * ks, -ca * sb * ks, cb * ks, -sa * sb * ks)
-        out = [0.0, 0.0, Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
-               r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
-               r20 * Fx + r21 * Fy + r22 * Fz]
+        out = [0.0, 0.0, *body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz))]
         if not columns:
             return out, Vs, None
         # Deflection columns [δWR δWL δTR δTL]: body force and moment per radian, summed over
@@ -301,9 +298,7 @@ class AeroModel:
                 Tx += ry * bz - rz * by
                 Ty += rz * bx - rx * bz
                 Tz += rx * by - ry * bx
-            cols.append((Tx, cf * Ty - sf * Tz, -st * Tx + ct * sf * Ty + cf * ct * Tz,
-                         r00 * Fx + r01 * Fy + r02 * Fz, r10 * Fx + r11 * Fy + r12 * Fz,
-                         r20 * Fx + r21 * Fy + r22 * Fz))
+            cols.append(body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz)))
         return out, Vs, cols
 
     def terms_scalar(self, q, qdot, zeta):

@@ -24,20 +24,12 @@ import numpy as np
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams, body_generalized_force, R_IB
 from sobolev_drake.systems.aerodynamics import AeroModel
-from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_scalar
+from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_scalar, body_wrench_scalar
 
 #: reference propeller speed (rev/s) for Cq/Ct when ``n`` is not given: thesis hover trim
 N_REF = 51.9
 
 _CORES: dict = {}
-
-
-def _vec(name, value, size):
-    """Float vector of length ``size`` (fast path of ``check_vector``, same errors)."""
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.isfinite(arr).all():
-        return check_vector(name, value, size)
-    return arr
 
 
 def cores(params: TiltrotorParams | None = None):
@@ -61,6 +53,11 @@ def _params_of(model_or_params):
     return params
 
 
+def _check_torque(torque):
+    if torque not in ("through_thrust", "passive"):
+        raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
+
+
 def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
     """(B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
 
@@ -76,8 +73,7 @@ def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
     Python scalar math (:func:`input_affine_terms`); :func:`input_affine_vectorized` is the
     numpy formulation it is tested against.
     """
-    if torque not in ("through_thrust", "passive"):
-        raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
+    _check_torque(torque)
     t = input_affine_terms(model, q, qdot, zeta, n, torque=torque)
     return t.B, t.passive
 
@@ -97,17 +93,16 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
     surface air speeds (bounds (7.87)–(7.89)) and the rotor inflow (thrust inversion (7.90)),
     from one pass of scalar kinematics (the controller's per-sample hot path)."""
     p = _params_of(model)
-    q = _vec("q", q, 8)
-    qdot = _vec("qdot", qdot, 8)
-    zeta = _vec("zeta", zeta, 3)
-    nl = [N_REF, N_REF] if n is None else _vec("n", n, 2).tolist()
+    q = check_vector("q", q, 8)
+    qdot = check_vector("qdot", qdot, 8)
+    zeta = check_vector("zeta", zeta, 3)
+    nl = [N_REF, N_REF] if n is None else check_vector("n", n, 2).tolist()
     prop, aero = cores(p)
     c = prop.coef
     ql, qdl = q.tolist(), qdot.tolist()
     kin = body_kinematics_scalar(ql, qdl, zeta.tolist())
     rotors = prop.rotors_scalar(ql, qdl, kin)
     passive, V, cols = aero.loads_scalar(kin, (0.0, 0.0, 0.0, 0.0), columns=True)
-    (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
     # B assembled row-major in Python floats: [thrust R, thrust L, servo R, servo L, δ columns]
     rows = [[0.0, 0.0, prop.cosb, 0.0, 0.0, 0.0, 0.0, 0.0],
             [0.0, 0.0, 0.0, prop.cosb, 0.0, 0.0, 0.0, 0.0]]
@@ -133,38 +128,20 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
             col = list(gf)
             tq = prop._lam_f[k] * (c.rho * d ** 5 * nl[k] ** 2 * cq_)
             passive[k] += tq * zy
-            passive[2] += tq * zx
-            passive[3] += tq * (cf * zy - sf * zz)
-            passive[4] += tq * (-st * zx + ct * sf * zy + cf * ct * zz)
+            for i, v in enumerate(body_wrench_scalar(kin, (0.0, 0.0, 0.0), (zx, zy, zz))[:3], start=2):
+                passive[i] += tq * v
         rows[k][k] = col[0]
-        tx, ty, tz = col[1], col[2], col[3]
-        rows[2][k] = tx
-        rows[3][k] = cf * ty - sf * tz
-        rows[4][k] = -st * tx + ct * sf * ty + cf * ct * tz
-        rows[5][k] = r00 * zx + r01 * zy + r02 * zz
-        rows[6][k] = r10 * zx + r11 * zy + r12 * zz
-        rows[7][k] = r20 * zx + r21 * zy + r22 * zz
+        for i, v in enumerate(body_wrench_scalar(kin, (zx, zy, zz), col[1:]), start=2):
+            rows[i][k] = v
     passive[0] -= p.nu * qdl[0]
     passive[1] -= p.nu * qdl[1]
     return AffineTerms(np.array(rows), np.array(passive), np.array(V), np.array(vxz), np.array(phis))
 
 
 def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
-    """Numpy formulation of :func:`input_affine` (reference for its tests).
-
-    (B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
-
-    ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
-    torque/thrust ratio Cq/Ct(J, φ) (default ``N_REF``).  Columns of B follow ``ACTUATOR_NAMES``.
-
-    ``torque``: ``"through_thrust"`` (Appendix C, default) puts the drag torque in the thrust
-    columns via t = λ d (Cq/Ct) f.  Ct(J, φ) crosses zero near J = 0.75 (windmilling, min Ct ≈
-    −0.0025) where that ratio blows up; ``"passive"`` instead puts the torque
-    λ ρ d⁵ n² Cq(J, φ) of the given ``n`` into ϑ_passive and keeps B's thrust columns pure thrust.
-    Both satisfy ϑ = B τ̄ + ϑ_passive exactly for the given n.
-    """
-    if torque not in ("through_thrust", "passive"):
-        raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
+    """Numpy formulation of :func:`input_affine` (same arguments and result; the reference
+    its scalar code is tested against)."""
+    _check_torque(torque)
     p = _params_of(model)
     q = check_vector("q", q, 8)
     qdot = check_vector("qdot", qdot, 8)

@@ -53,14 +53,6 @@ from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
 __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
 
 
-def _vec(name: str, value, size: int) -> np.ndarray:
-    """Fast float-vector check (called at every integrator stage)."""
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.isfinite(arr).all():
-        return check_vector(name, value, size)  # raises the descriptive error
-    return arr
-
-
 @dataclass(frozen=True)
 class Partition:
     """DOF partition by thesis indices (0-based, thesis order).
@@ -198,7 +190,7 @@ class MechanicalLaw:
 
     # --- errors ----------------------------------------------------------------------------
     def split_reference(self, reference):
-        r = _vec("reference", reference, 3 * self.n_ref)
+        r = check_vector("reference", reference, 3 * self.n_ref)
         return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
 
     def integral_derivative(self, q, reference) -> np.ndarray:
@@ -245,7 +237,7 @@ class MechanicalLaw:
         return M, h + m.friction(qdot)
 
     def _parse(self, q, qdot, e_int):
-        return _vec("q", q, self.n), _vec("qdot", qdot, self.n), _vec("e_int", e_int, self.nc)
+        return check_vector("q", q, self.n), check_vector("qdot", qdot, self.n), check_vector("e_int", e_int, self.nc)
 
     # --- W laws ------------------------------------------------------------------------------
     def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:

@@ -43,6 +43,18 @@ def body_kinematics_scalar(q, qdot, zeta):
             (wx, wy, wz), (vbx, vby, vbz))
 
 
+def body_wrench_scalar(kin, force, torque):
+    """Rows 2..7 (φ θ ψ x y z) of the generalized force of a body-axes force ``force`` and
+    torque ``torque`` (about C1) on the main body: [Wηᵀ T, R F] (scalar form of
+    ``tiltrotor_params.body_generalized_force``).  ``kin`` from :func:`body_kinematics_scalar`."""
+    (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
+    fx, fy, fz = force
+    tx, ty, tz = torque
+    return (tx, cf * ty - sf * tz, -st * tx + ct * sf * ty + cf * ct * tz,
+            r00 * fx + r01 * fy + r02 * fz, r10 * fx + r11 * fy + r12 * fz,
+            r20 * fx + r21 * fy + r22 * fz)
+
+
 class PropellerCoefficients:
     """Ct(J, φ) and Cq(J, φ) of the 24-inch propeller, quartic in (J, φ).
 
@@ -270,7 +282,6 @@ class PropulsionModel:
         :meth:`rotors_scalar` at propeller speeds ``n`` (two floats)."""
         sqrt, atan2 = math.sqrt, math.atan2
         c = self.coef
-        (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
         d, Jmax = c.diameter, c.J_max
         kf, kt = self._kf, self._kt
         out = [0.0] * 8
@@ -295,12 +306,7 @@ class PropulsionModel:
             Tx += ry * bz - rz * by + t * zx
             Ty += rz * bx - rx * bz + t * zy
             Tz += rx * by - ry * bx + t * zz
-        out[2] = Tx
-        out[3] = cf * Ty - sf * Tz
-        out[4] = -st * Tx + ct * sf * Ty + cf * ct * Tz
-        out[5] = r00 * Fx + r01 * Fy + r02 * Fz
-        out[6] = r10 * Fx + r11 * Fy + r12 * Fz
-        out[7] = r20 * Fx + r21 * Fy + r22 * Fz
+        out[2:8] = body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz))
         return out
 
     def propeller_force(self, q, qdot, zeta, n):

@@ -44,7 +44,6 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
-from sobolev_drake.systems.mechanical_controller import _vec  # fast finite-vector check
 
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
@@ -216,10 +215,10 @@ class TiltrotorWInfLaw:
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
         (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
-        q = _vec("q", q, N_Q)
-        qdot = _vec("qdot", qdot, N_Q)
-        ref = _vec("reference", reference, 12)
-        wind = _vec("wind", wind, 3)
+        q = check_vector("q", q, N_Q)
+        qdot = check_vector("qdot", qdot, N_Q)
+        ref = check_vector("reference", reference, 12)
+        wind = check_vector("wind", wind, 3)
         r = ref.tolist()
         al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
                                                            (r[3], r[7], r[11]), wind.tolist())
@@ -235,7 +234,7 @@ class TiltrotorWInfLaw:
         # u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), i.e. MechanicalLaw.generalized_input with
         # extra = ϑ_passive, without recomputing q̈_des (M, h cached for this (q, q̇))
         M, h = self.mech_law._dynamics(q, qdot)
-        u = M @ qdd + h - _vec("theta_passive", theta, N_Q)
+        u = M @ qdd + h - check_vector("theta_passive", theta, N_Q)
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
