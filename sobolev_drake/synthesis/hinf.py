@@ -41,8 +41,9 @@ __all__ = ["GeneralizedPlant", "DynamicController", "SynthesisResult", "Synthesi
            "COUPLING_MARGIN", "EPS"]
 
 
-def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS):
-    """BRL for each vertex with a common X, W; returns (prog, X, W, gamma variable or None).
+def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS):
+    """BRL for each vertex with a common X, W; returns (prog, X, W, gamma variable or None)
+    (``gamma`` None: minimized; else fixed).
 
     Symmetric gamma form [[He(AX + B2 W), B1, (C1 X + D12 W)'], [B1', -gamma I, D11'],
     [., D11, -gamma I]] (equivalent to the Schur complement of (6.5) in the gamma^2 form with
@@ -56,13 +57,13 @@ def _sf_program(plants, *, region, gamma2, input_weight, gain_bound, margin=EPS)
     prog = LMIProgram()
     X = prog.sym(n)
     W = prog.full(nu, n)
-    g = prog.scalar() if gamma2 is None else None
-    gam = None if gamma2 is None else float(np.sqrt(gamma2))
+    g = prog.scalar() if gamma is None else None
+    gam = g if g is not None else float(gamma)  # variable or constant, same blocks
     prog.add_pos(X, EPS)
     for p in plants:
         Ww = np.eye(p.nw) if input_weight is None else input_weight
-        gblk = (-g * Ww) if g is not None else -gam * Ww
-        zblk = (-g * np.eye(p.nz)) if g is not None else -gam * np.eye(p.nz)
+        gblk = -gam * Ww
+        zblk = -gam * np.eye(p.nz)
         AX = p.A @ X + p.B2 @ W
         CX = p.C1 @ X + p.D12 @ W
         prog.add_lmi(bmat([[AX.sym(), p.B1, CX.T],
@@ -110,7 +111,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     T, Su = resolve_scaling(scaling, plants)
     splants = [scale_plant(p, T, Su) for p in plants]
     _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
-    prog, X, W, gv = _sf_program(splants, region=region, gamma2=None if gamma is None else gamma ** 2,
+    prog, X, W, gv = _sf_program(splants, region=region, gamma=gamma,
                                  input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
     gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
     lam = g_opt = None  # gamma in the LMI solved last; LMI optimum
@@ -142,7 +143,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                                          regularize, warns)
     if need:
         def solve_at(g):
-            prog2, X2, W2, _ = _sf_program(splants, region=region, gamma2=g ** 2, input_weight=input_weight,
+            prog2, X2, W2, _ = _sf_program(splants, region=region, gamma=g, input_weight=input_weight,
                                            gain_bound=True, margin=margin)
             nonlocal X, W, lam
             X, W, lam = X2, W2, g

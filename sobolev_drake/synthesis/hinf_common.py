@@ -138,6 +138,12 @@ class SynthesisResult:
     def well_posed(self):
         return not self.warnings
 
+    def closed_loop(self, plant):
+        """(A_cl, B_cl, C_cl, D_cl) of w -> z for ``plant`` closed by this result's controller."""
+        if self.kind == "state_feedback":
+            return plant.closed_loop(K=self.K)
+        return plant.closed_loop(controller=self.controller)
+
 
 def _check_gamma_request(gamma, bound, what="gamma"):
     if gamma is not None and gamma <= bound * (1 + 1e-9):
@@ -210,8 +216,7 @@ def _strict_check(res, plants, region, rtol, status):
     _finish(res, plants, region, rtol, False, status)
     if res.P is not None and res.certificate.ok:
         for p in plants:
-            cl = p.closed_loop(K=res.K) if res.kind == "state_feedback" else p.closed_loop(controller=res.controller)
-            r = brl_residual(*cl, res.P, res.gamma)
+            r = brl_residual(*res.closed_loop(p), res.P, res.gamma)
             if r > BRL_TOL:
                 res.certificate.failures.append(f"P violates the gamma^2-form bounded-real "
                                                 f"inequality (relative eigenvalue {r:.2e})")
@@ -259,8 +264,7 @@ def compress_performance(p):
 def _finish(res, plants, region, rtol, verify, status):
     certs = []
     for p in plants:
-        cl = p.closed_loop(K=res.K) if res.kind == "state_feedback" else p.closed_loop(controller=res.controller)
-        certs.append(certify_closed_loop(*cl, res.gamma, region=region, rtol=rtol, solver_status=status))
+        certs.append(certify_closed_loop(*res.closed_loop(p), res.gamma, region=region, rtol=rtol, solver_status=status))
     res.certificates = certs
     res.certificate = max(certs, key=lambda c: c.achieved) if certs else None
     if verify:

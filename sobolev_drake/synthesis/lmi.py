@@ -285,10 +285,7 @@ class LMIProgram:
         blocks_A, blocks_b, sizes = [], [], []
         for _, F, margin in self.lmis:
             n = F.shape[0]
-            j, i = np.triu_indices(n)  # (i <= j) ordered by column j, then row i
-            i, j = j, i
-            order = np.lexsort((i, j))
-            i, j = i[order], j[order]
+            j, i = np.tril_indices(n)  # (i <= j) ordered by column j, then row i
             rows = i * n + j
             scale = np.where(i == j, 1.0, np.sqrt(2.0))
             blocks_A.append(sp.diags(scale) @ F._ncols(self.nvar)[rows])

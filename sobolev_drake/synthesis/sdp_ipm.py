@@ -27,13 +27,17 @@ Measured behaviour (tests/test_synthesis.py plants, benchmarks/synthesis.py):
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
 
+@functools.lru_cache(maxsize=1)
 def _blas_thread_setters():
-    """(get, set) of the OpenBLAS thread count of the loaded BLAS libraries, if any.
+    """(get, set) of the OpenBLAS thread count of the loaded BLAS libraries, if any (looked up
+    once per process: numpy's BLAS is loaded before any solve).
 
     The IPM works on many small dense matrices; multi-threaded BLAS on them is slower, and
     much slower on a loaded machine (measured: 14 s vs 1.1 s for the 20-state benchmark).
@@ -44,7 +48,7 @@ def _blas_thread_setters():
         with open("/proc/self/maps") as f:
             paths = {line.split()[-1] for line in f if "openblas" in line.lower() and "/" in line}
     except OSError:
-        return out
+        return ()
     for path in sorted(paths):
         try:
             lib = ctypes.CDLL(path)
@@ -60,7 +64,7 @@ def _blas_thread_setters():
             else:
                 continue
             break
-    return out
+    return tuple(out)
 
 
 class _SingleThreadBLAS:
