@@ -55,43 +55,41 @@ def _disturbance_model():
     return Ad, Bd, Cd
 
 
+def _closed_loop_norm(plant, ctrl, extra_states=0):
+    """‖T‖∞ of ``plant`` closed by ``ctrl`` (inf if unstable); a state feedback K ignores the
+    last ``extra_states`` states (the disturbance filters it does not measure)."""
+    from sobolev_drake.synthesis.certificates import hinf_norm
+    from sobolev_drake.synthesis.hinf import DynamicController
+
+    if ctrl["kind"] == "sf":
+        K = np.asarray(ctrl["K"])
+        cl = plant.closed_loop(K=np.hstack([K, np.zeros((K.shape[0], extra_states))]))
+    else:
+        cl = plant.closed_loop(controller=DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]))
+    if np.linalg.eigvals(cl[0]).real.max() >= 0:
+        return np.inf
+    return float(hinf_norm(*cl)[0])
+
+
 def common_channel_norm(lin, ctrl):
     """‖T_vz‖∞ of the augmented (x, d) plant closed with ``ctrl`` (acting on x or y = C x).
 
     v → d → ζ = Cd d is the von Kármán model; z = [Γ0^½ Δx; Γ1^½ Δẋ].  Same yardstick for
     every design (the well-posed disturbance-model designs minimize exactly this)."""
     from sobolev_drake.synthesis import sobolev as sb
-    from sobolev_drake.synthesis.certificates import hinf_norm
-    from sobolev_drake.synthesis.hinf import DynamicController
 
     Ad, Bd, Cd = _disturbance_model()
-    if ctrl["kind"] == "sf":
-        p = sb.augmented_disturbance_plant(lin.A, lin.B, lin.D, Ad, Bd, Cd, GAMMA0, GAMMA1)
-        K = np.asarray(ctrl["K"])
-        cl = p.closed_loop(K=np.hstack([K, np.zeros((K.shape[0], Ad.shape[0]))]))
-    else:
-        p = sb.augmented_disturbance_plant(lin.A, lin.B, lin.D, Ad, Bd, Cd, GAMMA0, GAMMA1,
-                                           C=ctrl["C"])
-        cl = p.closed_loop(controller=DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]))
-    if np.linalg.eigvals(cl[0]).real.max() >= 0:
-        return np.inf
-    return float(hinf_norm(*cl)[0])
+    C = None if ctrl["kind"] == "sf" else ctrl["C"]
+    p = sb.augmented_disturbance_plant(lin.A, lin.B, lin.D, Ad, Bd, Cd, GAMMA0, GAMMA1, C=C)
+    return _closed_loop_norm(p, ctrl, extra_states=Ad.shape[0])
 
 
 def wind_channel_norm(lin, ctrl):
     """‖T_ζz‖∞ of the W∞ channel (6.1): wind ζ → z = [Γ0^½ Δx; Γ1^½ Δẋ], any controller."""
     from sobolev_drake.synthesis import sobolev as sb
-    from sobolev_drake.synthesis.certificates import hinf_norm
-    from sobolev_drake.synthesis.hinf import DynamicController
 
-    if ctrl["kind"] == "sf":
-        cl = sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1).closed_loop(K=np.asarray(ctrl["K"]))
-    else:
-        p = sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1, ctrl["C"])
-        cl = p.closed_loop(controller=DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]))
-    if np.linalg.eigvals(cl[0]).real.max() >= 0:
-        return np.inf
-    return float(hinf_norm(*cl)[0])
+    C = None if ctrl["kind"] == "sf" else ctrl["C"]
+    return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1, C), ctrl)
 
 
 def _solve(lin, kind, backend):
@@ -104,10 +102,11 @@ def _solve(lin, kind, backend):
     disk = regions.disk(DISK_RADIUS)
     notes = []
     # Default backends (measured on these 20/28-state plants): "auto" (own IPM, kept only when
-    # its certificate and the BRL re-check pass, else the Clarabel chain) is 4-8x faster than
-    # Clarabel with an equal or lower certified gamma (W-inf-D 120 s, gamma 0.034908 vs 610 s,
-    # 0.035458). The thesis' non-strict LMIs are degenerate: plain Clarabel without the
-    # fallback chain, whose CSDP step ran > 30 min on (6.36) without an answer.
+    # its certificate and the BRL re-check pass, else the Clarabel chain) for the W-inf state/
+    # output feedback, 4-8x faster than Clarabel at an equal certified gamma.  The thesis'
+    # non-strict LMIs are degenerate: plain Clarabel without the fallback chain, whose CSDP
+    # step ran > 30 min on (6.36) without an answer.  The well-posed disturbance-model designs
+    # are pinned to Clarabel below (dm_backend).
     thesis_form = kind.startswith("dm_thesis")
     dm_backend = backend or "clarabel"
     if backend is None:
