@@ -352,6 +352,11 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     rows, metrics, all_data, gains = [], {}, {}, {}
     mjson = out_dir / "tiltrotor-hover-linear_metrics.json"
     meshcat = None
+
+    def write_outputs():  # table and metrics; also after every design (interrupted runs)
+        mjson.write_text(json.dumps(metrics, indent=1, default=str))
+        return _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows, _title(duration))
+
     for name in designs:
         col = DESIGN_SPECS[name][1]
         thesis = THESIS_TABLE_7_2[col] if col else ("-", "-")
@@ -391,14 +396,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             html = out_dir / "tiltrotor-hover-linear.html"
             viz.save_recording_html(meshcat, d["recorder"], html)
             res.outputs["recording"] = html
-        # table and metrics after every design: they survive an interrupted run
-        md, js, text = _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows,
-                                    _title(duration))
-        mjson.write_text(json.dumps(metrics, indent=1, default=str))
-    md, js, text = _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows, _title(duration))
+        write_outputs()
+    md, js, text = write_outputs()
     if all_data:
         res.outputs.update(_plot(all_data, out_dir))
-    mjson.write_text(json.dumps(metrics, indent=1, default=str))
     res.outputs.update({"table_md": md, "table_json": js, "metrics_json": mjson})
     if gains:
         # controllers (u = u_trim + K Δx, or AK..DK on y = C Δx) for independent re-checks
