@@ -311,8 +311,7 @@ def lyapunov_bound(kind, data, res, x0=X0, xk0=None):
     xi = _initial_state(kind, data, x0, xk0)
     P = np.asarray(res.P)
     nk = xi.size - 4
-    plant = _performance_plant(kind, res, nk)
-    cl = plant.closed_loop(K=data) if kind == "sf" else plant.closed_loop(controller=data)
+    cl = res.closed_loop(_performance_plant(kind, res, nk))
     if P.shape[0] != xi.size:  # no disturbance states in the design: drop d
         xi = np.concatenate([xi[:2], xi[4:]])
     return brl_scale(*cl, P, res.gamma) * float(xi @ P @ xi)
