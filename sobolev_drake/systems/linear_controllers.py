@@ -59,7 +59,20 @@ def _selection(S, n):
     return S, S.shape[1]
 
 
-class LinearStateFeedback(LeafSystem):
+class _ClippedOutput:
+    """Outputs ``u`` (clipped to ``self._bounds`` when set) and ``u_raw`` from ``self._raw``."""
+
+    def _calc_u(self, context, output):
+        u = self._raw(context)
+        if self._bounds is not None:
+            u = np.clip(u, *self._bounds)
+        output.SetFromVector(u)
+
+    def _calc_raw(self, context, output):
+        output.SetFromVector(self._raw(context))
+
+
+class LinearStateFeedback(_ClippedOutput, LeafSystem):
     """u = u_r + K (S x - x_r) with constant u_r (operating point) and x_r (port or constant).
 
     K is stored in a numeric parameter (default: the ``K`` given here), so one diagram can serve
@@ -101,17 +114,8 @@ class LinearStateFeedback(LeafSystem):
         xr = self._xr.Eval(context) if self._xr is not None else self.x_r
         return self.u_r + self.gains(context) @ (x - xr)
 
-    def _calc_u(self, context, output):
-        u = self._raw(context)
-        if self._bounds is not None:
-            u = np.clip(u, *self._bounds)
-        output.SetFromVector(u)
 
-    def _calc_raw(self, context, output):
-        output.SetFromVector(self._raw(context))
-
-
-class LinearDynamicOutputFeedback(LeafSystem):
+class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
     """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op).
 
     The four matrices are stored in one numeric parameter (defaults: the matrices given here);
@@ -210,11 +214,3 @@ class LinearDynamicOutputFeedback(LeafSystem):
             u = u + DK @ self._dy(context)
         return u
 
-    def _calc_u(self, context, output):
-        u = self._raw(context)
-        if self._bounds is not None:
-            u = np.clip(u, *self._bounds)
-        output.SetFromVector(u)
-
-    def _calc_raw(self, context, output):
-        output.SetFromVector(self._raw(context))
