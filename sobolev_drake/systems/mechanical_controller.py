@@ -218,6 +218,12 @@ class MechanicalLaw:
         self._cache["dyn_key"], self._cache["dyn"] = key, out
         return out
 
+    def inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
+        """M(q) acc + C(q, q̇) q̇ + g(q) (+ friction): the generalized force for a desired
+        acceleration (full-state form of (5.26)); M, h cached per (q, q̇)."""
+        M, h = self._dynamics(q, qdot)
+        return M @ acc + h
+
     def _B(self, q):
         key = np.asarray(q, float).tobytes()
         if self._cache.get("B_key") != key:
@@ -297,8 +303,7 @@ class MechanicalLaw:
                 Mbar, _, hbar, _ = self.reduced_model(q, qdot)
                 out = Mbar @ acc[self.ic] + hbar
             else:
-                M, h = self._dynamics(q, qdot)
-                out = M @ acc + h
+                out = self.inverse_dynamics(q, qdot, acc)
         else:
             out = self._hinf_force(q, qdot, e_int, reference)
         if extra is not None:

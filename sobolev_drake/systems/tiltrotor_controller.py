@@ -232,9 +232,8 @@ class TiltrotorWInfLaw:
         else:
             B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
         # u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), i.e. MechanicalLaw.generalized_input with
-        # extra = ϑ_passive, without recomputing q̈_des (M, h cached for this (q, q̇))
-        M, h = self.mech_law._dynamics(q, qdot)
-        u = M @ qdd + h - check_vector("theta_passive", theta, N_Q)
+        # extra = ϑ_passive, without recomputing q̈_des
+        u = self.mech_law.inverse_dynamics(q, qdot, qdd) - check_vector("theta_passive", theta, N_Q)
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
