@@ -97,10 +97,16 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
     qdot = check_vector("qdot", qdot, 8)
     zeta = check_vector("zeta", zeta, 3)
     nl = [N_REF, N_REF] if n is None else check_vector("n", n, 2).tolist()
+    _check_torque(torque)
+    return affine_terms_scalar(p, q.tolist(), qdot.tolist(), zeta.tolist(), nl, torque)
+
+
+def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thrust") -> AffineTerms:
+    """:func:`input_affine_terms` on already validated lists of Python floats (q, q̇: 8, ζ: 3,
+    n: 2) — the controller's per-sample path, without re-checking what it checked."""
     prop, aero = cores(p)
     c = prop.coef
-    ql, qdl = q.tolist(), qdot.tolist()
-    kin = body_kinematics_scalar(ql, qdl, zeta.tolist())
+    kin = body_kinematics_scalar(ql, qdl, zl)
     rotors = prop.rotors_scalar(ql, qdl, kin)
     passive, V, cols = aero.loads_scalar(kin, (0.0, 0.0, 0.0, 0.0), columns=True)
     # B assembled row-major in Python floats: [thrust R, thrust L, servo R, servo L, δ columns]

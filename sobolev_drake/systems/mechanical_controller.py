@@ -153,6 +153,7 @@ class MechanicalLaw:
         from sobolev_drake.models.base import MechanicalModel
         cls = type(model)
         self._fast = all(getattr(cls, k) is getattr(MechanicalModel, k) for k in ("M", "Cqdot", "g"))
+        self._perm = self._permutation(getattr(model, "T", None)) if self._fast else None
         self._cache = {}
         p = partition
         self.ic = np.array(p.controlled, dtype=int)
@@ -161,6 +162,7 @@ class MechanicalLaw:
         self.iu = np.array(p.uncontrolled, dtype=int)
         self.nc, self.nr, self.ns = len(self.ic), len(self.ir), len(self.is_)
         self.n_ref = self.nc + self.nr
+        self._tracked = np.array(p.tracked, dtype=int)
         if isinstance(law, SobolevLaw):
             self._check_group("controlled", law.controlled, self.nc)
             self._check_group("regulated", law.regulated, self.nr)
@@ -200,7 +202,7 @@ class MechanicalLaw:
 
     def _errors(self, q, qdot, reference):
         qr, qdr, qddr = self.split_reference(reference)
-        tr = np.array(self.partition.tracked, dtype=int)
+        tr = self._tracked
         return q[tr] - qr, qdot[tr] - qdr, qddr
 
     def _h(self, q, qdot):
@@ -230,9 +232,33 @@ class MechanicalLaw:
             self._cache["B_key"], self._cache["B"] = key, np.asarray(self.model.B(q), dtype=float)
         return self._cache["B"]
 
+    @staticmethod
+    def _permutation(T):
+        """(index of [q; q̇] in Drake order, index of thesis order into Drake vectors, np.ix_
+        of the thesis-order mass matrix) when ``T`` (q_drake = T q_thesis) is a permutation
+        matrix with q̇ = v, else None."""
+        if T is None:
+            return None
+        T = np.asarray(T, dtype=float)
+        n = T.shape[0]
+        if (T.ndim != 2 or T.shape != (n, n) or not np.all((T == 0.0) | (T == 1.0))
+                or not np.all(T.sum(axis=0) == 1.0) or not np.all(T.sum(axis=1) == 1.0)):
+            return None
+        to_thesis = np.argmax(T, axis=0)          # q_thesis[j] = q_drake[to_thesis[j]]
+        to_drake = np.argsort(to_thesis)          # q_drake[i] = q_thesis[to_drake[i]]
+        return (np.concatenate([to_drake, to_drake + n]), to_thesis, np.ix_(to_thesis, to_thesis))
+
     def _dynamics_eval(self, q, qdot):
         m = self.model
-        if self._fast:
+        if self._perm is not None:
+            # T is a permutation: index arrays give bit-identical results to the products
+            # below at a fraction of the per-sample cost (one state write, no 8×8 matmuls)
+            plant, ctx = m.plant, m.context
+            to_drake, to_thesis, ix = self._perm
+            plant.SetPositionsAndVelocities(ctx, np.concatenate([q, qdot])[to_drake])
+            M = plant.CalcMassMatrix(ctx)[ix]
+            h = (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))[to_thesis]
+        elif self._fast:
             plant, ctx, T = m.plant, m.context, m.T
             plant.SetPositions(ctx, T @ q)
             plant.SetVelocities(ctx, T @ qdot)
@@ -251,6 +277,11 @@ class MechanicalLaw:
         if not isinstance(self.law, SobolevLaw):
             raise TypeError("desired_acceleration is defined for the Sobolev law only")
         q, qdot, e_int = self._parse(q, qdot, e_int)
+        return self._desired_acceleration_core(q, qdot, e_int, reference)
+
+    def _desired_acceleration_core(self, q, qdot, e_int, reference) -> np.ndarray:
+        """:meth:`desired_acceleration` without the checks of q, q̇ and ∫e (float vectors of
+        the right size, already validated by the caller, e.g. the tilt-rotor law per sample)."""
         e, ed, qddr = self._errors(q, qdot, reference)
         acc = np.full(self.n, np.nan)
         nc = self.nc

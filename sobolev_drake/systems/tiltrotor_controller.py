@@ -219,6 +219,7 @@ class TiltrotorWInfLaw:
         qdot = check_vector("qdot", qdot, N_Q)
         ref = check_vector("reference", reference, 12)
         wind = check_vector("wind", wind, 3)
+        integral_ec = check_vector("e_int", integral_ec, len(CONTROLLED))
         r = ref.tolist()
         al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
                                                            (r[3], r[7], r[11]), wind.tolist())
@@ -226,7 +227,8 @@ class TiltrotorWInfLaw:
         # tracked_reference((p, v, a)[:3], ref_r) assembled directly
         tracked = np.array(r[0:3] + [al, al, psi] + r[4:7] + [ald, ald, psid]
                            + r[8:11] + [aldd, aldd, psidd])
-        qdd = self.mech_law.desired_acceleration(q, qdot, integral_ec, tracked)
+        # q, q̇, ∫e are checked above: the law's unchecked core (same arithmetic)
+        qdd = self.mech_law._desired_acceleration_core(q, qdot, integral_ec, tracked)
         if n_prev is None or min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
             B, theta = self.input_affine(self.model, q, qdot, wind)
         else:
