@@ -28,6 +28,7 @@ import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
                           SynthesisResult, SynthesisWarning, _check_gamma_request, _finish,
+                          check_initial_states, transient_bound,
                           _first_attempt, _ladder, _publish, _solve, _strict_check, _validate,
                           compress_performance)
 from .lmi import LMIProgram, SynthesisError, bmat
@@ -41,9 +42,11 @@ __all__ = ["GeneralizedPlant", "DynamicController", "SynthesisResult", "Synthesi
            "COUPLING_MARGIN", "EPS"]
 
 
-def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS):
+def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, x0=None):
     """BRL for each vertex with a common X, W; returns (prog, X, W, gamma variable or None)
-    (``gamma`` None: minimized; else fixed).
+    (``gamma`` None: minimized; else fixed).  With ``gain_bound`` the objective is a bound on
+    |W| and |X^-1| (least gain) or, given ``x0`` (n x k, columns in the program's
+    coordinates), the transient bound sum_i x0_i' X^-1 x0_i (:func:`state_feedback`).
 
     Symmetric gamma form [[He(AX + B2 W), B1, (C1 X + D12 W)'], [B1', -gamma I, D11'],
     [., D11, -gamma I]] (equivalent to the Schur complement of (6.5) in the gamma^2 form with
@@ -71,7 +74,12 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS):
                            [CX, p.D11, zblk]]), margin)
         if region is not None:
             prog.add_lmi(region_lmi(region, X, AX), EPS)
-    if gain_bound:
+    if gain_bound and x0 is not None:
+        ts = [prog.scalar() for _ in range(x0.shape[1])]
+        for t, c in zip(ts, x0.T):  # t >= c' X^-1 c (Schur complement)
+            prog.add_pos(bmat([[t, c[None, :]], [c[:, None], X]]))
+        prog.minimize(sum(ts[1:], ts[0]))
+    elif gain_bound:
         kw, kx = prog.scalar(), prog.scalar()
         prog.add_pos(bmat([[kw * np.eye(n), W.T], [W, np.eye(nu)]]))  # W^T W <= kw I
         prog.add_pos(bmat([[X, np.eye(n)], [np.eye(n), kx * np.eye(n)]]))  # X^-1 <= kx I
@@ -84,7 +92,7 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS):
 
 def state_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
                    regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                   vertices=None, margin=EPS, scaling=True):
+                   vertices=None, margin=EPS, scaling=True, initial_states=None):
     """H-infinity state feedback u = K x minimizing gamma (or feasibility at a given gamma).
 
     ``vertices``: optional list of extra plants sharing one Lyapunov matrix (polytopic,
@@ -99,6 +107,16 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     its result passes the certificate and the bounded-real test of P, else the default chain;
     4-8x faster on 12-20 states, see ``benchmarks/synthesis.py``) or one of
     ``lmi.BACKENDS``; ``result.backend`` / ``result.fallback`` say what produced the result.
+
+    ``initial_states``: x0 (n,) or columns x0_i (n, k).  Changes the secondary objective used
+    at a fixed gamma (``gamma`` given, or the regularizing re-solve at (1+delta) gamma_opt)
+    from the least-gain bound to the guaranteed transient cost sum_i x0_i' P x0_i, which
+    bounds sum_i ||z||^2 of the responses to x(0) = x0_i with w = 0 (the mixed H2/H-infinity
+    idea with a common Lyapunov matrix).  On problems whose optimum sits on the feedthrough
+    bound, gamma hardly constrains the closed loop and the least-gain controller can be
+    lightly damped; this picks, among the controllers with the same certified gamma, one
+    whose transient from the given states is small.  ``result.transient_bound`` reports the
+    bound (gamma^2 normalization of P).
     """
     plants = [plant] + list(vertices or [])
     if any(tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in plant.as_tuple())
@@ -109,10 +127,12 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     timings, warns = {}, []
     t0 = time.perf_counter()
     T, Su = resolve_scaling(scaling, plants)
+    X0 = check_initial_states(initial_states, plant.n)
+    sx0 = None if X0 is None else X0 / T[:, None]  # x = T x~
     splants = [scale_plant(p, T, Su) for p in plants]
     _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
-    prog, X, W, gv = _sf_program(splants, region=region, gamma=gamma,
-                                 input_weight=input_weight, gain_bound=gamma is not None, margin=margin)
+    prog, X, W, gv = _sf_program(splants, region=region, gamma=gamma, input_weight=input_weight,
+                                 gain_bound=gamma is not None, margin=margin, x0=sx0)
     gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
     lam = g_opt = None  # gamma in the LMI solved last; LMI optimum
 
@@ -144,7 +164,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     if need:
         def solve_at(g):
             prog2, X2, W2, _ = _sf_program(splants, region=region, gamma=g, input_weight=input_weight,
-                                           gain_bound=True, margin=margin)
+                                           gain_bound=True, margin=margin, x0=sx0)
             nonlocal X, W, lam
             X, W, lam = X2, W2, g
 
@@ -153,8 +173,11 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
             r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2), g)
             return _finish(r, plants, region, rtol, False, r.status)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        what = "the transient bound from initial_states" if X0 is not None else "a bound on the gain"
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     f"minimizing a bound on the gain (|K| = {np.linalg.norm(res.K, 2):.4g})")
+                     f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
+    if X0 is not None:
+        res.transient_bound = transient_bound(res, X0)
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
     return _publish(res, warns, t0, plants, region, rtol, verify)

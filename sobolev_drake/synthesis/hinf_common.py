@@ -132,6 +132,8 @@ class SynthesisResult:
     region: LMIRegion | None = None
     regularized: bool = False
     warnings: list = field(default_factory=list)
+    #: sum_i x0_i' P x0_i for the ``initial_states`` of the synthesis (None without them)
+    transient_bound: float | None = None
     fallback: str = ""  # automatic backend chain: why earlier backends were not used ("" = none)
 
     @property
@@ -143,6 +145,28 @@ class SynthesisResult:
         if self.kind == "state_feedback":
             return plant.closed_loop(K=self.K)
         return plant.closed_loop(controller=self.controller)
+
+
+def check_initial_states(x0, n):
+    """``initial_states`` keyword -> float array (n, k), or None."""
+    if x0 is None:
+        return None
+    X0 = np.asarray(x0, dtype=float)
+    if X0.ndim == 1:
+        X0 = X0[:, None]
+    if X0.ndim != 2 or X0.shape[0] != n or X0.shape[1] < 1:
+        raise ValueError(f"initial_states must have shape ({n},) or ({n}, k), got {np.shape(x0)}")
+    if not np.all(np.isfinite(X0)) or not np.any(X0):
+        raise ValueError("initial_states must be finite and not all zero")
+    return X0
+
+
+def transient_bound(res, X0):
+    """sum_i x0_i' P x0_i: bound on sum_i ||z||^2 from x(0) = x0_i (controller state 0), w = 0."""
+    if res.P is None:
+        return None
+    n = X0.shape[0]
+    return float(np.sum(X0 * (res.P[:n, :n] @ X0)))
 
 
 def _check_gamma_request(gamma, bound, what="gamma"):

@@ -17,16 +17,20 @@ import numpy as np
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
                           _check_gamma_request, _finish, _first_attempt, _ladder, _publish,
-                          _solve, _strict_check, _validate, compress_performance)
+                          _solve, _strict_check, _validate, check_initial_states,
+                          compress_performance, transient_bound)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 
 
 # --------------------------------------------------------------------------- output feedback
-def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, margin=EPS):
+def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, margin=EPS,
+                x0=None):
     """LMI program in the linearizing variables; returns (prog, variables, gamma variable)
-    (``gamma`` None: minimized; else fixed).
+    (``gamma`` None: minimized; else fixed).  With ``gain_bound`` the objective is a bound on
+    the controller variables (least gain) or, given ``x0`` (n x k, program coordinates), the
+    transient bound sum_i x0_i' Y x0_i (Y = P11 of the gamma form: linear in the variables).
 
     The bounded-real lemma is used in its symmetric gamma form
     [[He(.), ., ., .], [., ., -gamma I, .], [., ., ., -gamma I]] (objective gamma), as in the
@@ -64,7 +68,13 @@ def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, 
     prog.add_pos(XY, COUPLING_MARGIN)
     if region is not None:
         prog.add_lmi(region_lmi(region, XY, bmat([[AX, AC], [Ak, YA]])), EPS)
-    if gain_bound:
+    if gain_bound and x0 is not None:
+        obj = None
+        for c in x0.T:
+            term = c[None, :] @ Y @ c[:, None]
+            obj = term if obj is None else obj + term
+        prog.minimize(obj)
+    elif gain_bound:
         k = prog.scalar()
         Th = bmat([[Ak, Bk], [Ck, Dk]])
         m1, m2 = Th.shape
@@ -124,7 +134,7 @@ def singular_problem(plant, tol=1e-9):
 
 def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
                     regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                    strictly_proper=False, margin=EPS, scaling=True):
+                    strictly_proper=False, margin=EPS, scaling=True, initial_states=None):
     """Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
 
     Keywords as :func:`~sobolev_drake.synthesis.hinf.state_feedback`. ``scaling``: True
@@ -133,6 +143,8 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     tuple (T, Su, Sy) gives them, False solves in the given coordinates.  The controller is
     mapped back to y -> u, X and Y to the original state coordinates (X = T X~ T,
     Y = T^-1 Y~ T^-1), and the certificate is computed on the original plant.
+    ``initial_states``: as for state feedback, with the controller state starting at 0; the
+    secondary objective sum_i x0_i' Y x0_i is linear in Y.
     """
     p = plant
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
@@ -142,9 +154,11 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     timings, warns = {}, []
     t0 = time.perf_counter()
     T, Su, Sy = resolve_scaling(scaling, [p], outputs=True)
+    X0 = check_initial_states(initial_states, p.n)
     sp_ = scale_plant(p, T, Su, Sy)
     _validate([sp_], True)  # stabilizability/detectability are invariant; test the balanced plant
-    kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin)
+    kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin,
+              x0=None if X0 is None else X0 / T[:, None])
     prog, V, gv = _of_program(sp_, gamma=gamma,
                               gain_bound=gamma is not None, **kw)
     gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
@@ -190,14 +204,18 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
             return _finish(r, [p], region, rtol, False, r.status)
         V = list(V)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        what = ("the transient bound from initial_states" if X0 is not None
+                else "a bound on the (scaled) controller matrices")
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     "minimizing a bound on the (scaled) controller matrices")
+                     f"minimizing {what}")
     if not need and gamma is None:
         sing = singular_problem(p)
         if sing:
             warns.append(f"singular problem ({sing}): the optimum is generally an unattained infimum "
                          "and the controller of the LMI optimum depends on where the solver stops; "
                          "regularize=True gives the least-gain controller at (1+delta) gamma_opt")
+    if X0 is not None:
+        res.transient_bound = transient_bound(res, X0)
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")
