@@ -16,7 +16,8 @@ import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 
-from pydrake.systems.framework import LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.handles import PlantHandles
@@ -188,6 +189,14 @@ class TiltrotorForces(LeafSystem):
         self._port_list = [self._ports[k] for k in ("u", "propeller_speed", "servo_torque",
                                                      "surface_deflection", "wind",
                                                      "force_disturbance", "disturbance")]
+        # The actuator inputs change only when their sources do (a sampled controller: once per
+        # period): one cache entry holds their sum u, so a force evaluation reads it with one
+        # call instead of four look-ups and three copies.
+        self._inputs = self.DeclareCacheEntry(
+            "actuator inputs", ValueProducer(allocate=lambda: AbstractValue.Make(object()),
+                                             calc=self._calc_inputs),
+            {self.input_port_ticket(p.get_index()) for p in self._port_list[:4]})
+        self.input_evaluations = 0    # recomputations of that cache entry (tests, benchmarks)
         st = {self.input_port_ticket(self._state.get_index())}
         self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
         self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake)
@@ -204,14 +213,11 @@ class TiltrotorForces(LeafSystem):
     def _calc_x(self, context, output) -> None:
         output.SetFromVector(self._state.Eval(context)[self._perm16])
 
-    def thesis_force(self, context) -> np.ndarray:
-        """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
-        touches each port once, skips unconnected ones and uses the scalar force cores with
-        one shared body-kinematics pass."""
-        self.evaluations += 1
-        ql = self._state.Eval(context)[self._perm16].tolist()
-        q, qd = ql[:8], ql[8:]
-        p_u, p_n, p_s, p_d, p_w, p_f, p_dist = self._port_list
+    def _calc_inputs(self, context, value) -> None:
+        """u = ``u`` plus the propeller speeds, servo torques and deflections (a list of 8
+        floats; unconnected ports read zero)."""
+        self.input_evaluations += 1
+        p_u, p_n, p_s, p_d = self._port_list[:4]
         u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
         if p_n.HasValue(context):
             a, b = p_n.Eval(context).tolist()
@@ -223,6 +229,17 @@ class TiltrotorForces(LeafSystem):
             u[3] += b
         if p_d.HasValue(context):
             u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
+        value.set_value(u)
+
+    def thesis_force(self, context) -> np.ndarray:
+        """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
+        reads the actuator inputs from their cache entry, touches each other port once, skips
+        unconnected ones and uses the scalar force cores with one shared body-kinematics pass."""
+        self.evaluations += 1
+        ql = self._state.Eval(context)[self._perm16].tolist()
+        q, qd = ql[:8], ql[8:]
+        u = self._inputs.Eval(context)                   # read only: the cached list
+        p_w, p_f, p_dist = self._port_list[4:]
         zeta = p_w.Eval(context).tolist() if p_w.HasValue(context) else [0.0] * 3
         kin = body_kinematics_scalar(q, qd, zeta)
         tp = self.prop.propeller_force_scalar(kin, self.prop.rotors_scalar(q, qd, kin), u[0:2])
