@@ -161,3 +161,20 @@ def test_smoke_inputs_within_bounds(smoke):
     assert e["nPR"]["max"] < 200 and e["nPL"]["max"] < 200
     b = res.metrics["bounds_check"]
     assert b["tau_within_bounds"] and b["speeds_nonnegative"]
+
+
+def test_per_sample_paths_equal_general_ones(law):
+    """The law's float q̈_des and recursive-Newton–Euler u* (per-sample paths) equal
+    MechanicalLaw.desired_acceleration and M q̈ + C q̇ + g to rounding."""
+    rng = np.random.default_rng(7)
+    mech = law.mech_law
+    for _ in range(5):
+        q, qd, ref, wind, ie = _random_case(rng)
+        tracked = rng.normal(size=18)
+        a = mech.desired_acceleration(q, qd, ie, tracked)
+        b = mech.desired_acceleration_scalar(q.tolist(), qd.tolist(), ie.tolist(), tracked.tolist())
+        np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-12)
+        acc = rng.normal(size=8)
+        u1 = mech.inverse_dynamics(q, qd, acc)
+        u2 = mech.recursive_inverse_dynamics(q, qd, acc)
+        np.testing.assert_allclose(u2, u1, rtol=1e-12, atol=1e-11 * np.max(np.abs(u1)))

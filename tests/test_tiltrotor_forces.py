@@ -284,3 +284,40 @@ def test_scalar_propeller_coefficients_equal_vectorized():
             assert c.ct_scalar(float(J), float(phi)) == pytest.approx(ct, rel=1e-14, abs=1e-16)
             c4, c3, c2, c1, c0 = c.ct_in_J(float(phi))
             assert (((c4 * J + c3) * J + c2) * J + c1) * J + c0 == pytest.approx(ct, rel=1e-12, abs=1e-15)
+
+
+def test_actuator_input_cache_follows_port_changes(model):
+    """The force system caches the summed actuator inputs (recomputed only when an actuator
+    port changes, not per state or time change); a new port value must change the force."""
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    rng = np.random.default_rng(11)
+    q, qd, zeta = random_state(rng)
+    h.set_state(ctx, d, q, qd)
+    fc = h.forces.GetMyMutableContextFromRoot(ctx)
+    h.wind.FixValue(fc, zeta)
+    h.propeller_speed.FixValue(fc, [40.0, 45.0])
+    h.surface_deflection.FixValue(fc, [0.1, -0.1, 0.05, 0.0])
+    f1 = h.generalized_force.Eval(fc).copy()
+    k = h.forces.input_evaluations
+    h.set_state(ctx, d, q + 0.01, qd)          # state change: forces recomputed, inputs not
+    ctx.SetTime(1.0)
+    f2 = h.generalized_force.Eval(fc).copy()
+    assert h.forces.input_evaluations == k and not np.allclose(f1, f2)
+    h.set_state(ctx, d, q, qd)
+    for port, val in ((h.propeller_speed, [50.0, 45.0]), (h.servo_torque, [0.5, -0.5]),
+                      (h.surface_deflection, [0.0, 0.0, 0.2, 0.1]), (h.u, np.full(8, 0.01))):
+        port.FixValue(fc, val)
+        f3 = h.generalized_force.Eval(fc).copy()
+        assert not np.allclose(f3, f1)
+        # same as a fresh context with the same inputs
+        fresh = d.CreateDefaultContext()
+        h.set_state(fresh, d, q, qd)
+        ff = h.forces.GetMyMutableContextFromRoot(fresh)
+        for p in (h.wind, h.propeller_speed, h.servo_torque, h.surface_deflection, h.u):
+            if p.HasValue(fc):
+                p.FixValue(ff, p.Eval(fc))
+        np.testing.assert_array_equal(h.generalized_force.Eval(ff), f3)
+        f1 = f3

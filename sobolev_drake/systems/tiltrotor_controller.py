@@ -139,6 +139,17 @@ def tracked_reference(ref_c, ref_r):
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
+def _checked(name, value, size):
+    """(float array, list of its floats) of a finite vector of length ``size``; otherwise
+    ``check_vector``'s descriptive error (the cheap form of the check, run once per sample)."""
+    arr = value if type(value) is np.ndarray and value.dtype == np.float64 else np.asarray(value, dtype=float)
+    if arr.shape == (size,):
+        lst = arr.tolist()
+        if all(map(math.isfinite, lst)):
+            return arr, lst
+    return check_vector(name, value, size), None        # raises
+
+
 def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
     of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
@@ -215,27 +226,28 @@ class TiltrotorWInfLaw:
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
         (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
-        q = check_vector("q", q, N_Q)
-        qdot = check_vector("qdot", qdot, N_Q)
-        ref = check_vector("reference", reference, 12)
-        wind = check_vector("wind", wind, 3)
-        integral_ec = check_vector("e_int", integral_ec, len(CONTROLLED))
-        r = ref.tolist()
+        q, ql = _checked("q", q, N_Q)
+        qdot, qdl = _checked("qdot", qdot, N_Q)
+        _, r = _checked("reference", reference, 12)
+        wind, wl = _checked("wind", wind, 3)
+        _, iel = _checked("e_int", integral_ec, len(CONTROLLED))
         al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
-                                                           (r[3], r[7], r[11]), wind.tolist())
+                                                           (r[3], r[7], r[11]), wl)
         ref_r = (np.array([al, al, psi]), np.array([ald, ald, psid]), np.array([aldd, aldd, psidd]))
         # tracked_reference((p, v, a)[:3], ref_r) assembled directly
-        tracked = np.array(r[0:3] + [al, al, psi] + r[4:7] + [ald, ald, psid]
-                           + r[8:11] + [aldd, aldd, psidd])
-        # q, q̇, ∫e are checked above: the law's unchecked core (same arithmetic)
-        qdd = self.mech_law._desired_acceleration_core(q, qdot, integral_ec, tracked)
+        tracked = (r[0:3] + [al, al, psi] + r[4:7] + [ald, ald, psid]
+                   + r[8:11] + [aldd, aldd, psidd])
+        # q̈_des in floats and u* by recursive Newton–Euler: the per-sample path (equal to
+        # desired_acceleration / inverse_dynamics to rounding)
+        qdd = np.array(self.mech_law.desired_acceleration_scalar(ql, qdl, iel, tracked))
         if n_prev is None or min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
             B, theta = self.input_affine(self.model, q, qdot, wind)
         else:
             B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
         # u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), i.e. MechanicalLaw.generalized_input with
         # extra = ϑ_passive, without recomputing q̈_des
-        u = self.mech_law.inverse_dynamics(q, qdot, qdd) - check_vector("theta_passive", theta, N_Q)
+        u = (self.mech_law.recursive_inverse_dynamics(q, qdot, qdd)
+             - check_vector("theta_passive", theta, N_Q))
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
         n = np.asarray(self.thrust_to_speed(tau[:2], q, qdot, wind, n_guess=n_prev), dtype=float)
@@ -335,7 +347,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import cores, input_affine, input_affine_terms
+    from sobolev_drake.systems.input_affine import N_REF, affine_terms_scalar, cores, input_affine
 
     prop, aero = cores(model.params)
     if callable(schedule):
@@ -363,11 +375,14 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     shared = {"key": None, "terms": None}
 
     def terms(q, qdot, wind, n=None, reuse=True):
-        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes(),
-               np.asarray(wind, float).tobytes())
+        q, ql = _checked("q", q, N_Q)
+        qdot, qdl = _checked("qdot", qdot, N_Q)
+        wind, wl = _checked("zeta", wind, 3)
+        key = (q.tobytes(), qdot.tobytes(), wind.tobytes())
         if reuse and shared["key"] == key:
             return shared["terms"]
-        t = input_affine_terms(model, q, qdot, wind, n)
+        nl = [N_REF, N_REF] if n is None else _checked("n", n, 2)[1]
+        t = affine_terms_scalar(model.params, ql, qdl, wl, nl)
         shared["key"], shared["terms"] = key, t   # speeds and inflow do not depend on n
         return t
 
