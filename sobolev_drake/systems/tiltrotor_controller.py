@@ -266,7 +266,9 @@ class TiltrotorWInfController(LeafSystem):
     ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound).  All outputs are zero-order holds of the last update.
     """
 
-    # discrete state layout
+    # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
+    # copies of n, τs and δ for the three plant-facing outputs, declared as state output ports
+    # (copied by Drake in C++: three Python output callbacks less per sample)
     _I = slice(0, 3)        # ∫e_c
     _TAU = slice(3, 11)     # τ̄
     _N = slice(11, 13)      # propeller speeds
@@ -292,17 +294,17 @@ class TiltrotorWInfController(LeafSystem):
         if initial_speed is not None:
             init[self._N] = check_vector("initial_speed", initial_speed, 2)
         self._state = self.DeclareDiscreteState(BasicVector(init))
+        self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in
+                      (self._N, slice(5, 7), slice(7, 11))]
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-        dep = {self.all_state_ticket()}
-        for name, sl in [("propeller_speed", self._N), ("tau_bar", self._TAU),
-                         ("u_star", self._U), ("allocation_residual", self._RES),
-                         ("integral_error", self._I), ("saturation", self._SAT)]:
+        for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
+            self.DeclareStateOutputPort(name, idx)
+        dep = {self.discrete_state_ticket(self._state)}
+        for name, sl in [("tau_bar", self._TAU), ("u_star", self._U),
+                         ("allocation_residual", self._RES), ("integral_error", self._I),
+                         ("saturation", self._SAT)]:
             self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(sl),
                                          prerequisites_of_calc=dep)
-        self.DeclareVectorOutputPort("servo_torque", 2, self._slicer(slice(5, 7)),
-                                     prerequisites_of_calc=dep)
-        self.DeclareVectorOutputPort("surface_deflection", 4, self._slicer(slice(7, 11)),
-                                     prerequisites_of_calc=dep)
         self.last_step: ControlStep | None = None
 
     def _slicer(self, sl):
@@ -320,10 +322,15 @@ class TiltrotorWInfController(LeafSystem):
         step = self.law.step(q, qdot, ref, wind, ie, n_prev=old[self._N])
         # layout [∫e_c | τ̄ | n | u* | residual | saturation]; forward-Euler integral of the
         # controlled-DOF error over one sample
-        new = np.concatenate([ie + self.period * (q[CONTROLLED] - ref[0:3]), step.tau_bar,
-                              step.propeller_speed, step.u_star, [step.residual],
-                              saturation_flags(step.tau_bar, step.lo, step.up)])
+        tau, n = step.tau_bar, step.propeller_speed
+        new = np.concatenate([ie + self.period * (q[CONTROLLED] - ref[0:3]), tau, n,
+                              step.u_star, [step.residual],
+                              saturation_flags(tau, step.lo, step.up)])
         discrete_state.get_mutable_vector(self._state).SetFromVector(new)
+        g_n, g_s, g_d = self._held
+        discrete_state.get_mutable_vector(g_n).SetFromVector(n)
+        discrete_state.get_mutable_vector(g_s).SetFromVector(tau[2:4])
+        discrete_state.get_mutable_vector(g_d).SetFromVector(tau[4:8])
         self.last_step = step
 
 
