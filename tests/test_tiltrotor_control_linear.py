@@ -15,9 +15,9 @@ class _Trim:
     tau_s = np.array([-0.127, -0.127])
 
 
-def _build(ctrl, x, ref, integrals=None):
+def _build(ctrl, x, ref, integrals=None, velocity_reference="zero"):
     b = DiagramBuilder()
-    c = b.AddSystem(hl.LinearHoverController(ctrl, _Trim()))
+    c = b.AddSystem(hl.LinearHoverController(ctrl, _Trim(), velocity_reference))
     sx = b.AddSystem(ConstantVectorSource(x))
     sr = b.AddSystem(ConstantVectorSource(ref))
     b.Connect(sx.get_output_port(), c.GetInputPort("x"))
@@ -32,17 +32,19 @@ def _build(ctrl, x, ref, integrals=None):
     return c, cc
 
 
-def test_state_feedback_output_and_integrators():
+@pytest.mark.parametrize("velocity_reference", ["zero", "path"])
+def test_state_feedback_output_and_integrators(velocity_reference):
     rng = np.random.default_rng(0)
     K = rng.normal(scale=0.01, size=(4, 20))
     x = np.r_[_Trim.q + rng.normal(scale=0.01, size=8), rng.normal(scale=0.1, size=8)]
     ref = np.r_[1.0, 2.0, 3.0, 0.1, 0.5, -0.5, 0.2, 0.0, 0, 0, 0, 0]
     ints = np.array([0.1, -0.2, 0.3, 0.05])
-    c, cc = _build({"kind": "sf", "K": K}, x, ref, ints)
+    c, cc = _build({"kind": "sf", "K": K}, x, ref, ints, velocity_reference)
     qr = _Trim.q.copy()
     qr[4:8] = [0.1, 1.0, 2.0, 3.0]
-    qdr = np.zeros(8)
-    qdr[4:8] = [0.0, 0.5, -0.5, 0.2]
+    qdr = np.zeros(8)  # "zero": the thesis' q̇_r = 0
+    if velocity_reference == "path":
+        qdr[4:8] = [0.0, 0.5, -0.5, 0.2]
     dx = np.r_[x[:8] - qr, x[8:] - qdr, ints]
     du = K @ dx
     assert np.allclose(c.GetOutputPort("delta_u").Eval(cc), du)
@@ -69,6 +71,24 @@ def test_dynamic_controller_output():
     der = c.AllocateTimeDerivatives()
     c.CalcTimeDerivatives(cc, der)
     assert np.allclose(der.CopyToVector()[4:], -xk)
+
+
+def test_initial_error_literal_noise_and_bad_options(tmp_path):
+    """Δx(0) of Table 7.1 / q(0) (7.3.1); the literal noise reading scales σ by √(Δt/π)."""
+    dx = hl.initial_error(_Trim())
+    assert np.allclose(dx[:8], [0.137, 0.137, 0, -0.137, 0, -1, 0, -1]) and not np.any(dx[8:])
+    dp = hl.initial_error(_Trim(), "path")  # the helix starts at 20·2π/35 = 3.59 m/s along x
+    assert np.allclose(dp[13:16], [-20 * 2 * np.pi / 35, 0, -0.4]) and np.allclose(dp[:13], dx[:13])
+    lit = hl.literal_noise_turbulence()
+    assert np.allclose(lit.sigma, np.array([1.0, 5, 3]) * np.sqrt(0.01 / np.pi))
+    assert lit.offset == (-3.0, 0.0, 0.0) and (lit.t_on, lit.t_off) == (30.0, 170.0)
+    with pytest.raises(ValueError, match="velocity_reference"):
+        hl.LinearHoverController({"kind": "sf", "K": np.zeros((4, 20))}, _Trim(), "wind")
+    with pytest.raises(ValueError, match="regularization"):
+        hl.run(tmp_path, smoke=True, regularization="h2")
+    from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
+    with pytest.raises(ValueError, match="initial_state"):
+        hl.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
 
 
 def test_indices_ise_and_iadu_closed_form():
@@ -128,8 +148,9 @@ def test_smoke_nonlinear_flight_and_outputs(smoke):
     m = res.metrics["W∞"]
     assert m["finite"]
     assert m["max_attitude_deg"] < 60.0
-    # starts 1.41 m off the path ([x, z] offsets of −1 m), closes the gap within 10 s
-    assert m["final_pos_err_m"] < 1.0
+    # starts 1.41 m off the path ([x, z] offsets of −1 m); with the thesis' q̇_r = 0 the loop
+    # damps the absolute velocity and lags the 3.6 m/s helix (measured 1.41 m at 10 s)
+    assert m["final_pos_err_m"] < 2.0 and m["rms_pos_m"] < 2.0
     assert m["ise"] > 0 and m["iadu"] > 0
     assert all(c.held for c in res.claims)
     for key in ("table_md", "table_json", "metrics_json", "controllers_npz", "path_3d", "errors", "wind"):

@@ -92,8 +92,8 @@ def wind_channel_norm(lin, ctrl):
     return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1, C), ctrl)
 
 
-def _solve(lin, kind, backend):
-    """Returns (SynthesisResult, C or None, extra notes)."""
+def _solve(lin, kind, backend, x0=None):
+    """Returns (SynthesisResult, C or None, extra notes); ``x0``: see :func:`design`."""
     from sobolev_drake.synthesis import hinf, regions
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.synthesis.lmi import InfeasibleLMIError
@@ -112,12 +112,12 @@ def _solve(lin, kind, backend):
     if backend is None:
         backend = "clarabel" if thesis_form else "auto"
     if kind in ("sf", "sf_disk"):
-        return sb.winf_state_feedback(A, B, D, GAMMA0, GAMMA1, backend=backend,
+        return sb.winf_state_feedback(A, B, D, GAMMA0, GAMMA1, backend=backend, initial_states=x0,
                                       region=disk if kind == "sf_disk" else None), None, notes
     if kind == "of":
         C = output_matrix()
         return hinf.output_feedback(sb.winf_plant(A, B, D, GAMMA0, GAMMA1, C), region=disk,
-                                      backend=backend), C, notes
+                                    backend=backend, initial_states=x0), C, notes
     Ad, Bd, Cd = _disturbance_model()
     if kind.startswith("dm_thesis"):
         of = kind.endswith("of")
@@ -155,12 +155,22 @@ def _solve(lin, kind, backend):
     # 0.03491 gave a controller so stiff that 0.2 s of flight took 240 s of wall time;
     # Clarabel's 0.03546 flies.  The least-gain re-solve (regularize=True) did not finish in
     # 15 min on this 28-state problem, so the design is pinned to Clarabel and says so.
-    r = hinf.output_feedback(plant, region=disk, backend=dm_backend)
+    if x0 is None:
+        r = hinf.output_feedback(plant, region=disk, backend=dm_backend)
+    else:  # filter states start at 0; the transient re-solve also removes the solver dependence
+        r = hinf.output_feedback(plant, region=disk, backend=dm_backend, regularize=True,
+                                 initial_states=np.r_[x0, np.zeros(plant.n - x0.size)])
     return r, (np.eye(20) if C is None else C), notes
 
 
-def design(lin, which, *, backend=None):
+def design(lin, which, *, backend=None, initial_state=None):
     """Synthesize one of :data:`DESIGNS` on the linearization ``lin`` (fields A, B, D).
+
+    ``initial_state``: Δx(0) (20,) of the flight.  Given, the designs whose γ is fixed at
+    (1+δ)γ* (W∞, W∞-O.F.: optimum on the feedthrough bound) or is an unattained infimum (the
+    well-posed W∞-D, W∞-O.F.D: re-solved at 1.01 γ*) minimize the guaranteed transient cost
+    Δx(0)ᵀ P Δx(0) at that γ instead of a gain bound (``initial_states`` of the synthesis); the
+    thesis-form LMIs are solved as written.  None: least-gain regularization.
 
     ``backend``: LMI backend; None picks "auto" for the W-inf state/output-feedback designs and
     "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate LMIs
@@ -176,11 +186,14 @@ def design(lin, which, *, backend=None):
     if which not in DESIGN_SPECS:
         raise ValueError(f"which must be one of {DESIGNS}, got {which!r}")
     kind = DESIGN_SPECS[which][0]
+    x0 = None if initial_state is None else np.asarray(initial_state, float)
+    if x0 is not None and (x0.shape != (20,) or not np.all(np.isfinite(x0))):
+        raise ValueError(f"initial_state must be a finite Δx(0) of shape (20,), got shape {x0.shape}")
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            r, C, notes = _solve(lin, kind, backend)
+            r, C, notes = _solve(lin, kind, backend, x0)
             failed = None
         except SynthesisError as exc:
             failed = exc
@@ -189,7 +202,8 @@ def design(lin, which, *, backend=None):
     notes += [str(w.message) for w in caught]
     out = {"gamma": float(r.gamma), "solver": r.solver, "status": r.status,
            "solve_s": time.perf_counter() - t0, "notes": notes, "result": r,
-           "gamma_opt": float(r.gamma_opt), "feedthrough_bound": float(r.feedthrough_bound)}
+           "gamma_opt": float(r.gamma_opt), "feedthrough_bound": float(r.feedthrough_bound),
+           "transient_bound": r.transient_bound}
     if r.K is not None:
         out.update(kind="sf", K=np.asarray(r.K))
     else:
