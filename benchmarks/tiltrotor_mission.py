@@ -69,8 +69,8 @@ def instrument(built):
     law = built["law"]
     for name in ("input_affine", "bounds", "allocate", "thrust_to_speed"):
         _timed(law, name, acc, f"  law.{name}")
-    _timed(law.mech_law, "desired_acceleration", acc, "  mech_law.desired_acceleration")
-    _timed(law.mech_law, "_dynamics", acc, "  mech_law._dynamics (M, C q̇ + g)")
+    _timed(law.mech_law, "desired_acceleration_scalar", acc, "  mech_law q̈_des (floats)")
+    _timed(law.mech_law, "recursive_inverse_dynamics", acc, "  mech_law M q̈ + C q̇ + g (RNEA)")
     _timed(law, "step", acc, "controller law.step (per sample)")
     _timed(tc, "saturation_flags", acc, "controller saturation flags (per sample)")
     _timed(built["handles"].forces, "thesis_force", acc, "plant force system (per derivative)")
