@@ -2,14 +2,17 @@
 
     python benchmarks/tiltrotor_mission.py [--duration 250] [--profile-seconds 10] [--top 25]
         [--integrator runge_kutta3] [--accuracy 1e-3] [--period 0.01] [--skip-full]
-        [--skip-profile] [--breakdown]
+        [--skip-profile] [--breakdown] [--floor]
 
 Runs the mission once (no Meshcat recording) and prints simulated time / CPU and wall time,
 integrator steps and derivative evaluations per simulated second; ``--breakdown`` wraps the hot
 callables with CPU timers (much less distortion than cProfile for many small calls) and prints
 the share of the controller update and its parts, of the plant force system and of the rest
 (MultibodyPlant dynamics, Drake's simulator loop, log sinks).  Then profiles a shorter run with
-cProfile (top cumulative and internal costs).  Target (issue 7): ≥ 20× real time.
+cProfile (top cumulative and internal costs).  ``--floor`` measures what the diagram costs
+without the Python work: the controller update holds its first command and the force system
+returns a constant (not a valid flight, only the cost of Drake's side).  Target (issue 7):
+≥ 20× real time.
 
 On a shared machine wall time mostly measures the other processes: compare CPU times, and
 compare two code versions back-to-back (A/B) rather than against numbers from another day.
@@ -23,17 +26,41 @@ Outcome (issue 7, 2-core machine shared with 3 other sessions, load 2–8; CPU t
   path: 250 s in 42–48 s CPU (5.3–6.0×), 30-s slices 6.2–8.3×; A/B on the same segment 2.5–3.2×
   faster.  Same integrator steps (121.7/s) and derivative evaluations (365/s); states equal to
   5e-13 over the whole mission.
-* after, per simulated second: controller law ≈ 48 % (allocation 14 %, B/ϑ 11 %, the shared
-  MechanicalLaw's q̈_des + M, C q̇ + g 11 %, thrust inversion 4 %), plant force system 24 %
-  (85 µs × 338/s), the rest 27 % (MultibodyPlant ≈ 20–30 µs per derivative, simulator, ports).
+* third round (Drake plumbing and per-sample paths): the force system reads its four actuator
+  ports through one cache entry with input-port prerequisites (recomputed once per controller
+  sample instead of 4 HasValue + 3 Eval per derivative); the controller's plant-facing outputs
+  are Drake state output ports (no Python output callbacks); u* by Drake's recursive
+  Newton–Euler (``MechanicalLaw.recursive_inverse_dynamics``, one state write, no mass matrix)
+  and q̈_des in floats; M, C q̇ + g through index permutations; inputs validated once per
+  sample; generated straight-line Ct/Cq; fewer numpy calls in the bounded LS.  Instruction
+  counts (callgrind, deterministic, first 10 s): 373 → 334 M instructions per simulated second
+  (−11 %; force system 378k → 321k per evaluation, controller update 1.78 M → 1.58 M per
+  sample).  CPU, same load, back-to-back: 250 s in 37.7 s → 35.2 / 33.3 s (6.6× → 7.1–7.5×);
+  30-s slices best of runs 132 → 98 ms/s, medians 155–167 → 135–144 ms/s (the load swung
+  from 1 to 2.5 busy cores during these runs).  Same steps and derivative evaluations; states
+  within 4.5e-13 of the previous code over the whole mission, every phase RMS within 7e-14 m.
+* now, per simulated second (``--breakdown``, 100 s): controller law ≈ 44 % (allocation 15 %,
+  B/ϑ 9 %, u* by RNEA 5–6 %, thrust inversion 4 %, q̈_des 2 %, bounds 2 %), plant force system
+  26 % (≈ 60 µs hot, 110 µs in the loaded loop × 342/s), the rest 30 % (MultibodyPlant
+  ≈ 20 µs per derivative, simulator, ports, cache invalidation, reference, log sinks).
+* ``--floor``: the same diagram with the controller update replaced by a constant command and
+  the force system by a constant force still takes 27–36 ms CPU per simulated second (28–37×
+  real time: MultibodyPlant, simulator, event handling, Drake cache notifications, pybind
+  callbacks, the Python reference system).
 * ``--integrator runge_kutta2`` (fixed step = controller period) needs 207 instead of 338–365
   derivative evaluations/s: 10–20 % faster; over the full mission the states move by ≤ 8 mm /
   0.12° and every phase RMS by < 1 mm (the RK3 run itself is ~1 mm from an RK5 1e-7 reference
   after 20 s).
 * 20× (50 ms CPU per simulated second) is not reachable with this structure in pure Python:
-  the plant side alone (force system + MultibodyPlant + simulator, ≈ 85–120 µs per derivative
-  × 365/s ≈ 30–45 ms/s) takes 60–90 % of that budget, leaving 0.05–0.2 ms per controller sample
-  (now ≈ 0.35 ms with hot caches, 0.6 ms in the loop).
+  the floor above takes 55–70 % of that budget, leaving 15–20 ms/s for the Python work, which
+  needs ≈ 60 ms/s with hot caches (force system ≈ 60 µs × 365/s ≈ 22 ms/s, controller ≈ 0.35–
+  0.45 ms per sample ≈ 40 ms/s) and 70–100 ms/s in the loop.  What would: the force system and the law in
+  compiled code (a C++ LeafSystem, or numba/Cython, which this project does not depend on),
+  and/or fewer derivative evaluations (fixed-step RK2 at the controller period, which the
+  design's error-controlled integration excludes).  Not done because they are small: building
+  the plant without the eight massless ``frame_*`` links (FixedOffsetFrames instead) makes
+  MultibodyPlant's derivative ≈ 17 instead of 21 µs (≈ 1 %); no SceneGraph (0.2 % fewer
+  instructions); coarser log sinks (they publish at 20 Hz, not per step: negligible).
 """
 
 from __future__ import annotations
@@ -75,6 +102,35 @@ def instrument(built):
     _timed(tc, "saturation_flags", acc, "controller saturation flags (per sample)")
     _timed(built["handles"].forces, "thesis_force", acc, "plant force system (per derivative)")
     return acc
+
+
+def floor_patches():
+    """Context manager: the tilt-rotor law's step returns its first result and the plant force
+    system a constant zero force (the cost of the diagram without the Python work)."""
+    import contextlib
+
+    import numpy as np
+
+    from sobolev_drake.models.tiltrotor import TiltrotorForces
+    from sobolev_drake.systems.tiltrotor_controller import TiltrotorWInfLaw
+
+    @contextlib.contextmanager
+    def patched():
+        step, force = TiltrotorWInfLaw.step, TiltrotorForces.thesis_force
+        first = {}
+
+        def const_step(self, *a, **k):
+            if "s" not in first:
+                first["s"] = step(self, *a, **k)
+            return first["s"]
+        zero = np.zeros(8)
+        TiltrotorWInfLaw.step = const_step
+        TiltrotorForces.thesis_force = lambda self, context: zero
+        try:
+            yield
+        finally:
+            TiltrotorWInfLaw.step, TiltrotorForces.thesis_force = step, force
+    return patched()
 
 
 def run(duration, args, breakdown=False):
@@ -129,6 +185,8 @@ def main(argv=None):
     ap.add_argument("--skip-profile", action="store_true", help="no cProfile run")
     ap.add_argument("--breakdown", action="store_true",
                     help="CPU timers on the controller parts and the plant force system")
+    ap.add_argument("--floor", action="store_true",
+                    help="also time the diagram with a constant command and a constant force")
     ap.add_argument("--integrator", default="runge_kutta3",
                     help="Drake integrator (runge_kutta3 error-controlled; runge_kutta2 fixed step)")
     ap.add_argument("--accuracy", type=float, default=1e-3, help="error-controlled accuracy")
@@ -144,6 +202,10 @@ def main(argv=None):
 
     if not args.skip_full:
         run(args.duration, args, breakdown=args.breakdown)
+    if args.floor:
+        print("floor (constant command, constant force; not a valid flight):")
+        with floor_patches():
+            run(args.duration, args)
     if args.skip_profile:
         return
 
