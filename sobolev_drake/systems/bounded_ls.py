@@ -64,9 +64,9 @@ def _solve(H, rhs):
 _GELSD_WORK: dict = {}
 
 
-def _lstsq_min_norm(A, b, rcond):
+def _lstsq_min_norm(A, b, rcond, with_rank=False):
     """Minimum-norm least squares (LAPACK dgelsd, numpy's lstsq driver) with relative
-    singular-value cutoff ``rcond``."""
+    singular-value cutoff ``rcond``; ``with_rank``: also return the effective rank."""
     n, m = A.shape
     key = (n, m, rcond)
     if key not in _GELSD_WORK:
@@ -75,10 +75,11 @@ def _lstsq_min_norm(A, b, rcond):
     lwork, iwork = _GELSD_WORK[key]
     if n < m:                              # dgelsd needs room for the m-vector solution
         b = np.concatenate([b, np.zeros(m - n)])
-    x, _, _, info = _lapack.dgelsd(A, b, lwork, iwork, rcond)
+    x, _, rank, info = _lapack.dgelsd(A, b, lwork, iwork, rcond)
     if info != 0:                          # SVD failed to converge: numpy's path raises too
-        return np.linalg.lstsq(A, b[:n], rcond=rcond)[0]
-    return x[:m]
+        out = np.linalg.lstsq(A, b[:n], rcond=rcond)
+        return (out[0], int(out[2])) if with_rank else out[0]
+    return (x[:m], int(rank)) if with_rank else x[:m]
 
 
 def _box_qp_pdas(H, g, l, h, low, up, max_iter=25):
@@ -310,13 +311,14 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
         sc.append(d)
         l.append((a - t) / d)
         h.append((b_ - t) / d)
-    if not (all(isf(x) for x in ul) and np.isfinite(B).all()):
+    if not (all(isf(x) for x in ul) and isf(float(B.sum()))):   # nan/inf (or overflow) in B
         return None
     rng = range(m)
     A = B * np.array(sc)
     b = u - B @ np.array(tp)
-    eps = reg * max(float((A * A).sum()), 1e-300)
     H = A.T @ A
+    fro2 = sum(H.diagonal().tolist())                               # ‖A‖²_F = trace AᵀA
+    eps = reg * max(fro2, 1e-300)
     H.flat[::m + 1] += eps
     g = A.T @ b
     if warm_start is not None:
@@ -328,8 +330,7 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     else:
         s0 = _solve(H, g).tolist()
         low, up = [s0[i] < l[i] for i in rng], [s0[i] > h[i] for i in rng]
-    c = float(H.trace()) / m
-    gl = None
+    c = (fro2 + m * eps) / m                                         # trace(H) / m
     for it in range(max_iter):
         free, act, s = [], [], []
         for i in rng:
@@ -371,9 +372,10 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
         return None
     if free:                                                        # _polish
         if act:
-            x = _lstsq_min_norm(A.take(fi, 1), b - A.take(ai, 1) @ sv.take(ai), 1e-10).tolist()
+            x, rank = _lstsq_min_norm(A.take(fi, 1), b - A.take(ai, 1) @ sv.take(ai), 1e-10, True)
         else:
-            x = _lstsq_min_norm(A, b, 1e-10).tolist()
+            x, rank = _lstsq_min_norm(A, b, 1e-10, True)
+        x = x.tolist()
         ok = True
         for i, xi in zip(free, x):
             slack = 1e-12 * (h[i] - l[i])
@@ -384,9 +386,14 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
             new = list(s)
             for i, xi in zip(free, x):
                 new[i] = min(max(xi, l[i]), h[i])
-            r_new, r_old = b - A @ np.array(new), b - A @ sv
-            if math.sqrt(float(r_new @ r_new)) <= math.sqrt(float(r_old @ r_old)) * (1 + 1e-12) + 1e-300:
+            if rank == len(free) <= n:
+                # full column rank: x is the unique least-squares minimizer on this active
+                # set, whose residual cannot exceed that of the regularized s (the test below)
                 s = new
+            else:
+                r_new, r_old = b - A @ np.array(new), b - A @ sv
+                if math.sqrt(float(r_new @ r_new)) <= math.sqrt(float(r_old @ r_old)) * (1 + 1e-12) + 1e-300:
+                    s = new
     active = [-1 if low[i] else (1 if up[i] else 0) for i in rng]
     tau = []
     for i in rng:
