@@ -371,6 +371,13 @@ def _claims(res, metrics, smoke):
             m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
             f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
             f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°"))
+        lit = m.get("literal_noise")
+        if lit and "ise" in lit:
+            res.claims.append(Claim(
+                f"{name}: tracks the path with the noise read literally (gusts ≈ 6 % of σ)",
+                lit["finite"] and lit["max_attitude_deg"] < 60 and not lit.get("stopped"),
+                f"RMS position {lit['rms_pos_m']:.2f} m, final {lit['final_pos_err_m']:.2f} m, "
+                f"max |φ|,|θ| {lit['max_attitude_deg']:.1f}°" + (f"; {lit['stopped']}" if lit.get("stopped") else "")))
     if smoke:
         return
     for ref, dm in (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"),
