@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.multibody.parsing import Parser
+from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
@@ -55,8 +57,21 @@ def _joint(name, jtype, parent, child, xyz=(0, 0, 0), rpy=(0, 0, 0), axis=None):
     return s + "  </joint>\n"
 
 
-def tiltrotor_urdf(params: TiltrotorParams | None = None) -> str:
-    """URDF text of the tilt-rotor for ``params`` (default: Table B.1)."""
+def _marker_frames(p: TiltrotorParams):
+    """(name, parent link, offset) of the massless marker frames: C1, the surface points and the
+    propeller hubs."""
+    return ([(f"frame_{ln}", "body", d) for ln, d in
+             (("C1", p.d_B_C1), ("F", p.d_B_F), ("WR", p.d_B_WR), ("WL", p.d_B_WL),
+              ("TR", p.d_B_TR), ("TL", p.d_B_TL))]
+            + [("frame_PR", "thruster_right", p.d_A_P), ("frame_PL", "thruster_left", p.d_A_P)])
+
+
+def tiltrotor_urdf(params: TiltrotorParams | None = None, *, marker_links: bool = True) -> str:
+    """URDF text of the tilt-rotor for ``params`` (default: Table B.1).
+
+    ``marker_links=False`` leaves out the massless ``frame_*`` links (and their fixed joints):
+    :func:`_build_plant` adds them as FixedOffsetFrames instead, which spares MultibodyPlant
+    eight welded bodies in every dynamics evaluation (same frames, same dynamics)."""
     p = TiltrotorParams() if params is None else params
     b, eps, mu = p.beta, p.epsilon, p.mu
     grey, blue, dark, prop = (0.8, 0.8, 0.85, 1), (0.2, 0.4, 0.8, 1), (0.2, 0.2, 0.2, 1), (0.1, 0.1, 0.1, 0.35)
@@ -88,8 +103,9 @@ def tiltrotor_urdf(params: TiltrotorParams | None = None) -> str:
     s += _link("body", p.m1, p.d_B_C1, p.I_C1, body_vis)
     s += _link("thruster_right", p.m2, p.d_A_C, p.I_C2, thruster_vis("right"))
     s += _link("thruster_left", p.m3, p.d_A_C, p.I_C3, thruster_vis("left"))
-    for ln in ("C1", "F", "WR", "WL", "TR", "TL", "PR", "PL"):
-        s += _link(f"frame_{ln}")
+    markers = _marker_frames(p) if marker_links else []
+    for name, _, _ in markers:
+        s += _link(name)
     s += _joint("base_x", "prismatic", "world", "x_link", axis=(1, 0, 0))
     s += _joint("base_y", "prismatic", "x_link", "y_link", axis=(0, 1, 0))
     s += _joint("base_z", "prismatic", "y_link", "z_link", axis=(0, 0, 1))
@@ -101,11 +117,8 @@ def tiltrotor_urdf(params: TiltrotorParams | None = None) -> str:
                 (0, np.cos(b), np.sin(b)))
     s += _joint("tilt_left", "continuous", "body", "thruster_left", p.d_B_A3, (b, 0, 0),
                 (0, np.cos(b), -np.sin(b)))
-    for ln, d in (("C1", p.d_B_C1), ("F", p.d_B_F), ("WR", p.d_B_WR), ("WL", p.d_B_WL),
-                  ("TR", p.d_B_TR), ("TL", p.d_B_TL)):
-        s += _joint(f"fix_{ln}", "fixed", "body", f"frame_{ln}", d)
-    s += _joint("fix_PR", "fixed", "thruster_right", "frame_PR", p.d_A_P)
-    s += _joint("fix_PL", "fixed", "thruster_left", "frame_PL", p.d_A_P)
+    for name, parent, d in markers:
+        s += _joint(f"fix_{name[len('frame_'):]}", "fixed", parent, name, d)
     return s + "</robot>\n"
 
 
@@ -114,7 +127,11 @@ def _build_plant(params, builder=None):
         plant, scene_graph = MultibodyPlant(time_step=0.0), None
     else:
         plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
-    Parser(plant).AddModelsFromString(tiltrotor_urdf(params), "urdf")
+    (instance,) = Parser(plant).AddModelsFromString(tiltrotor_urdf(params, marker_links=False),
+                                                    "urdf")
+    for name, parent, d in _marker_frames(params):       # the URDF's frame_* links as frames
+        plant.AddFrame(FixedOffsetFrame(name, plant.GetBodyByName(parent, instance).body_frame(),
+                                        RigidTransform(np.asarray(d, dtype=float)), instance))
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -float(params.g)])
     plant.Finalize()
     return plant, scene_graph
