@@ -100,7 +100,7 @@ def instrument(built):
     _timed(law.mech_law, "recursive_inverse_dynamics", acc, "  mech_law M q̈ + C q̇ + g (RNEA)")
     _timed(law, "step", acc, "controller law.step (per sample)")
     _timed(tc, "saturation_flags", acc, "controller saturation flags (per sample)")
-    _timed(built["handles"].forces, "force_list", acc, "plant force system (per derivative)")
+    _timed(built["handles"].forces, "thesis_force", acc, "plant force system (per derivative)")
     return acc
 
 
@@ -109,25 +109,27 @@ def floor_patches():
     system a constant zero force (the cost of the diagram without the Python work)."""
     import contextlib
 
+    import numpy as np
+
     from sobolev_drake.models.tiltrotor import TiltrotorForces
     from sobolev_drake.systems.tiltrotor_controller import TiltrotorWInfLaw
 
     @contextlib.contextmanager
     def patched():
-        step, force = TiltrotorWInfLaw.step, TiltrotorForces.force_list
+        step, force = TiltrotorWInfLaw.step, TiltrotorForces.thesis_force
         first = {}
 
         def const_step(self, *a, **k):
             if "s" not in first:
                 first["s"] = step(self, *a, **k)
             return first["s"]
-        zero = [0.0] * 8
+        zero = np.zeros(8)
         TiltrotorWInfLaw.step = const_step
-        TiltrotorForces.force_list = lambda self, context: zero
+        TiltrotorForces.thesis_force = lambda self, context: zero
         try:
             yield
         finally:
-            TiltrotorWInfLaw.step, TiltrotorForces.force_list = step, force
+            TiltrotorWInfLaw.step, TiltrotorForces.thesis_force = step, force
     return patched()
 
 

@@ -222,7 +222,6 @@ class TiltrotorForces(LeafSystem):
         perm = np.argmax(model.T, axis=0)          # q_thesis[j] = q_drake[perm[j]]
         self._perm16 = np.concatenate([perm, perm + 8])
         self._perm8_inv = np.argsort(perm)         # τ_drake[i] = τ_thesis[perm⁻¹[i]]
-        self._to_drake8 = self._perm8_inv.tolist()
         self._zero3 = np.zeros(3)
         self._cosb, self._nu = float(np.cos(model.params.beta)), float(model.params.nu)
         self._dC1 = [float(v) for v in model.params.d_B_C1]
@@ -250,13 +249,9 @@ class TiltrotorForces(LeafSystem):
         value.set_value(u)
 
     def thesis_force(self, context) -> np.ndarray:
-        """ϑ + w (thesis order) from the current inputs."""
-        return np.array(self.force_list(context))
-
-    def force_list(self, context) -> list:
-        """ϑ + w (thesis order, list of floats): the hot path of the simulation, so it reads the
-        actuator inputs from their cache entry, touches each other port once, skips unconnected
-        ones and uses the scalar force cores with one shared body-kinematics pass."""
+        """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
+        reads the actuator inputs from their cache entry, touches each other port once, skips
+        unconnected ones and uses the scalar force cores with one shared body-kinematics pass."""
         self.evaluations += 1
         ql = self._state.Eval(context)[self._perm16].tolist()
         q, qd = ql[:8], ql[8:]
@@ -282,16 +277,16 @@ class TiltrotorForces(LeafSystem):
                                                            dx * by - dy * bx))
                 for i in range(6):
                     tau[2 + i] += w[i]
+        tau = np.array(tau)
         if p_dist.HasValue(context):
-            tau = [a + b for a, b in zip(tau, p_dist.Eval(context).tolist())]
+            tau += p_dist.Eval(context)
         return tau
 
     def _calc_thesis(self, context, output) -> None:
         output.SetFromVector(self.thesis_force(context))
 
     def _calc_drake(self, context, output) -> None:
-        tau = self.force_list(context)
-        output.SetFromVector(np.array([tau[i] for i in self._to_drake8]))
+        output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
 
 
 class TiltrotorHandles(PlantHandles):
