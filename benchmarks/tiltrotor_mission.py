@@ -31,18 +31,25 @@ Outcome (issue 7, 2-core machine shared with 3 other sessions, load 2–8; CPU t
   sample instead of 4 HasValue + 3 Eval per derivative); the controller's plant-facing outputs
   are Drake state output ports (no Python output callbacks); u* by Drake's recursive
   Newton–Euler (``MechanicalLaw.recursive_inverse_dynamics``, one state write, no mass matrix)
-  and q̈_des in floats; M, C q̇ + g through index permutations; inputs validated once per
-  sample; generated straight-line Ct/Cq; fewer numpy calls in the bounded LS.  Instruction
-  counts (callgrind, deterministic, first 10 s): 373 → 334 M instructions per simulated second
-  (−11 %; force system 378k → 321k per evaluation, controller update 1.78 M → 1.58 M per
-  sample).  CPU, same load, back-to-back: 250 s in 37.7 s → 35.2 / 33.3 s (6.6× → 7.1–7.5×);
-  30-s slices best of runs 132 → 98 ms/s, medians 155–167 → 135–144 ms/s (the load swung
-  from 1 to 2.5 busy cores during these runs).  Same steps and derivative evaluations; states
+  and q̈_des in floats; inputs validated once per sample; generated straight-line Ct/Cq; the
+  bounded LS skips the residual comparison of its polish when the free block has full rank
+  (155 → 116 µs on 6000 recorded mission problems, same active sets); the plant's eight
+  massless ``frame_*`` links are FixedOffsetFrames (17 → 9 bodies: MultibodyPlant derivative
+  21.7 → 17.3 µs).  Instruction counts (callgrind, deterministic, first 10 s): 373 → 318 M
+  per simulated second (−15 %; force system 349k → 296k per evaluation, controller update
+  1.78 M → 1.52 M per sample, MultibodyPlant without the forces −22 %).  CPU over the whole
+  250 s, old and new code run *concurrently* (same load): 44.3 → 39.8 s and 40.2 → 35.6 s
+  (−10 %, −11 %); run one after the other the load swings dominate (37.7 → 35.2/33.3 s, then
+  30.8 → 30.8/29.8 s; 6.5–8.4× real time).  Same steps and derivative evaluations; states
   within 4.5e-13 of the previous code over the whole mission, every phase RMS within 7e-14 m.
-* now, per simulated second (``--breakdown``, 100 s): controller law ≈ 44 % (allocation 15 %,
-  B/ϑ 9 %, u* by RNEA 5–6 %, thrust inversion 4 %, q̈_des 2 %, bounds 2 %), plant force system
-  26 % (≈ 60 µs hot, 110 µs in the loaded loop × 342/s), the rest 30 % (MultibodyPlant
-  ≈ 20 µs per derivative, simulator, ports, cache invalidation, reference, log sinks).
+  Measured and dropped: a list-built Drake-order force output (more instructions than numpy's
+  fancy index), no SceneGraph (−0.2 %), coarser log sinks (they publish at 20 Hz: negligible).
+* now, shares of the instructions (callgrind, first 10 s): controller update 48 % (its Python
+  law, the reference system and the update glue), plant force system 35 %, MultibodyPlant
+  11 %, integrator, events and log sinks 6 % (Drake's cache invalidation, 8 %, is spread over
+  all of them).  CPU timers (``--breakdown``, 100 s, loaded machine): controller law ≈ 44 %
+  (allocation 15 %, B/ϑ 9 %, u* by RNEA 5–6 %, thrust inversion 4 %, q̈_des 2 %, bounds 2 %),
+  plant force system 26 % (≈ 60 µs hot, 110 µs in the loaded loop × 342/s), the rest 30 %.
 * ``--floor``: the same diagram with the controller update replaced by a constant command and
   the force system by a constant force still takes 27–36 ms CPU per simulated second (28–37×
   real time: MultibodyPlant, simulator, event handling, Drake cache notifications, pybind
@@ -53,14 +60,11 @@ Outcome (issue 7, 2-core machine shared with 3 other sessions, load 2–8; CPU t
   after 20 s).
 * 20× (50 ms CPU per simulated second) is not reachable with this structure in pure Python:
   the floor above takes 55–70 % of that budget, leaving 15–20 ms/s for the Python work, which
-  needs ≈ 60 ms/s with hot caches (force system ≈ 60 µs × 365/s ≈ 22 ms/s, controller ≈ 0.35–
-  0.45 ms per sample ≈ 40 ms/s) and 70–100 ms/s in the loop.  What would: the force system and the law in
-  compiled code (a C++ LeafSystem, or numba/Cython, which this project does not depend on),
-  and/or fewer derivative evaluations (fixed-step RK2 at the controller period, which the
-  design's error-controlled integration excludes).  Not done because they are small: building
-  the plant without the eight massless ``frame_*`` links (FixedOffsetFrames instead) makes
-  MultibodyPlant's derivative ≈ 17 instead of 21 µs (≈ 1 %); no SceneGraph (0.2 % fewer
-  instructions); coarser log sinks (they publish at 20 Hz, not per step: negligible).
+  needs ≈ 60 ms/s with hot caches (force system ≈ 60 µs × 365/s ≈ 22 ms/s, controller
+  ≈ 0.35–0.45 ms per sample ≈ 40 ms/s) and 70–100 ms/s in the loop.  What would: the force
+  system and the law in compiled code (a C++ LeafSystem, or numba/Cython, which this project
+  does not depend on), and/or fewer derivative evaluations (fixed-step RK2 at the controller
+  period, which the design's error-controlled integration excludes).
 """
 
 from __future__ import annotations
