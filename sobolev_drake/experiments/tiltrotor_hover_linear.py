@@ -316,9 +316,9 @@ def _plot(all_data, out_dir):
     return out
 
 
-_METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "certified", "achieved", "gamma_wind",
-                "gamma_common", "certificate_failures", "solver", "status", "solve_s", "notes",
-                "max_real", "max_abs", "kind", "order")
+_METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "transient_bound", "certified", "achieved",
+                "gamma_wind", "gamma_common", "certificate_failures", "solver", "status", "solve_s",
+                "notes", "max_real", "max_abs", "kind", "order")
 
 
 _COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "synthesis [s]", "ISE", "IADU",
