@@ -57,6 +57,16 @@ SMOKE_DESIGNS = ("W∞",)
 SMOKE_DURATION = 10.0
 
 
+VELOCITY_REFERENCES = ("zero", "path")
+
+
+def _check_velocity_reference(velocity_reference):
+    if velocity_reference not in VELOCITY_REFERENCES:
+        raise ValueError(f"velocity_reference must be one of {VELOCITY_REFERENCES}, "
+                         f"got {velocity_reference!r}")
+    return velocity_reference
+
+
 class LinearHoverController(LeafSystem):
     """u = u_trim + K Δx (state feedback) or the dynamic controller on y = C Δx.
 
@@ -70,9 +80,7 @@ class LinearHoverController(LeafSystem):
 
     def __init__(self, ctrl, trim, velocity_reference="zero"):
         super().__init__()
-        if velocity_reference not in ("path", "zero"):
-            raise ValueError(f"velocity_reference must be 'path' or 'zero', got {velocity_reference!r}")
-        self.path_velocity = velocity_reference == "path"
+        self.path_velocity = _check_velocity_reference(velocity_reference) == "path"
         self.kind = ctrl["kind"]
         self.q_trim = np.asarray(trim.q, float).copy()
         self.u_trim = np.r_[trim.n, trim.tau_s]
@@ -135,6 +143,7 @@ class LinearHoverController(LeafSystem):
 def initial_error(trim, velocity_reference="zero"):
     """Δx(0) of the flight: q(0) = :data:`Q0`, q̇(0) = 0 against the trim and the path at t = 0
     (velocity error only with ``velocity_reference="path"``); integrals 0."""
+    _check_velocity_reference(velocity_reference)
     q, qd, _ = _reference_xyz_psi().evaluate(0.0)
     dx = np.zeros(20)
     dx[:8] = Q0 - np.asarray(trim.q, float)
@@ -149,11 +158,12 @@ def initial_error(trim, velocity_reference="zero"):
 def literal_noise_turbulence():
     """§7.3.1 turbulence with the thesis' "unit variance, sampling time 0.01 s" noise taken
     literally: intensities scaled by √(Δt/π) (``systems/wind.py`` explains the factor)."""
-    from sobolev_drake.systems.wind import VonKarmanParameters
-    p = VonKarmanParameters(t_on=30.0, t_off=170.0, offset=(-3.0, 0.0, 0.0))
+    from dataclasses import replace
+
+    from sobolev_drake.systems.wind import hover_linear_turbulence
+    p = hover_linear_turbulence()
     k = np.sqrt(p.sample_time / np.pi)
-    return VonKarmanParameters(sigma=tuple(float(k * v) for v in p.sigma), t_on=p.t_on, t_off=p.t_off,
-                               offset=p.offset)
+    return replace(p, sigma=tuple(float(k * v) for v in p.sigma))
 
 
 def _reference_xyz_psi():
@@ -365,19 +375,21 @@ def _claims(res, metrics, smoke):
     """Thesis claims of §7.3.1 checked on our runs (only with the full duration)."""
     base = {k: m for k, m in metrics.items() if "ise" in m}
     th = THESIS_TABLE_7_2
+    def tracks(m):  # held?, measured detail
+        return (m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
+                f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
+                f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°")
+
     for name, m in base.items():
         res.claims.append(Claim(
             f"{name}: tracks the Table 7.1 path on the nonlinear plant (finite, |φ|, |θ| < 60°)",
-            m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
-            f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
-            f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°"))
+            *tracks(m)))
         lit = m.get("literal_noise")
         if lit and "ise" in lit:
+            held, detail = tracks(lit)
             res.claims.append(Claim(
-                f"{name}: tracks the path with the noise read literally (gusts ≈ 6 % of σ)",
-                lit["finite"] and lit["max_attitude_deg"] < 60 and not lit.get("stopped"),
-                f"RMS position {lit['rms_pos_m']:.2f} m, final {lit['final_pos_err_m']:.2f} m, "
-                f"max |φ|,|θ| {lit['max_attitude_deg']:.1f}°" + (f"; {lit['stopped']}" if lit.get("stopped") else "")))
+                f"{name}: tracks the path with the noise read literally (gusts ≈ 6 % of σ)", held,
+                detail + (f"; {lit['stopped']}" if lit.get("stopped") else "")))
     if smoke:
         return
     for ref, dm in (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"),
@@ -409,8 +421,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     "transient" (minimize Δx(0)ᵀ P Δx(0) at the certified γ) or "gain" (least gain);
     ``sensitivity`` (default: not in smoke mode): fly every design again with the literal
     noise reading (:func:`literal_noise_turbulence`) and write a second table."""
-    if velocity_reference not in ("zero", "path"):
-        raise ValueError(f"velocity_reference must be 'zero' or 'path', got {velocity_reference!r}")
+    _check_velocity_reference(velocity_reference)  # before minutes of synthesis
     if regularization not in ("transient", "gain"):
         raise ValueError(f"regularization must be 'transient' or 'gain', got {regularization!r}")
     from sobolev_drake.experiments.tiltrotor_missions import _write_table
@@ -429,7 +440,9 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     lin = linearize(trim)
     x0 = initial_error(trim, velocity_reference) if regularization == "transient" else None
     res = ExperimentResult(name="tiltrotor-hover-linear")
-    rows, srows, metrics, all_data, gains = [], [], {}, {}, {}
+    rows, srows, all_data, gains = [], [], {}, {}
+    metrics = {"setup": {"velocity_reference": velocity_reference, "regularization": regularization,
+                         "initial_error": None if x0 is None else x0.tolist()}}
     mjson = out_dir / "tiltrotor-hover-linear_metrics.json"
     meshcat = None
 
@@ -495,8 +508,6 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
         res.outputs["controllers_npz"] = out_dir / "tiltrotor-hover-linear_controllers.npz"
     if srows:
         res.outputs["literal_noise_md"] = out_dir / "tiltrotor-hover-linear_literal_noise.md"
-    metrics["setup"] = {"velocity_reference": velocity_reference, "regularization": regularization,
-                        "initial_error": None if x0 is None else x0.tolist()}
     res.metrics, res.table_markdown = metrics, text
     _claims(res, metrics, smoke or duration < 200.0)
     return res

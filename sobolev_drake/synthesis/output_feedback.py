@@ -69,11 +69,8 @@ def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, 
     if region is not None:
         prog.add_lmi(region_lmi(region, XY, bmat([[AX, AC], [Ak, YA]])), EPS)
     if gain_bound and x0 is not None:
-        obj = None
-        for c in x0.T:
-            term = c[None, :] @ Y @ c[:, None]
-            obj = term if obj is None else obj + term
-        prog.minimize(obj)
+        terms = [c[None, :] @ Y @ c[:, None] for c in x0.T]  # sum_i x0_i' Y x0_i
+        prog.minimize(sum(terms[1:], terms[0]))
     elif gain_bound:
         k = prog.scalar()
         Th = bmat([[Ak, Bk], [Ck, Dk]])

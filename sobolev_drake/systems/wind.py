@@ -375,6 +375,11 @@ def add_wind(builder, *sources):
     return total.GetOutputPort("wind")
 
 
+def hover_linear_turbulence() -> VonKarmanParameters:
+    """Turbulence of section 7.3.1: the thesis' σ, L, V, on 30 ≤ t ≤ 170 s, ζx decremented by 3 m/s."""
+    return VonKarmanParameters(t_on=30.0, t_off=170.0, offset=(-3.0, 0.0, 0.0))
+
+
 def mission_wind_sources(scenario: str, *, turbulence: VonKarmanParameters | None = None,
                          gust_rise_time: float = 0.0) -> list:
     """Wind sources of a tilt-rotor mission from ``tiltrotor_missions.json``.
@@ -388,8 +393,7 @@ def mission_wind_sources(scenario: str, *, turbulence: VonKarmanParameters | Non
     from sobolev_drake.data import load
 
     if scenario == "hover_linear":
-        p = turbulence or VonKarmanParameters(t_on=30.0, t_off=170.0, offset=(-3.0, 0.0, 0.0))
-        return [VonKarmanTurbulence(p)]
+        return [VonKarmanTurbulence(turbulence or hover_linear_turbulence())]
     missions = load("tiltrotor_missions")
     if scenario not in missions or not isinstance(missions[scenario], dict) or "constant_wind" not in missions[scenario]:
         choices = [k for k, v in missions.items() if isinstance(v, dict) and "constant_wind" in v] + ["hover_linear"]
