@@ -100,3 +100,28 @@ def test_linearization_unpacks(hover):
     lin = linearize(hover, include_surfaces=True)
     assert lin.B.shape == (20, 8) and len(lin.input_names) == 8
     assert np.abs(lin.B[:, 4:]).max() < 1e-9          # no air speed at hover: surfaces inert
+
+
+def test_hover_wind_limit_crosswind_vs_thesis_crossflow():
+    """Heading-held hover in a steady lateral wind: with the thesis' crossflow form the attitude
+    passes 60° at ≈ 12.5 m/s (flat-plate α-table drag in sideways flow); with the independence
+    principle the trims exist to ≈ 21 m/s, mirror-symmetric, and headwind is no limit."""
+    from sobolev_drake.models.tiltrotor import TiltrotorModel
+    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.models.tiltrotor_trim import hover_wind_limit
+
+    right, left = hover_wind_limit(90.0), hover_wind_limit(270.0)
+    assert 19.0 < right.limit < 23.0 and abs(right.limit - left.limit) < 0.1
+    assert all(t.success and t.residual_norm < 1e-8 for t in right.trims)
+    att = right.attitude_deg()
+    assert att[0] == pytest.approx(np.degrees(THESIS_HOVER["theta"]), abs=0.1) and att.max() <= 60.0
+    r = right.trims[16]                                   # 8 m/s: the trim balances independently
+    np.testing.assert_allclose(balance(None, r.q, r.qdot, r.zeta, r.n, r.tau_s, r.delta), 0, atol=1e-8)
+    assert hover_wind_limit(180.0, max_speed=15.0).limit == np.inf
+    thesis = hover_wind_limit(90.0, model=TiltrotorModel(TiltrotorParams(crossflow="thesis")))
+    assert 12.0 < thesis.limit < 13.0 and "passes 60°" in thesis.reason
+    assert thesis.attitude_deg()[-1] > 55.0
+    with pytest.raises(ValueError, match="attitude_limit_deg"):
+        hover_wind_limit(90.0, attitude_limit_deg=95.0)
+    with pytest.raises(ValueError, match="step must be finite and positive"):
+        hover_wind_limit(90.0, step=0.0)

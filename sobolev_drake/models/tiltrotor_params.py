@@ -25,6 +25,9 @@ DOF_NAMES = ("alpha_R", "alpha_L", "phi", "theta", "psi", "x", "y", "z")
 ACTUATOR_NAMES = ("f_PR", "f_PL", "tau_sR", "tau_sL", "delta_WR", "delta_WL", "delta_TR", "delta_TL")
 #: aerodynamic surfaces (7.34)–(7.56): fuselage, wings, tails, interference (at C1)
 SURFACES = ("F", "WR", "WL", "TR", "TL", "I")
+#: how the angle-of-attack tables meet sideslip (``TiltrotorParams.crossflow``; the
+#: aerodynamics module docstring explains both)
+CROSSFLOW_MODELS = ("independence", "thesis")
 
 
 def _v(x):
@@ -71,6 +74,14 @@ class TiltrotorParams:
     c_delta_a: float = 0.7104
     c_delta_e: float = 0.3759
     c_delta_r: float = -0.0730
+    # "independence": α-table terms on the x–z-plane dynamic pressure ½ρ(u² + w²) = κ cos²β;
+    # "thesis": on κ = ½ρV² as (7.41)–(7.45) are written (7× the measured side force in a
+    # pure crossflow, see systems/aerodynamics.py)
+    crossflow: str = "independence"
+
+    def __post_init__(self):
+        if self.crossflow not in CROSSFLOW_MODELS:
+            raise ValueError(f"crossflow must be one of {CROSSFLOW_MODELS}, got {self.crossflow!r}")
 
     @property
     def mass(self) -> float:

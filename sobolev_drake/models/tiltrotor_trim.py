@@ -150,6 +150,84 @@ def trim_hover(model=None, zeta=None) -> Trim:
     return trim_level_flight(0.0, model=model, zeta=zeta)
 
 
+@dataclass
+class HoverWindLimit:
+    """Result of :func:`hover_wind_limit`.
+
+    ``speeds``/``trims``: the continuation samples that trimmed within the attitude limit;
+    ``limit``: wind speed (m/s) at which the trim leaves it (bisected to ``tol``), ``inf`` if
+    it never does up to ``max_speed``; ``reason``: what happened at the limit."""
+
+    direction_deg: float
+    attitude_limit_deg: float
+    speeds: np.ndarray
+    trims: list
+    limit: float
+    reason: str
+
+    def attitude_deg(self) -> np.ndarray:
+        """max(|φ|, |θ|) of each trim, degrees."""
+        return np.array([np.degrees(np.max(np.abs(t.q[2:4]))) for t in self.trims])
+
+
+def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float = 60.0,
+                     max_speed: float = 25.0, step: float = 0.5, tol: float = 0.02,
+                     model=None) -> HoverWindLimit:
+    """Strongest steady horizontal wind in which the aircraft can hover with its heading held.
+
+    Hover trims (q̇ = 0, ψ = 0, surfaces at 0; unknowns [αR αL φ θ nR nL τsR τsL]) in the
+    wind ζ = V [cos χ, sin χ, 0] (χ = ``direction_deg``, the direction the air moves, from
+    inertial x), continued from V = 0 in steps of ``step`` and bisected to ``tol`` where the
+    trim stops existing or max(|φ|, |θ|) passes ``attitude_limit_deg``.  The heading-hold
+    matters: in a crosswind the weathercock yaw moment has to be held by differential nacelle
+    tilt, which for this airframe drags roll and pitch along (measured: 12 m/s lateral wind
+    needs φ ≈ 39°, θ ≈ −49°).  A quasi-steady bound, not a proof: a gust shorter than the
+    aircraft's response can exceed it briefly.
+    """
+    checks = {"direction_deg": direction_deg, "attitude_limit_deg": attitude_limit_deg,
+              "max_speed": max_speed, "step": step, "tol": tol}
+    for name, v in checks.items():
+        if not np.isfinite(v) or (name != "direction_deg" and v <= 0):
+            raise ValueError(f"{name} must be finite{'' if name == 'direction_deg' else ' and positive'}, got {v}")
+    if not 0 < attitude_limit_deg < 90:
+        raise ValueError(f"attitude_limit_deg must lie in (0, 90), got {attitude_limit_deg}")
+    model = _model(model)
+    chi = np.radians(direction_deg)
+    unit = np.array([np.cos(chi), np.sin(chi), 0.0])
+    bound = np.radians(attitude_limit_deg)
+
+    def trim_at(V, guess):
+        t = trim_level_flight(0.0, model=model, zeta=V * unit, guess=guess, restarts=False)
+        return t if t.success and np.max(np.abs(t.q[2:4])) <= bound else None
+
+    speeds, trims = [0.0], [trim_hover(model)]
+    V, reason = step, ""
+    while V <= max_speed + 1e-12:
+        t = trim_at(V, trims[-1].info["z"])
+        if t is None:
+            break
+        speeds.append(V)
+        trims.append(t)
+        V += step
+    else:
+        return HoverWindLimit(float(direction_deg), float(attitude_limit_deg), np.array(speeds), trims,
+                              np.inf, f"trimmed within ±{attitude_limit_deg:g}° up to {speeds[-1]:g} m/s")
+    lo, hi, last = speeds[-1], V, trims[-1]
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        t = trim_at(mid, last.info["z"])
+        if t is None:
+            hi = mid
+        else:
+            lo, last = mid, t
+    t = trim_level_flight(0.0, model=model, zeta=hi * unit, guess=last.info["z"], restarts=False)
+    reason = (f"max(|φ|, |θ|) passes {attitude_limit_deg:g}° (trim at {hi:.2f} m/s: "
+              f"{np.degrees(np.max(np.abs(t.q[2:4]))):.1f}°)" if t.success else
+              f"no trim beyond {lo:.2f} m/s (continuation lost, residual {t.residual_norm:.1e})")
+    return HoverWindLimit(float(direction_deg), float(attitude_limit_deg), np.array(speeds + [lo]),
+                          trims + [last], 0.5 * (lo + hi), reason)
+
+
 def tilt_reference_polynomial(V) -> np.ndarray:
     """The mission file's α_ref(Ub) (coefficients of Ub⁵…Ub⁰, Ub clamped to [0, 33.99])."""
     from sobolev_drake.data import load

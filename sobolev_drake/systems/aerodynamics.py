@@ -20,6 +20,22 @@ wind-tunnel slopes say so):
 * moments in surface axes [L, M, N] = Rx(π) [0, κ s c̄ c_M(α_NED), κ s b c_N(β_NED)] (B.5)–(B.11);
 * areas: s = S for fuselage and interference, S/2 for each wing and tail half (App. B);
   δe = ½(δTR + δTL), δr = ½(δTR − δTL) act on both tail halves.
+
+Crossflow (``TiltrotorParams.crossflow``).  The α tables were measured at β = 0 and the β tables
+at α = 0; (7.41)–(7.45) add both at the full dynamic pressure κ.  In a sideways flow (β → ±90°,
+u, w → 0) the angle of attack is undefined: (7.39) gives α = ±90° for any small w, and the
+α tables then add a flat-plate drag (c_d^xz(90°) ≈ 1.0–1.4 for wing, fuselage, tail) to the
+β tables' measured crossflow drag (0.02–0.27).  Measured: a 12 m/s lateral wind pushes the
+hovering aircraft with 33 N instead of the 4.7 N of the β tables, and with the heading held no
+hover trim within ±60° of attitude exists beyond 12.5 m/s (``models.tiltrotor_trim.
+hover_wind_limit``).  ``"independence"`` (default) applies the independence (sweep) principle:
+the α-table terms (lift, c_d^xz, pitch moment, and the aileron / elevator lift of the
+deflections) act on the dynamic pressure of the flow in the surface's x–z plane,
+½ρ(u² + w²) = κ cos²β.  Identical to the thesis at β = 0 (level flight without sideslip, the
+hover trim) and equal to the β tables alone in a pure crossflow; where α flips (u = 0, w → 0±)
+the α-table terms vanish instead of jumping by ~10 N at 12 m/s.  What stays is the direction of
+the side force, which rotates with α (|c_y(±90°)| ≤ 0.07: 0.2 N at 12 m/s).  ``"thesis"`` keeps
+(7.41)–(7.45) as written.
 """
 
 from __future__ import annotations
@@ -94,6 +110,7 @@ class AeroModel:
         self._half_rho_s = 0.5 * p.rho * self.area
         # points of the deflection columns: WR, WL, TR, TL, TR, TL
         self._ctrl_pts = self.points[[1, 2, 3, 4, 3, 4]]
+        self.independence = p.crossflow == "independence"
         self._fast = None
 
     def _lookup(self, tab, angle):
@@ -116,16 +133,18 @@ class AeroModel:
 
     def surface_loads(self, q, qdot, zeta):
         """Passive loads per surface: (F (6,3) body-axes forces at the aerodynamic centres,
-        M (6,3) body-axes moments, κs (6,), y_w (6,3), z_w (6,3)) (B.1)–(B.11) with δ = 0."""
+        M (6,3) body-axes moments, (κs, κs of the α-table terms) (6,) each, y_w (6,3), z_w (6,3))
+        (B.1)–(B.11) with δ = 0."""
         p = self.params
         _, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
         ca = self._lookup(self._atab, -alpha)      # α_NED = −α: [lift, drag_α, pitch moment]
         cb = self._lookup(self._btab, -beta)       # β_NED = −β: [side, drag_β, yaw moment]
         ks = self._half_rho_s * V * V              # κ s per surface
         sa, cal, sb, cbe = np.sin(alpha), np.cos(alpha), np.sin(beta), np.cos(beta)
-        fd = -ks * (cb[:, 1] + ca[:, 1])
+        ksa = ks * cbe * cbe if self.independence else ks    # κ s of the α-table terms
+        fd = -(ks * cb[:, 1] + ksa * ca[:, 1])
         fy = ks * cb[:, 0]
-        fl = ks * ca[:, 0]
+        fl = ksa * ca[:, 0]
         # R_S^W = Ry(−α) Rz(β): x_w = [cα cβ, sβ, sα cβ], y_w = [−cα sβ, cβ, −sα sβ], z_w = [−sα, 0, cα]
         zero = np.zeros(6)
         yw = np.stack([-cal * sb, cbe, -sa * sb], axis=1)
@@ -133,14 +152,14 @@ class AeroModel:
         F = np.stack([cal * cbe * fd - cal * sb * fy - sa * fl,
                       sb * fd + cbe * fy,
                       sa * cbe * fd - sa * sb * fy + cal * fl], axis=1)
-        M = np.stack([zero, -ks * p.chord * ca[:, 2], -ks * p.span * cb[:, 2]], axis=1)
-        return F, M, ks, yw, zw
+        M = np.stack([zero, -ksa * p.chord * ca[:, 2], -ks * p.span * cb[:, 2]], axis=1)
+        return F, M, (ks, ksa), yw, zw
 
     def terms(self, q, qdot, zeta):
         """(ϑ_aero_passive (8,), B_delta (8, 4)) with ϑ_aero = ϑ_passive + B_delta δ,
         δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C)."""
         p = self.params
-        F, M, ks, yw, zw = self.surface_loads(q, qdot, zeta)
+        F, M, (ks, ksa), yw, zw = self.surface_loads(q, qdot, zeta)
         R, W = R_W(q)
         # generalized force of main-body loads: η ← Wηᵀ Σ(r × F + M), ξ ← R Σ F  ((7.47)–(7.50))
         passive = np.zeros(8)
@@ -148,9 +167,9 @@ class AeroModel:
         passive[5:8] = R @ F.sum(axis=0)
         # unit-deflection forces: aileron lift at WR / WL; ruddervator lift (δe) and side (δr)
         # force on both tail halves, δTR = +½ on δe and δr, δTL = +½ on δe and −½ on δr
-        e3, e4 = p.c_delta_e * zw[3] * ks[3], p.c_delta_e * zw[4] * ks[4]
+        e3, e4 = p.c_delta_e * zw[3] * ksa[3], p.c_delta_e * zw[4] * ksa[4]
         r3, r4 = p.c_delta_r * yw[3] * ks[3], p.c_delta_r * yw[4] * ks[4]
-        G = np.array([p.c_delta_a * ks[1] * zw[1], p.c_delta_a * ks[2] * zw[2],
+        G = np.array([p.c_delta_a * ksa[1] * zw[1], p.c_delta_a * ksa[2] * zw[2],
                       0.5 * (e3 + r3), 0.5 * (e4 + r4), 0.5 * (e3 - r3), 0.5 * (e4 - r4)])
         tau = W.T @ cross_rows(self._ctrl_pts, G).T     # (3, 6)
         frc = R @ G.T
@@ -192,7 +211,7 @@ class AeroModel:
         """
         if self._fast is None:
             self._prepare_fast()
-        (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr) = self._fast
+        (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep) = self._fast
         imax = int(nmax) - 1
         sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
         _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
@@ -239,9 +258,10 @@ class AeroModel:
             cy, cdb, cn = (r0[0] + fr * (r1[0] - r0[0]), r0[1] + fr * (r1[1] - r0[1]),
                            r0[2] + fr * (r1[2] - r0[2]))
             ks = hk * V2
-            fd = -ks * (cdb + cda_)
+            ksa = hk * (u * u + w * w) if indep else ks     # κ cos²β s: see the module doc
+            fd = -(ks * cdb + ksa * cda_)
             fy = ks * (cy + dside[k])
-            fl = ks * (cl + dlift[k])
+            fl = ksa * (cl + dlift[k])
             cacb, sasb = ca * cb, sa * sb
             bx = cacb * fd - ca * sb * fy - sa * fl
             by = sb * fd + cb * fy
@@ -250,11 +270,11 @@ class AeroModel:
             Fy += by
             Fz += bz
             Tx += ry * bz - rz * by
-            Ty += rz * bx - rx * bz - ks * chord * cm
+            Ty += rz * bx - rx * bz - ksa * chord * cm
             Tz += rx * by - ry * bx - ks * span * cn
             if columns and 1 <= k <= 4:
                 # lift direction z_w = [−sα, 0, cα], side direction y_w = [−cα sβ, cβ, −sα sβ]
-                unit[k] = (-sa * ks, ca * ks, -ca * sb * ks, cb * ks, -sa * sb * ks)
+                unit[k] = (-sa * ksa, ca * ksa, -ca * sb * ks, cb * ks, -sa * sb * ks)
         out = [0.0, 0.0, *body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz))]
         if not columns:
             return out, Vs, None
@@ -304,7 +324,7 @@ class AeroModel:
         btab = [[tuple(row) for row in t.beta_tab[k].T.tolist()] for k in range(6)]
         self._fast = ([tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(), atab, btab,
                       float(t.start), float(t.step), float(t.samples - 1), p.chord, p.span,
-                      p.c_delta_a, p.c_delta_e, p.c_delta_r)
+                      p.c_delta_a, p.c_delta_e, p.c_delta_r, self.independence)
 
 
 class AerodynamicSurfaces(LeafSystem):
