@@ -334,3 +334,28 @@ def test_singular_output_feedback_problem_is_flagged():
     rr = output_feedback(ps, regularize=True)
     assert rr.regularized and rr.certificate.ok
     assert rr.gamma == pytest.approx(1.01 * rr.gamma_opt, rel=1e-9)
+
+
+def test_deliberate_regularization_escalates_once():
+    """The regularized re-solve at (1+δ)γ* that fails (or is rejected) is retried at (1+5δ)γ*;
+    when both fail the last error is raised, and a certified first step is kept."""
+    from types import SimpleNamespace
+
+    from sobolev_drake.synthesis.hinf_common import _ladder
+
+    tried = []
+
+    def solve_at(g, fail_below):
+        tried.append(g)
+        if g < fail_below:
+            raise SynthesisError(f"rejected at {g}")
+        return SimpleNamespace(gamma=g, certificate=SimpleNamespace(ok=True), regularized=False)
+
+    r, d = _ladder(lambda g: solve_at(g, 1.02), 1.0, 0.01, True, None)
+    assert d == pytest.approx(0.05) and r.gamma == pytest.approx(1.05) and r.regularized
+    assert tried == pytest.approx([1.01, 1.05])
+    tried.clear()
+    r, d = _ladder(lambda g: solve_at(g, 0.0), 1.0, 0.01, True, None)
+    assert d == 0.01 and tried == pytest.approx([1.01])
+    with pytest.raises(SynthesisError, match="rejected at 1.05"):
+        _ladder(lambda g: solve_at(g, 2.0), 1.0, 0.01, True, None)

@@ -86,6 +86,8 @@ def test_initial_error_literal_noise_and_bad_options(tmp_path):
         hl.LinearHoverController({"kind": "sf", "K": np.zeros((4, 20))}, _Trim(), "wind")
     with pytest.raises(ValueError, match="regularization"):
         hl.run(tmp_path, smoke=True, regularization="h2")
+    with pytest.raises(ValueError, match="crossflow must be one of"):
+        hl.run(tmp_path, smoke=True, crossflow="cosine")
     from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
     with pytest.raises(ValueError, match="initial_state"):
         hl.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
@@ -152,6 +154,9 @@ def test_smoke_nonlinear_flight_and_outputs(smoke):
     # damps the absolute velocity and lags the 3.6 m/s helix (measured 1.41 m at 10 s)
     assert m["final_pos_err_m"] < 2.0 and m["rms_pos_m"] < 2.0
     assert m["ise"] > 0 and m["iadu"] > 0
+    assert m["max_lateral_wind_m_s"] == 0.0          # the turbulence starts at 30 s
+    setup = res.metrics["setup"]
+    assert setup["crossflow"] == "independence" and 19.0 < setup["hover_wind_limit_lateral_m_s"] < 23.0
     assert all(c.held for c in res.claims)
     for key in ("table_md", "table_json", "metrics_json", "controllers_npz", "path_3d", "errors", "wind"):
         p = res.outputs[key]

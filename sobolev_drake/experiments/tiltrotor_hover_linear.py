@@ -29,7 +29,15 @@ minimize the guaranteed transient cost Δx(0)ᵀ P Δx(0) of the flight's initia
 (n ≥ 0, |τs| ≤ 2 N m); ISE = ∫Δxᵀ Δx dt (velocities relative to the path in the index, whatever
 the controller uses) and IADU = ∫Σ|dΔu_i/dt| dt as in Table 7.2.  Every design is also flown
 with the thesis' noise read literally (unit-variance samples, gusts ≈ 6 % of σ; see
-``systems/wind.py``): the sensitivity table shows what the gust level decides.
+``systems/wind.py``) in a second table.
+
+The σ-normalized turbulence (DESIGN §6; σv = 5 m/s) reaches 11–18 m/s of lateral wind, and the
+plant's crossflow model decides whether a heading-held hover survives that (``crossflow``,
+``TiltrotorParams.crossflow``): with (7.41)–(7.45) read literally ("thesis") a sideways flow
+gets flat-plate drag from the α tables, no hover trim within ±60° exists beyond 12.5 m/s of
+steady lateral wind, and no design stayed within ±60° in these gusts; with the independence
+principle (default) the limit is 21 m/s.  The metrics report the limit
+(``setup.hover_wind_limit_lateral_m_s``) and each flight's peak lateral wind.
 ``smoke=True`` runs only the state-feedback design for 10 s.
 """
 
@@ -172,7 +180,7 @@ def _reference_xyz_psi():
 
 
 def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None,
-                    max_wall_s=240.0, controller_state0=None, velocity_reference="zero"):
+                    max_wall_s=600.0, controller_state0=None, velocity_reference="zero"):
     """Fly ``ctrl`` on the nonlinear plant (Table 7.1 path, von Kármán wind); returns logs.
 
     The run stops early (``data["stopped"]`` says why, ``data["t"][-1]`` when) if the state
@@ -182,13 +190,14 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     ``turbulence``: VonKarmanParameters replacing the §7.3.1 defaults (for sensitivity runs).
     ``controller_state0``: initial state of a dynamic controller (default 0).
     ``velocity_reference``: "zero" (Δq̇ = q̇, the thesis' q̇_r = 0) or "path" (q̇ − q̇_path).
+    The plant has the parameters of the model ``trim`` was computed on (``crossflow``).
     With a ``meshcat`` the run is recorded (``data["recorder"]``)."""
     from pydrake.systems.analysis import Simulator
     from sobolev_drake.models.tiltrotor import add_tiltrotor
     from sobolev_drake.systems.wind import mission_wind_sources
 
     b = DiagramBuilder()
-    h = add_tiltrotor(b)
+    h = add_tiltrotor(b, trim.info["model"].params)  # the plant the trim was computed on
     ref = b.AddSystem(_reference_xyz_psi())
     c = b.AddSystem(LinearHoverController(ctrl, trim, velocity_reference))
     (turb,) = mission_wind_sources("hover_linear", turbulence=turbulence)
@@ -282,6 +291,7 @@ def indices(data, trim):
             "final_pos_err_m": float(np.linalg.norm(q[5:8, -1])),
             "max_tilt_deg": float(np.degrees(np.max(np.abs(x[:2])))),
             "max_attitude_deg": float(np.degrees(np.max(np.abs(x[2:4])))),  # |φ|, |θ|
+            "max_lateral_wind_m_s": float(np.max(np.abs(data["wind"][1]))) if "wind" in data else None,
             "finite": bool(np.all(np.isfinite(x)))}
 
 
@@ -376,9 +386,11 @@ def _claims(res, metrics, smoke):
     base = {k: m for k, m in metrics.items() if "ise" in m}
     th = THESIS_TABLE_7_2
     def tracks(m):  # held?, measured detail
+        wind = m.get("max_lateral_wind_m_s")
         return (m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
                 f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
-                f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°")
+                f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°"
+                + ("" if wind is None else f", peak lateral wind {wind:.1f} m/s"))
 
     for name, m in base.items():
         res.claims.append(Claim(
@@ -412,7 +424,8 @@ def _claims(res, metrics, smoke):
           "disturbance-model (von Kármán) designs flown on the nonlinear plant (Table 7.2)",
           default_duration=200.0, thesis_ref="7.3.1, Table 7.2")
 def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, record_design=None,
-        backend=None, velocity_reference="zero", regularization="transient", sensitivity=None):
+        backend=None, velocity_reference="zero", regularization="transient", sensitivity=None,
+        crossflow="independence"):
     """Synthesize ``designs`` (default: all of :data:`DESIGNS`; smoke: :data:`SMOKE_DESIGNS`),
     fly each on the nonlinear plant, write the table beside Table 7.2, plots and metrics.
 
@@ -420,12 +433,14 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     ``velocity_reference``: "zero" (thesis, Δq̇ = q̇) or "path"; ``regularization``:
     "transient" (minimize Δx(0)ᵀ P Δx(0) at the certified γ) or "gain" (least gain);
     ``sensitivity`` (default: not in smoke mode): fly every design again with the literal
-    noise reading (:func:`literal_noise_turbulence`) and write a second table."""
+    noise reading (:func:`literal_noise_turbulence`) and write a second table.
+    ``crossflow``: the plant's aerodynamic crossflow model (``TiltrotorParams.crossflow``;
+    "thesis" reads (7.41)–(7.45) literally) for trim, linearization and flights."""
     _check_velocity_reference(velocity_reference)  # before minutes of synthesis
     if regularization not in ("transient", "gain"):
         raise ValueError(f"regularization must be 'transient' or 'gain', got {regularization!r}")
     from sobolev_drake.experiments.tiltrotor_missions import _write_table
-    from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
+    from sobolev_drake.models.tiltrotor_trim import hover_wind_limit, linearize, trim_hover
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -436,13 +451,21 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     duration = (SMOKE_DURATION if smoke else 200.0) if duration is None else float(duration)
     record_design = record_design or designs[0]
     sensitivity = (not smoke) if sensitivity is None else bool(sensitivity)
-    trim = trim_hover()
-    lin = linearize(trim)
+    from sobolev_drake.models.tiltrotor import TiltrotorModel
+    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    params = TiltrotorParams(crossflow=crossflow)  # validates the name before minutes of synthesis
+    model = TiltrotorModel(params)
+    trim = trim_hover(model)
+    lin = linearize(trim, params=params)
     x0 = initial_error(trim, velocity_reference) if regularization == "transient" else None
     res = ExperimentResult(name="tiltrotor-hover-linear")
     rows, srows, all_data, gains = [], [], {}, {}
+    wind_limit = hover_wind_limit(90.0, model=model)  # steady lateral wind it can hover in, heading held
     metrics = {"setup": {"velocity_reference": velocity_reference, "regularization": regularization,
-                         "initial_error": None if x0 is None else x0.tolist()}}
+                         "initial_error": None if x0 is None else x0.tolist(),
+                         "crossflow": crossflow,
+                         "hover_wind_limit_lateral_m_s": wind_limit.limit,
+                         "hover_wind_limit_reason": wind_limit.reason}}
     mjson = out_dir / "tiltrotor-hover-linear_metrics.json"
     meshcat = None
 
