@@ -179,8 +179,9 @@ def design(lin, which, *, backend=None, initial_state=None):
     Returns a dict: ``kind`` ("sf" with ``K`` or "dyn" with ``AK, BK, CK, DK`` acting on
     y = ``C`` Δx), ``gamma``, ``certified`` (None when there is no verified bound to check),
     ``achieved`` (‖T‖∞ of the design's own channel), ``gamma_wind`` (‖T_ζz‖∞,
-    :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`), ``max_real``/``max_abs`` (closed-loop poles), ``solve_s``,
-    ``notes`` (list of str)."""
+    :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`),
+    ``max_real``/``max_abs`` (closed-loop poles), ``delay_margin_s``/``gain_margins``
+    (:func:`loop_margins`), ``solve_s``, ``notes`` (list of str)."""
     from sobolev_drake.synthesis.lmi import SynthesisError
 
     if which not in DESIGN_SPECS:
@@ -219,4 +220,23 @@ def design(lin, which, *, backend=None, initial_state=None):
                    certificate_failures=list(cert.failures))
     out["gamma_wind"] = wind_channel_norm(lin, out)
     out["gamma_common"] = common_channel_norm(lin, out)
+    out.update(loop_margins(lin, out))
     return out
+
+
+def loop_margins(lin, ctrl):
+    """``delay_margin_s`` and ``gain_margins`` (k_low, k_high) of ``ctrl`` at the plant input of
+    the linearization (uniform on all four inputs, :mod:`sobolev_drake.synthesis.margins`);
+    None when the nominal loop is unstable."""
+    from sobolev_drake.synthesis.hinf import DynamicController
+    from sobolev_drake.synthesis.margins import input_delay_margin, input_gain_margins
+
+    if ctrl["kind"] == "sf":
+        K, C = ctrl["K"], None
+    else:
+        K, C = DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]), ctrl["C"]
+    try:
+        return {"delay_margin_s": input_delay_margin(lin.A, lin.B, K, C),
+                "gain_margins": list(input_gain_margins(lin.A, lin.B, K, C))}
+    except ValueError:  # unstable nominal loop (a thesis-form solve is not verified)
+        return {"delay_margin_s": None, "gain_margins": None}

@@ -338,16 +338,17 @@ def _plot(all_data, out_dir):
 
 _METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "transient_bound", "certified", "achieved",
                 "gamma_wind", "gamma_common", "certificate_failures", "solver", "status", "solve_s",
-                "notes", "max_real", "max_abs", "kind", "order")
+                "notes", "max_real", "max_abs", "kind", "order", "delay_margin_s", "gain_margins")
 
 
-_COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "synthesis [s]", "ISE", "IADU",
+_COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "delay margin [ms]", "synthesis [s]", "ISE", "IADU",
             "ISE (thesis)", "IADU (thesis)", "notes"]
 
 
 def _title(duration):
     return (f"Table 7.2 beside ours (duration {duration:g} s; ‖T_ζz‖∞: wind → W∞ channel, "
-            f"‖T_vz‖∞: von Kármán noise → W∞ channel)")
+            f"‖T_vz‖∞: von Kármán noise → W∞ channel; delay margin: uniform delay on the four "
+            f"inputs that destabilizes the linear loop)")
 
 
 def _gamma_cell(ctrl):
@@ -356,6 +357,11 @@ def _gamma_cell(ctrl):
     if ctrl["certified"]:
         return f"{ctrl['gamma']:.4g} ✓"
     return f"{ctrl['gamma']:.4g} ✗ (‖T‖∞ = {ctrl['achieved']:.4g})"
+
+
+def _margin_cell(ctrl):
+    tau = ctrl.get("delay_margin_s")
+    return "-" if tau is None else ("∞" if np.isinf(tau) else f"{1e3 * tau:.3g}")
 
 
 _SENS_COLUMNS = ["design", "flight", "RMS position [m]", "final [m]", "max |φ|,|θ| [°]",
@@ -484,7 +490,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             ctrl = design(lin, name, backend=backend, initial_state=x0)
         except Exception as exc:  # report a failed synthesis instead of aborting the table
             metrics[name] = {"error": f"{type(exc).__name__}: {exc}"}
-            rows.append([name, "synthesis failed", "-", "-", "-", "-", "-", *thesis, str(exc)[:200]])
+            rows.append([name, "synthesis failed", "-", "-", "-", "-", "-", "-", *thesis, str(exc)[:200]])
             continue
         m = {k: ctrl[k] for k in _METRIC_KEYS if k in ctrl}
         i = sum(k.endswith("_name") for k in gains)
@@ -501,14 +507,15 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             m["sim_error"] = f"{type(exc).__name__}: {exc}"
             metrics[name] = m
             rows.append([name, _gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                         f"{ctrl['solve_s']:.1f}", "sim failed", "-", *thesis, m["sim_error"][:200]])
+                         _margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", "sim failed", "-", *thesis,
+                         m["sim_error"][:200]])
             continue
         idx = indices(d, trim)
         all_data[name] = d
         m.update(idx, sim_wall_s=d["wall_s"], stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
         metrics[name] = m
         rows.append([name, _gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                     f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
+                     _margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
                      "; ".join(([d["stopped"].upper()] if d["stopped"] else []) + ctrl["notes"])[:300]])
         if sensitivity:
             m["literal_noise"] = _sensitivity_flight(ctrl, trim, duration, velocity_reference)

@@ -1,0 +1,144 @@
+"""Loop margins at the plant input: how much uniform delay or gain change a design tolerates.
+
+The loop is broken at the plant input u of ẋ = A x + B u, y = C x, closed by the controller
+u = K y (a matrix: static feedback) or by a :class:`~sobolev_drake.synthesis.hinf.DynamicController`
+(ẋ_K = A_K x_K + B_K y, u = C_K x_K + D_K y) — the positive-feedback convention of the synthesis
+(u = K x).  Every input channel gets the same perturbation, as an actuator chain or a sampled
+implementation would add it:
+
+* :func:`input_delay_margin` — the smallest delay τ with u(t) = [K y](t − τ) at the stability
+  boundary (exact, from the eigenvalues of the loop gain G(jω) = K(jω) P(jω): a closed-loop pole
+  reaches jω when e^{−jωτ} λ(G(jω)) = 1, i.e. |λ| = 1 and ωτ = arg λ (mod 2π));
+* :func:`input_gain_margins` — the interval of uniform gains k (u = k K y) around 1 that keeps the
+  loop stable (closed-loop eigenvalues, bisection).
+
+MATLAB's ``allmargin`` / ``diskmargin`` report the same kind of numbers loop by loop; here the
+perturbation is simultaneous on all inputs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .certificates import as_matrix
+
+
+def _controller(K, ny, nu):
+    """(AK, BK, CK, DK) of a static gain or a dynamic controller (checked shapes)."""
+    if hasattr(K, "AK"):
+        AK, BK, CK, DK = (np.asarray(M, float) for M in (K.AK, K.BK, K.CK, K.DK))
+    else:
+        DK = as_matrix("K", K, (nu, ny))
+        AK, BK, CK = np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((nu, 0))
+    nk = AK.shape[0]
+    if AK.shape != (nk, nk) or BK.shape != (nk, ny) or CK.shape != (nu, nk) or DK.shape != (nu, ny):
+        raise ValueError(f"controller must map y ({ny}) to u ({nu}); got AK {AK.shape}, BK {BK.shape}, "
+                         f"CK {CK.shape}, DK {DK.shape}")
+    return AK, BK, CK, DK
+
+
+def _plant(A, B, C):
+    A = as_matrix("A", A)
+    n = A.shape[0]
+    if A.shape != (n, n):
+        raise ValueError(f"A must be square, got shape {A.shape}")
+    B = as_matrix("B", B, (n, None))
+    C = np.eye(n) if C is None else as_matrix("C", C, (None, n))
+    return A, B, C
+
+
+def _closed_loop(A, B, C, ctrl, k=1.0):
+    AK, BK, CK, DK = ctrl
+    return np.block([[A + k * B @ DK @ C, k * B @ CK], [BK @ C, AK]])
+
+
+def _stable(M):
+    return M.shape[0] == 0 or np.linalg.eigvals(M).real.max() < 0
+
+
+def input_gain_margins(A, B, K, C=None, *, k_max=1e3, rtol=1e-6):
+    """(k_low, k_high): the loop u = k K y is stable for every k in (k_low, k_high) ∋ 1.
+
+    ``C`` defaults to the identity (state feedback).  ``k_high`` is ``inf`` when no gain up to
+    ``k_max`` destabilizes, ``k_low`` is 0 when no gain down to 0 does.  Bisection on the
+    closed-loop eigenvalues (the first crossing on each side of 1; a loop can regain stability
+    further out, which is not reported).  Raises ValueError if the nominal loop is unstable.
+    """
+    A, B, C = _plant(A, B, C)
+    ctrl = _controller(K, C.shape[0], B.shape[1])
+    if not _stable(_closed_loop(A, B, C, ctrl)):
+        raise ValueError("the nominal closed loop (k = 1) is unstable: no gain margin")
+
+    def edge(lo, hi):  # lo stable, hi unstable: bisect
+        a, b = lo, hi
+        while abs(b - a) > rtol * max(abs(a), abs(b), 1.0):
+            m = 0.5 * (a + b)
+            if _stable(_closed_loop(A, B, C, ctrl, m)):
+                a = m
+            else:
+                b = m
+        return a
+
+    grid_up = np.geomspace(1.0, k_max, 200)[1:]
+    high = np.inf
+    for prev, k in zip(np.r_[1.0, grid_up[:-1]], grid_up):
+        if not _stable(_closed_loop(A, B, C, ctrl, k)):
+            high = edge(prev, k)
+            break
+    grid_down = np.linspace(1.0, 0.0, 201)[1:]
+    low = 0.0
+    for prev, k in zip(np.r_[1.0, grid_down[:-1]], grid_down):
+        if not _stable(_closed_loop(A, B, C, ctrl, k)):
+            low = edge(prev, k)
+            break
+    return low, high
+
+
+def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
+    """Smallest uniform input delay τ (s) that puts a closed-loop pole on the imaginary axis.
+
+    Exact up to the frequency grid: the loop gain G(jω) = K(jω) C (jωI − A)⁻¹ B is evaluated on
+    ``points`` log-spaced frequencies in [``w_min``, ``w_max``] (default: 100 × the largest
+    |eigenvalue| of the open and closed loop); where the number of eigenvalues of G with
+    |λ| > 1 changes, the crossing frequency is bisected and τ = (arg λ mod 2π) / ω.  Returns
+    ``inf`` when |λ| never crosses 1 (no delay destabilizes).  Raises ValueError if the
+    nominal loop is unstable.
+    """
+    A, B, C = _plant(A, B, C)
+    ctrl = _controller(K, C.shape[0], B.shape[1])
+    AK, BK, CK, DK = ctrl
+    Acl = _closed_loop(A, B, C, ctrl)
+    if not _stable(Acl):
+        raise ValueError("the nominal closed loop is unstable: no delay margin")
+    if w_max is None:
+        scale = max(np.abs(np.linalg.eigvals(Acl)).max(), np.abs(np.linalg.eigvals(A)).max(), 1.0)
+        w_max = 100.0 * scale
+    n, nk = A.shape[0], AK.shape[0]
+
+    def loop_eigs(w):
+        s = 1j * w
+        P = C @ np.linalg.solve(s * np.eye(n) - A, B)
+        Kw = DK + (CK @ np.linalg.solve(s * np.eye(nk) - AK, BK) if nk else 0.0)
+        return np.linalg.eigvals(Kw @ P)
+
+    def outside(w):
+        return int(np.sum(np.abs(loop_eigs(w)) > 1.0))
+
+    ws = np.geomspace(w_min, w_max, points)
+    counts = [outside(w) for w in ws]
+    best = np.inf
+    for i in range(points - 1):
+        if counts[i] == counts[i + 1]:
+            continue
+        a, b, ca = ws[i], ws[i + 1], counts[i]
+        for _ in range(60):
+            m = np.sqrt(a * b)
+            if outside(m) == ca:
+                a = m
+            else:
+                b = m
+        w = np.sqrt(a * b)
+        lam = loop_eigs(w)
+        j = int(np.argmin(np.abs(np.abs(lam) - 1.0)))
+        best = min(best, float(np.mod(np.angle(lam[j]), 2 * np.pi) / w))
+    return best
