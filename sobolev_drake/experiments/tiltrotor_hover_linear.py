@@ -51,15 +51,16 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 
-from sobolev_drake.experiments import Claim, ExperimentResult, register
+from sobolev_drake.experiments import ExperimentResult, register
 
 from sobolev_drake.experiments._tiltrotor_linear_designs import (  # noqa: F401 (re-exported)
     DESIGN_SPECS, DESIGNS, DISK_RADIUS, GAMMA0, GAMMA1, OF_MEASURED, UPSILON0, UPSILON1_OF,
     UPSILON1_SF, design, output_matrix)
+from sobolev_drake.experiments._tiltrotor_linear_report import (  # noqa: F401 (re-exported)
+    COLUMNS, SENS_COLUMNS, THESIS_TABLE_7_2, add_claims, gamma_cell, margin_cell, plot_flights,
+    sensitivity_row, table_title)
 
 Q0 = np.array([0, 0, 0, 0, 0, -1.0, 20.0, 0])
-THESIS_TABLE_7_2 = {"W∞": (21.4, 2182.0), "W∞-D": (10.9, 1541.8), "W∞-O.F.": (60.7, 1376.2),
-                    "W∞-O.F.D": (39.2, 1317.3)}
 #: smoke mode: the cheapest certified design only (state feedback, ~10 s synthesis)
 SMOKE_DESIGNS = ("W∞",)
 SMOKE_DURATION = 10.0
@@ -295,77 +296,11 @@ def indices(data, trim):
             "finite": bool(np.all(np.isfinite(x)))}
 
 
-def _plot(all_data, out_dir):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from sobolev_drake.viz import save_figure
-
-    out = {}
-    fig = plt.figure(figsize=(7, 6))
-    ax = fig.add_subplot(projection="3d")
-    first = next(iter(all_data.values()))
-    r = first["reference"]
-    ax.plot(r[0], r[1], r[2], "k--", lw=1, label="reference")
-    for i, (name, d) in enumerate(all_data.items()):
-        ax.plot(d["x"][5], d["x"][6], d["x"][7], f"C{i}", lw=1, label=name)
-    ax.legend()
-    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    out["path_3d"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_path3d.png")
-    fig, axes = plt.subplots(5, 1, figsize=(8, 11), sharex=True)
-    for i, (name, d) in enumerate(all_data.items()):
-        t, x, r = d["t"], d["x"], d["reference"]
-        for k in range(3):
-            axes[k].plot(t, x[5 + k] - r[k], f"C{i}", lw=1, label=name)
-        axes[3].plot(t, np.degrees(x[0]), f"C{i}", lw=1)
-        axes[4].plot(t, d["n"][0], f"C{i}", lw=1)
-    for k, lab in enumerate(["e_x [m]", "e_y [m]", "e_z [m]", "αR [deg]", "nR [rev/s]"]):
-        axes[k].set_ylabel(lab)
-        axes[k].grid(alpha=0.3)
-    axes[0].legend(fontsize=7)
-    axes[-1].set_xlabel("time [s]")
-    fig.tight_layout()
-    out["errors"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_errors.png")
-    fig, ax = plt.subplots(figsize=(8, 3))
-    w = first["wind"]
-    for k, a in enumerate("xyz"):
-        ax.plot(first["t"], w[k], f"C{k}", lw=0.8, label=f"ζ{a}")
-    ax.set_xlabel("time [s]"), ax.set_ylabel("wind [m/s]"), ax.legend()
-    fig.tight_layout()
-    out["wind"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_wind.png")
-    return out
-
 
 _METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "transient_bound", "certified", "achieved",
                 "gamma_wind", "gamma_common", "certificate_failures", "solver", "status", "solve_s",
                 "notes", "max_real", "max_abs", "kind", "order", "delay_margin_s", "gain_margins")
 
-
-_COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz‖∞", "delay margin [ms]", "synthesis [s]", "ISE", "IADU",
-            "ISE (thesis)", "IADU (thesis)", "notes"]
-
-
-def _title(duration):
-    return (f"Table 7.2 beside ours (duration {duration:g} s; ‖T_ζz‖∞: wind → W∞ channel, "
-            f"‖T_vz‖∞: von Kármán noise → W∞ channel; delay margin: uniform delay on the four "
-            f"inputs that destabilizes the linear loop)")
-
-
-def _gamma_cell(ctrl):
-    if ctrl.get("certified") is None:
-        return f"{ctrl['gamma']:.4g} (solver value, not a bound)"
-    if ctrl["certified"]:
-        return f"{ctrl['gamma']:.4g} ✓"
-    return f"{ctrl['gamma']:.4g} ✗ (‖T‖∞ = {ctrl['achieved']:.4g})"
-
-
-def _margin_cell(ctrl):
-    tau = ctrl.get("delay_margin_s")
-    return "-" if tau is None else ("∞" if np.isinf(tau) else f"{1e3 * tau:.3g}")
-
-
-_SENS_COLUMNS = ["design", "flight", "RMS position [m]", "final [m]", "max |φ|,|θ| [°]",
-                 "max tilt [°]", "ISE", "IADU"]
 
 
 def _sensitivity_flight(ctrl, trim, duration, velocity_reference):
@@ -378,52 +313,6 @@ def _sensitivity_flight(ctrl, trim, duration, velocity_reference):
     idx = indices(d, trim)
     idx.update(stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
     return idx
-
-
-def _sensitivity_row(name, m):
-    if "sim_error" in m:
-        return [name, "sim failed: " + m["sim_error"][:120], *["-"] * 6]
-    return [name, m["stopped"] or "flies to the end", f"{m['rms_pos_m']:.2f}", f"{m['final_pos_err_m']:.2f}",
-            f"{m['max_attitude_deg']:.1f}", f"{m['max_tilt_deg']:.1f}", f"{m['ise']:.1f}", f"{m['iadu']:.1f}"]
-
-
-def _claims(res, metrics, smoke):
-    """Thesis claims of §7.3.1 checked on our runs (only with the full duration)."""
-    base = {k: m for k, m in metrics.items() if "ise" in m}
-    th = THESIS_TABLE_7_2
-    def tracks(m):  # held?, measured detail
-        wind = m.get("max_lateral_wind_m_s")
-        return (m["finite"] and m["max_attitude_deg"] < 60 and not m.get("stopped"),
-                f"RMS position {m['rms_pos_m']:.2f} m, final {m['final_pos_err_m']:.2f} m, "
-                f"max |φ|,|θ| {m['max_attitude_deg']:.1f}°"
-                + ("" if wind is None else f", peak lateral wind {wind:.1f} m/s"))
-
-    for name, m in base.items():
-        res.claims.append(Claim(
-            f"{name}: tracks the Table 7.1 path on the nonlinear plant (finite, |φ|, |θ| < 60°)",
-            *tracks(m)))
-        lit = m.get("literal_noise")
-        if lit and "ise" in lit:
-            held, detail = tracks(lit)
-            res.claims.append(Claim(
-                f"{name}: tracks the path with the noise read literally (gusts ≈ 6 % of σ)", held,
-                detail + (f"; {lit['stopped']}" if lit.get("stopped") else "")))
-    if smoke:
-        return
-    for ref, dm in (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"),
-                    ("W∞-O.F.", "W∞-O.F.D"), ("W∞-O.F.", "W∞-O.F.D (thesis LMI)")):
-        if ref in base and dm in base and not (base[ref]["stopped"] or base[dm]["stopped"]):
-            col = DESIGN_SPECS[dm][1]
-            ri, ru = base[dm]["ise"] / base[ref]["ise"], base[dm]["iadu"] / base[ref]["iadu"]
-            res.claims.append(Claim(
-                f"{dm} has smaller ISE and IADU than {ref} (thesis {th[col][0] / th[ref][0]:.0%} / "
-                f"{th[col][1] / th[ref][1]:.0%})", ri < 1 and ru < 1, f"ours {ri:.0%} / {ru:.0%}"))
-    if "W∞" in base and "W∞-O.F." in base and not (base["W∞"]["stopped"] or base["W∞-O.F."]["stopped"]):
-        a, b = base["W∞"], base["W∞-O.F."]
-        res.claims.append(Claim("W∞-O.F. has larger ISE but smaller IADU than W∞ (thesis 60.7 vs "
-                                "21.4, 1376 vs 2182)", b["ise"] > a["ise"] and b["iadu"] < a["iadu"],
-                                f"ours ISE {b['ise']:.1f} vs {a['ise']:.1f}, IADU {b['iadu']:.0f} vs "
-                                f"{a['iadu']:.0f}"))
 
 
 @register("tiltrotor-hover-linear", "Tilt-rotor hover: linear W∞ state/output feedback and "
@@ -478,10 +367,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     def write_outputs():  # tables and metrics; also after every design (interrupted runs)
         mjson.write_text(json.dumps(metrics, indent=1, default=str))
         if srows:
-            _write_table(out_dir, "tiltrotor-hover-linear_literal_noise", _SENS_COLUMNS, srows,
+            _write_table(out_dir, "tiltrotor-hover-linear_literal_noise", SENS_COLUMNS, srows,
                          f"Sensitivity: the same controllers with the noise read literally "
                          f"(σ × √(Δt/π), gusts ≈ 6 % of σ), {duration:g} s")
-        return _write_table(out_dir, "tiltrotor-hover-linear_table", _COLUMNS, rows, _title(duration))
+        return _write_table(out_dir, "tiltrotor-hover-linear_table", COLUMNS, rows, table_title(duration))
 
     for name in designs:
         col = DESIGN_SPECS[name][1]
@@ -506,20 +395,20 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
         except Exception as exc:  # e.g. the integrator gives up on a diverging closed loop
             m["sim_error"] = f"{type(exc).__name__}: {exc}"
             metrics[name] = m
-            rows.append([name, _gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                         _margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", "sim failed", "-", *thesis,
+            rows.append([name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
+                         margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", "sim failed", "-", *thesis,
                          m["sim_error"][:200]])
             continue
         idx = indices(d, trim)
         all_data[name] = d
         m.update(idx, sim_wall_s=d["wall_s"], stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
         metrics[name] = m
-        rows.append([name, _gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                     _margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
+        rows.append([name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
+                     margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
                      "; ".join(([d["stopped"].upper()] if d["stopped"] else []) + ctrl["notes"])[:300]])
         if sensitivity:
             m["literal_noise"] = _sensitivity_flight(ctrl, trim, duration, velocity_reference)
-            srows.append(_sensitivity_row(name, m["literal_noise"]))
+            srows.append(sensitivity_row(name, m["literal_noise"]))
         if record and name == record_design and d["recorder"] is not None:
             from sobolev_drake import viz
             from sobolev_drake.experiments.tiltrotor_missions import draw_paths
@@ -530,7 +419,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
         write_outputs()
     md, js, text = write_outputs()
     if all_data:
-        res.outputs.update(_plot(all_data, out_dir))
+        res.outputs.update(plot_flights(all_data, out_dir))
     res.outputs.update({"table_md": md, "table_json": js, "metrics_json": mjson})
     if gains:
         # controllers (u = u_trim + K Δx, or AK..DK on y = C Δx) for independent re-checks
@@ -539,5 +428,5 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     if srows:
         res.outputs["literal_noise_md"] = out_dir / "tiltrotor-hover-linear_literal_noise.md"
     res.metrics, res.table_markdown = metrics, text
-    _claims(res, metrics, smoke or duration < 200.0)
+    add_claims(res, metrics, smoke or duration < 200.0)
     return res
