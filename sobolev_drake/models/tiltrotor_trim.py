@@ -182,7 +182,9 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
     matters: in a crosswind the weathercock yaw moment has to be held by differential nacelle
     tilt, which for this airframe drags roll and pitch along (measured: 12 m/s lateral wind
     needs φ ≈ 39°, θ ≈ −49°).  A quasi-steady bound, not a proof: a gust shorter than the
-    aircraft's response can exceed it briefly.
+    aircraft's response can exceed it briefly.  "No trim beyond" means the continuation lost
+    the branch, which a Newton failure does not prove; with a tail component in the wind the
+    α of (7.39) is discontinuous (flow from behind) and the continuation stops early.
     """
     checks = {"direction_deg": direction_deg, "attitude_limit_deg": attitude_limit_deg,
               "max_speed": max_speed, "step": step, "tol": tol}
@@ -201,7 +203,7 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
         return t if t.success and np.max(np.abs(t.q[2:4])) <= bound else None
 
     speeds, trims = [0.0], [trim_hover(model)]
-    V, reason = step, ""
+    V = step
     while V <= max_speed + 1e-12:
         t = trim_at(V, trims[-1].info["z"])
         if t is None:
@@ -224,8 +226,10 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
     reason = (f"max(|φ|, |θ|) passes {attitude_limit_deg:g}° (trim at {hi:.2f} m/s: "
               f"{np.degrees(np.max(np.abs(t.q[2:4]))):.1f}°)" if t.success else
               f"no trim beyond {lo:.2f} m/s (continuation lost, residual {t.residual_norm:.1e})")
-    return HoverWindLimit(float(direction_deg), float(attitude_limit_deg), np.array(speeds + [lo]),
-                          trims + [last], 0.5 * (lo + hi), reason)
+    if lo > speeds[-1]:
+        speeds, trims = speeds + [lo], trims + [last]
+    return HoverWindLimit(float(direction_deg), float(attitude_limit_deg), np.array(speeds), trims,
+                          0.5 * (lo + hi), reason)
 
 
 def tilt_reference_polynomial(V) -> np.ndarray:
