@@ -26,7 +26,7 @@ at α = 0; (7.41)–(7.45) add both at the full dynamic pressure κ.  In a sidew
 u, w → 0) the angle of attack is undefined: (7.39) gives α = ±90° for any small w, and the
 α tables then add a flat-plate drag (c_d^xz(90°) ≈ 1.0–1.4 for wing, fuselage, tail) to the
 β tables' measured crossflow drag (0.02–0.27).  Measured: a 12 m/s lateral wind pushes the
-hovering aircraft with 33 N instead of the 4.7 N of the β tables, and with the heading held no
+hovering aircraft with 33 N instead of the 4.3 N of the β tables, and with the heading held no
 hover trim within ±60° of attitude exists beyond 12.5 m/s (``models.tiltrotor_trim.
 hover_wind_limit``).  ``"independence"`` (default) applies the independence (sweep) principle:
 the α-table terms (lift, c_d^xz, pitch moment, and the aileron / elevator lift of the
