@@ -69,29 +69,24 @@ def input_gain_margins(A, B, K, C=None, *, k_max=1e3, rtol=1e-6):
     if not _stable(_closed_loop(A, B, C, ctrl)):
         raise ValueError("the nominal closed loop (k = 1) is unstable: no gain margin")
 
-    def edge(lo, hi):  # lo stable, hi unstable: bisect
-        a, b = lo, hi
-        while abs(b - a) > rtol * max(abs(a), abs(b), 1.0):
-            m = 0.5 * (a + b)
-            if _stable(_closed_loop(A, B, C, ctrl, m)):
-                a = m
-            else:
-                b = m
-        return a
+    def first_loss(grid, none_lost):
+        """Stable edge of the first gain on ``grid`` (walking away from 1) that destabilizes."""
+        prev = 1.0
+        for k in grid:
+            if not _stable(_closed_loop(A, B, C, ctrl, k)):
+                a, b = prev, k                      # a stable, b unstable: bisect
+                while abs(b - a) > rtol * max(abs(a), abs(b), 1.0):
+                    m = 0.5 * (a + b)
+                    if _stable(_closed_loop(A, B, C, ctrl, m)):
+                        a = m
+                    else:
+                        b = m
+                return a
+            prev = k
+        return none_lost
 
-    grid_up = np.geomspace(1.0, k_max, 200)[1:]
-    high = np.inf
-    for prev, k in zip(np.r_[1.0, grid_up[:-1]], grid_up):
-        if not _stable(_closed_loop(A, B, C, ctrl, k)):
-            high = edge(prev, k)
-            break
-    grid_down = np.linspace(1.0, 0.0, 201)[1:]
-    low = 0.0
-    for prev, k in zip(np.r_[1.0, grid_down[:-1]], grid_down):
-        if not _stable(_closed_loop(A, B, C, ctrl, k)):
-            low = edge(prev, k)
-            break
-    return low, high
+    return (first_loss(np.linspace(1.0, 0.0, 201)[1:], 0.0),
+            first_loss(np.geomspace(1.0, k_max, 200)[1:], np.inf))
 
 
 def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
@@ -107,12 +102,11 @@ def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
     A, B, C = _plant(A, B, C)
     ctrl = _controller(K, C.shape[0], B.shape[1])
     AK, BK, CK, DK = ctrl
-    Acl = _closed_loop(A, B, C, ctrl)
-    if not _stable(Acl):
+    ev = np.linalg.eigvals(_closed_loop(A, B, C, ctrl))
+    if ev.real.max() >= 0:
         raise ValueError("the nominal closed loop is unstable: no delay margin")
     if w_max is None:
-        scale = max(np.abs(np.linalg.eigvals(Acl)).max(), np.abs(np.linalg.eigvals(A)).max(), 1.0)
-        w_max = 100.0 * scale
+        w_max = 100.0 * max(np.abs(ev).max(), np.abs(np.linalg.eigvals(A)).max(), 1.0)
     n, nk = A.shape[0], AK.shape[0]
 
     def loop_eigs(w):
