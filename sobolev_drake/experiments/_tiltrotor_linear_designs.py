@@ -58,17 +58,22 @@ def _disturbance_model():
     return Ad, Bd, Cd
 
 
+def _dynamic_controller(ctrl):
+    """The :class:`DynamicController` of a ``kind == "dyn"`` design dict."""
+    from sobolev_drake.synthesis.hinf import DynamicController
+    return DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"])
+
+
 def _closed_loop_norm(plant, ctrl, extra_states=0):
     """‖T‖∞ of ``plant`` closed by ``ctrl`` (inf if unstable); a state feedback K ignores the
     last ``extra_states`` states (the disturbance filters it does not measure)."""
     from sobolev_drake.synthesis.certificates import hinf_norm
-    from sobolev_drake.synthesis.hinf import DynamicController
 
     if ctrl["kind"] == "sf":
         K = np.asarray(ctrl["K"])
         cl = plant.closed_loop(K=np.hstack([K, np.zeros((K.shape[0], extra_states))]))
     else:
-        cl = plant.closed_loop(controller=DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]))
+        cl = plant.closed_loop(controller=_dynamic_controller(ctrl))
     if np.linalg.eigvals(cl[0]).real.max() >= 0:
         return np.inf
     return float(hinf_norm(*cl)[0])
@@ -108,8 +113,9 @@ def _solve(lin, kind, backend, x0=None):
     # its certificate and the BRL re-check pass, else the Clarabel chain) for the W-inf state/
     # output feedback, 4-8x faster than Clarabel at an equal certified gamma.  The thesis'
     # non-strict LMIs are degenerate: plain Clarabel without the fallback chain, whose CSDP
-    # step ran > 30 min on (6.36) without an answer.  The well-posed disturbance-model designs
-    # are pinned to Clarabel below (dm_backend).
+    # step ran > 30 min on (6.36) without an answer.  The optimum of the well-posed
+    # disturbance-model designs is pinned to Clarabel below (dm_backend); their transient
+    # re-solve takes "auto".
     thesis_form = kind.startswith("dm_thesis")
     dm_backend = backend or "clarabel"
     if backend is None:
@@ -245,13 +251,9 @@ def loop_margins(lin, ctrl):
     """``delay_margin_s`` and ``gain_margins`` (k_low, k_high) of ``ctrl`` at the plant input of
     the linearization (uniform on all four inputs, :mod:`sobolev_drake.synthesis.margins`);
     None when the nominal loop is unstable."""
-    from sobolev_drake.synthesis.hinf import DynamicController
     from sobolev_drake.synthesis.margins import input_delay_margin, input_gain_margins
 
-    if ctrl["kind"] == "sf":
-        K, C = ctrl["K"], None
-    else:
-        K, C = DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"]), ctrl["C"]
+    K, C = (ctrl["K"], None) if ctrl["kind"] == "sf" else (_dynamic_controller(ctrl), ctrl["C"])
     try:
         return {"delay_margin_s": input_delay_margin(lin.A, lin.B, K, C),
                 "gain_margins": list(input_gain_margins(lin.A, lin.B, K, C))}

@@ -77,10 +77,12 @@ def gamma_cell(ctrl):
     return f"{ctrl['gamma']:.4g} ✗ (‖T‖∞ = {ctrl['achieved']:.4g})"
 
 
-def margin_cell(ctrl):
-    """Delay-margin column in milliseconds."""
+def design_cells(name, ctrl):
+    """The first columns of a synthesized design's row of :data:`COLUMNS` (design … synthesis)."""
     tau = ctrl.get("delay_margin_s")
-    return "-" if tau is None else ("∞" if np.isinf(tau) else f"{1e3 * tau:.3g}")
+    margin = "-" if tau is None else ("∞" if np.isinf(tau) else f"{1e3 * tau:.3g}")
+    return [name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}", margin,
+            f"{ctrl['solve_s']:.1f}"]
 
 
 SENS_COLUMNS = ["design", "flight", "RMS position [m]", "final [m]", "max |φ|,|θ| [°]",

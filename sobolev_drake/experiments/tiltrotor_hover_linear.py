@@ -59,7 +59,7 @@ from sobolev_drake.experiments._tiltrotor_linear_designs import (  # noqa: F401 
     DESIGN_SPECS, DESIGNS, DISK_RADIUS, GAMMA0, GAMMA1, OF_MEASURED, UPSILON0, UPSILON1_OF,
     UPSILON1_SF, design, output_matrix)
 from sobolev_drake.experiments._tiltrotor_linear_report import (  # noqa: F401 (re-exported)
-    COLUMNS, SENS_COLUMNS, THESIS_TABLE_7_2, add_claims, gamma_cell, margin_cell, plot_flights,
+    COLUMNS, SENS_COLUMNS, THESIS_TABLE_7_2, add_claims, design_cells, plot_flights,
     sensitivity_row, table_title)
 
 Q0 = np.array([0, 0, 0, 0, 0, -1.0, 20.0, 0])
@@ -348,12 +348,13 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     duration = (SMOKE_DURATION if smoke else 200.0) if duration is None else float(duration)
     record_design = record_design or designs[0]
     sensitivity = (not smoke) if sensitivity is None else bool(sensitivity)
-    from sobolev_drake.models.tiltrotor import TiltrotorModel
     from sobolev_drake.models.tiltrotor_params import TiltrotorParams
-    params = TiltrotorParams(crossflow=crossflow)  # validates the name before minutes of synthesis
-    model = TiltrotorModel(params)
+    from sobolev_drake.models.tiltrotor_trim import tiltrotor_model
+    # validates the name before minutes of synthesis; the model (and the linearization's
+    # diagram) is shared by every run with the same parameters
+    model = tiltrotor_model(TiltrotorParams(crossflow=crossflow))
     trim = trim_hover(model)
-    lin = linearize(trim, params=params)
+    lin = linearize(trim)
     x0 = initial_error(trim, velocity_reference) if regularization == "transient" else None
     res = ExperimentResult(name="tiltrotor-hover-linear")
     rows, srows, all_data, gains = [], [], {}, {}
@@ -397,16 +398,13 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
         except Exception as exc:  # e.g. the integrator gives up on a diverging closed loop
             m["sim_error"] = f"{type(exc).__name__}: {exc}"
             metrics[name] = m
-            rows.append([name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                         margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", "sim failed", "-", *thesis,
-                         m["sim_error"][:200]])
+            rows.append([*design_cells(name, ctrl), "sim failed", "-", *thesis, m["sim_error"][:200]])
             continue
         idx = indices(d, trim)
         all_data[name] = d
         m.update(idx, sim_wall_s=d["wall_s"], stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
         metrics[name] = m
-        rows.append([name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}",
-                     margin_cell(ctrl), f"{ctrl['solve_s']:.1f}", f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
+        rows.append([*design_cells(name, ctrl), f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}", *thesis,
                      "; ".join(([d["stopped"].upper()] if d["stopped"] else []) + ctrl["notes"])[:300]])
         if sensitivity:
             m["literal_noise"] = _sensitivity_flight(ctrl, trim, duration, velocity_reference)

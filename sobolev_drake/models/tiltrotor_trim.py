@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
+from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 from sobolev_drake.systems.input_affine import generalized_force
 
 #: thesis hover trim [θ, αR, αL, n, τs] (7.3.1)
@@ -32,12 +33,24 @@ THESIS_HOVER = {"theta": 0.137, "alpha_R": -0.137, "alpha_L": -0.137, "n": 51.9,
 _MODELS: dict = {}
 
 
+def _params_key(params: TiltrotorParams) -> tuple:
+    """Value of ``params`` as a hashable key (the dataclass holds numpy arrays)."""
+    from dataclasses import fields
+    return tuple((f.name, v if isinstance(v, str) else np.asarray(v, dtype=float).tobytes())
+                 for f in fields(params) for v in (getattr(params, f.name),))
+
+
+def tiltrotor_model(params: TiltrotorParams | None = None) -> TiltrotorModel:
+    """The :class:`TiltrotorModel` of ``params`` (default Table B.1), one per parameter value."""
+    params = TiltrotorParams() if params is None else params
+    key = _params_key(params)
+    if key not in _MODELS:
+        _MODELS[key] = TiltrotorModel(params)
+    return _MODELS[key]
+
+
 def _model(model):
-    if model is not None:
-        return model
-    if "default" not in _MODELS:
-        _MODELS["default"] = TiltrotorModel()
-    return _MODELS["default"]
+    return tiltrotor_model() if model is None else model
 
 
 @dataclass
@@ -186,11 +199,12 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
     the branch, which a Newton failure does not prove; with a tail component in the wind the
     α of (7.39) is discontinuous (flow from behind) and the continuation stops early.
     """
-    checks = {"direction_deg": direction_deg, "attitude_limit_deg": attitude_limit_deg,
-              "max_speed": max_speed, "step": step, "tol": tol}
-    for name, v in checks.items():
-        if not np.isfinite(v) or (name != "direction_deg" and v <= 0):
-            raise ValueError(f"{name} must be finite{'' if name == 'direction_deg' else ' and positive'}, got {v}")
+    if not np.isfinite(direction_deg):
+        raise ValueError(f"direction_deg must be finite, got {direction_deg}")
+    for name, v in (("attitude_limit_deg", attitude_limit_deg), ("max_speed", max_speed),
+                    ("step", step), ("tol", tol)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be finite and positive, got {v}")
     if not 0 < attitude_limit_deg < 90:
         raise ValueError(f"attitude_limit_deg must lie in (0, 90), got {attitude_limit_deg}")
     model = _model(model)
@@ -366,12 +380,14 @@ _EVALUATORS: dict = {}
 
 def linearize(trim: Trim | None = None, *, params=None, include_surfaces=False, eps=1e-6) -> Linearization:
     """Linearize the Drake diagram about ``trim`` (default: hover trim) with the integral states
-    of (7.57).  Central differences of ``CalcTimeDerivatives`` (see module docstring)."""
+    of (7.57).  Central differences of ``CalcTimeDerivatives`` (see module docstring).
+    ``params``: default the parameters of the model the trim was computed on."""
     trim = trim_hover() if trim is None else trim
-    key = id(params)
+    params = trim.info["model"].params if params is None else params
+    key = _params_key(params)           # one Drake diagram per parameter value
     if key not in _EVALUATORS:
-        _EVALUATORS[key] = (params, _DerivativeEvaluator(params))
-    f = _EVALUATORS[key][1]
+        _EVALUATORS[key] = _DerivativeEvaluator(params)
+    f = _EVALUATORS[key]
     x0 = np.concatenate([trim.q, trim.qdot])
     u0 = trim.u if include_surfaces else trim.u[:4]
     nu = u0.size
