@@ -191,11 +191,19 @@ class TiltrotorForces(LeafSystem):
     w), ``plant_state`` (Drake state).
     Output ports: ``applied_generalized_force`` (Drake order, to the plant), ``x`` (16, thesis
     order [q; q̇], state-only), ``generalized_force`` (8, thesis order ϑ + w, for logging).
+
+    ``native``: None (default) computes the forces with the compiled kernel
+    (``native/forces.c``, equal to :meth:`thesis_force` to the bit) when it is built and with
+    Python otherwise; False always uses Python; True requires the kernel.
     """
 
-    def __init__(self, model: TiltrotorModel):
+    def __init__(self, model: TiltrotorModel, *, native: bool | None = None):
         super().__init__()
+        from sobolev_drake.native import kernel
+        from sobolev_drake.native.forces import force_model
         from sobolev_drake.systems.input_affine import cores
+        if native not in (None, True, False):
+            raise ValueError(f"native must be None (use the compiled kernel if built), True or False, got {native!r}")
         self.model = model
         self.prop, self.aero = cores(model.params)
         self._state = self.DeclareVectorInputPort("plant_state", 16)
@@ -226,6 +234,20 @@ class TiltrotorForces(LeafSystem):
         self._cosb, self._nu = float(np.cos(model.params.beta)), float(model.params.nu)
         self._dC1 = [float(v) for v in model.params.d_B_C1]
         self.evaluations = 0          # number of force evaluations (benchmarks)
+        # The compiled kernel (native/forces.c) computes exactly thesis_force (tested equal to
+        # the bit); thesis_force stays the reference and the fallback without a C compiler.
+        self._kernel = kernel("forces") if native is not False else None
+        if native and self._kernel is None:
+            raise RuntimeError("native=True but the compiled 'forces' kernel is not built (or "
+                               "SOBOLEV_DRAKE_NATIVE=0); reinstall with a C compiler")
+        self._native = None if self._kernel is None else force_model(
+            self.prop, self.aero, perm16=self._perm16.tolist(),
+            perm8_inv=self._perm8_inv.tolist(), cos_beta_servo=self._cosb)
+
+    @property
+    def native(self) -> bool:
+        """True when the forces are computed by the compiled kernel."""
+        return self._native is not None
 
     def _calc_x(self, context, output) -> None:
         output.SetFromVector(self._state.Eval(context)[self._perm16])
@@ -282,11 +304,27 @@ class TiltrotorForces(LeafSystem):
             tau += p_dist.Eval(context)
         return tau
 
+    def _native_force(self, context, out, drake_order) -> None:
+        """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
+        self.evaluations += 1
+        p_w, p_f, p_dist = self._port_list[4:]
+        self._kernel.plant_force(self._native, self._state.Eval(context), self._inputs.Eval(context),
+                                 p_w.Eval(context) if p_w.HasValue(context) else None,
+                                 p_f.Eval(context) if p_f.HasValue(context) else None,
+                                 p_dist.Eval(context) if p_dist.HasValue(context) else None,
+                                 out, drake_order)
+
     def _calc_thesis(self, context, output) -> None:
-        output.SetFromVector(self.thesis_force(context))
+        if self._native is not None:
+            self._native_force(context, output.get_mutable_value(), False)
+        else:
+            output.SetFromVector(self.thesis_force(context))
 
     def _calc_drake(self, context, output) -> None:
-        output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
+        if self._native is not None:
+            self._native_force(context, output.get_mutable_value(), True)
+        else:
+            output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
 
 
 class TiltrotorHandles(PlantHandles):
@@ -303,18 +341,20 @@ class TiltrotorHandles(PlantHandles):
         self.generalized_force = forces.GetOutputPort("generalized_force")
 
 
-def add_tiltrotor(builder, params: TiltrotorParams | None = None) -> TiltrotorHandles:
+def add_tiltrotor(builder, params: TiltrotorParams | None = None, *,
+                  native: bool | None = None) -> TiltrotorHandles:
     """Add the tilt-rotor (MultibodyPlant + SceneGraph + :class:`TiltrotorForces`) to ``builder``.
 
     Returns :class:`TiltrotorHandles`: ``plant, scene_graph, model, u, disturbance, x`` (shared
     contract) and ``propeller_speed, servo_torque, surface_deflection, wind, force_disturbance,
-    generalized_force, forces``.
+    generalized_force, forces``.  ``native``: see :class:`TiltrotorForces` (None: the compiled
+    force kernel when it is built, else Python).
     """
     params = TiltrotorParams() if params is None else params
     plant, scene_graph = _build_plant(params, builder)
     plant.set_name("tiltrotor_plant")
     model = TiltrotorModel(params, plant=plant)
-    forces = builder.AddSystem(TiltrotorForces(model))
+    forces = builder.AddSystem(TiltrotorForces(model, native=native))
     forces.set_name("tiltrotor_forces")
     builder.Connect(plant.get_state_output_port(), forces.GetInputPort("plant_state"))
     builder.Connect(forces.GetOutputPort("applied_generalized_force"),

@@ -27,6 +27,7 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
 from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
+from sobolev_drake.native import kernel
 from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
 
 # --------------------------------------------------------------------------------------------
@@ -73,6 +74,14 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
         v = np.full(4, float(v.ravel()[0]))
     if v.shape != (4,):
         raise ValueError(f"v_air must be a non-negative scalar or a 4-vector [WR, WL, TR, TL], got {v_air!r}")
+    k = kernel("forces")
+    if k is not None:             # the same floats in C (the controller calls this per sample)
+        try:
+            lo, hi = k.surface_bounds(v, s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi)
+        except ValueError:
+            raise ValueError("v_air must be a non-negative scalar or a 4-vector [WR, WL, TR, TL], "
+                             f"got {v_air!r}") from None
+        return np.array(lo), np.array(hi)
     # sigmf (7.89) per surface in plain floats (same overflow-safe form as :func:`sigmf`)
     lo, hi = [f_lo, f_lo, t_lo, t_lo], [f_hi, f_hi, t_hi, t_hi]
     for x in v.tolist():

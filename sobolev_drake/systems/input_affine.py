@@ -41,6 +41,19 @@ def cores(params: TiltrotorParams | None = None):
     return _CORES[key][1], _CORES[key][2]
 
 
+def _native_core(params: TiltrotorParams):
+    """(kernel, model capsule) of the compiled force kernel for ``params``, or None (cached
+    beside :func:`cores`; see ``sobolev_drake.native``)."""
+    prop, aero = cores(params)
+    entry = _CORES[id(params)]
+    if len(entry) == 3:
+        from sobolev_drake.native import kernel
+        from sobolev_drake.native.forces import force_model
+        capsule = force_model(prop, aero)
+        entry = _CORES[id(params)] = (*entry, None if capsule is None else (kernel("forces"), capsule))
+    return entry[3]
+
+
 def _params_of(model_or_params):
     if model_or_params is None:
         return TiltrotorParams()
@@ -103,7 +116,21 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
 
 def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thrust") -> AffineTerms:
     """:func:`input_affine_terms` on already validated lists of Python floats (q, q̇: 8, ζ: 3,
-    n: 2) — the controller's per-sample path, without re-checking what it checked."""
+    n: 2) — the controller's per-sample path, without re-checking what it checked.  Computed
+    by the compiled kernel when it is built (equal to this Python code to rounding: the kernel's
+    hypot may differ in the last bit), else in Python."""
+    native = _native_core(p)
+    if native is not None:
+        k, capsule = native
+        B, passive, V, vxz, phis = k.affine_terms(capsule, ql, qdl, zl, nl, torque == "through_thrust")
+        return AffineTerms(np.array(B).reshape(8, 8), np.array(passive), np.array(V),
+                           np.array(vxz), np.array(phis))
+    return affine_terms_scalar_python(p, ql, qdl, zl, nl, torque)
+
+
+def affine_terms_scalar_python(p: TiltrotorParams, ql, qdl, zl, nl,
+                               torque="through_thrust") -> AffineTerms:
+    """The Python reference of :func:`affine_terms_scalar` (the compiled kernel mirrors it)."""
     prop, aero = cores(p)
     c = prop.coef
     kin = body_kinematics_scalar(ql, qdl, zl)

@@ -354,7 +354,8 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import N_REF, affine_terms_scalar, cores, input_affine
+    from sobolev_drake.systems.input_affine import (N_REF, _native_core, affine_terms_scalar, cores,
+                                                    input_affine)
 
     prop, aero = cores(model.params)
     if callable(schedule):
@@ -409,11 +410,18 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         V = terms(q, qdot, wind).surface_speed
         return tiltrotor_bounds(V[1:5])          # surfaces F, WR, WL, TR, TL, I → [WR WL TR TL]
 
+    native = _native_core(model.params)      # compiled Newton solve (same floats) if built
+
     def thrust_to_speed(f, q, qdot, wind, n_guess=None):
         t = terms(q, qdot, wind)
         v_xz, phi = t.rotor_vxz, t.rotor_phi
         if n_guess is not None:
-            n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
+            if native is not None and np.size(f) == 2 and np.size(n_guess) == 2:
+                n = native[0].newton_speed(native[1], np.asarray(f, float), v_xz, phi,
+                                           np.asarray(n_guess, float), 4, 1e-9)
+                n = None if n is None else np.array(n)
+            else:
+                n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
             if n is not None:
                 return n
         return propeller_speed_for_thrust(f, v_xz, phi, coefficients=prop.coef,

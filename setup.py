@@ -1,0 +1,20 @@
+"""Build hook for the optional compiled kernels (``sobolev_drake/native/*.c``).
+
+Every ``native/<name>.c`` becomes the extension module ``sobolev_drake.native._<name>``: plain C
+(CPython API only, no other library), the hot scalar paths of the tilt-rotor simulation.  Each
+has a pure-Python reference implementation that the tests compare it with; when a kernel is not
+built (no compiler) the package falls back to Python (``sobolev_drake.native``).  All other
+metadata is in pyproject.toml.
+"""
+
+from pathlib import Path
+
+from setuptools import Extension, setup
+
+_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]   # IEEE, no FMA contraction
+
+setup(ext_modules=[
+    Extension(f"sobolev_drake.native._{src.stem}", [str(src)], extra_compile_args=_FLAGS,
+              optional=True)
+    for src in sorted(Path("sobolev_drake/native").glob("*.c"))
+])

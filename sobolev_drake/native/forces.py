@@ -1,0 +1,54 @@
+"""Constants of the compiled force kernel (``native/forces.c``) from the Python force model.
+
+:func:`force_model` packs what :class:`~sobolev_drake.systems.propulsion.PropulsionModel` and
+:class:`~sobolev_drake.systems.aerodynamics.AeroModel` hold (geometry, tables, Ct/Cq terms) into
+the kernel's model capsule, so the parameters, the data files and their validation stay in
+Python; None when the kernel is not available.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sobolev_drake.native import kernel
+
+__all__ = ["force_model"]
+
+
+def force_model(prop, aero, *, perm16=None, perm8_inv=None, cos_beta_servo=None):
+    """Kernel model capsule for ``prop`` (PropulsionModel) and ``aero`` (AeroModel) of the same
+    parameters, or None if the ``forces`` kernel is not built or disabled.
+
+    ``perm16`` / ``perm8_inv``: the plant's Drake ↔ thesis permutations (see
+    ``TiltrotorForces``; identity when omitted); ``cos_beta_servo``: the servo factor cos β as
+    the force system computes it (default ``prop.cosb``).
+    """
+    k = kernel("forces")
+    if k is None:
+        return None
+    if prop.params is not aero.params and prop.params != aero.params:
+        raise ValueError("prop and aero must be built from the same TiltrotorParams")
+    if aero._fast is None:
+        aero._prepare_fast()
+    (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep) = aero._fast
+    p, c = prop.params, prop.coef
+    terms = [v for (i, j), a, b in c._terms for v in (i, j, a, b)]
+    flat = lambda tab: [x for surface in tab for row in surface for x in row]   # noqa: E731
+    cb = float(prop.cosb)
+    return k.make_model({
+        "samples": float(aero.tables.samples), "points": [x for r in pts for x in r],
+        "half_rho_s": list(hrs), "alpha_tab": flat(atab), "beta_tab": flat(btab),
+        "start": start, "step": step, "nmax": nmax, "chord": float(chord), "span": float(span),
+        "c_delta_a": float(cda), "c_delta_e": float(cde), "c_delta_r": float(cdr),
+        "independence": float(bool(indep)), "sin_beta": prop._sb, "cos_beta": prop._cb,
+        "cos_beta_servo": cb if cos_beta_servo is None else float(cos_beta_servo),
+        "cos_beta_B": cb, "nu": float(p.nu), "d_A_P": prop._dAP_f,
+        "d_B_A": [x for r in prop._dBA_f for x in r], "lam": prop._lam_f,
+        "kf": float(prop._kf), "kt": float(prop._kt), "diameter": float(c.diameter),
+        "J_max": float(c.J_max), "rho": float(c.rho), "nterms": float(len(c._terms)),
+        "terms": [float(v) for v in terms], "d_B_C1": [float(v) for v in p.d_B_C1],
+        "perm16": [float(v) for v in (range(16) if perm16 is None else perm16)],
+        "perm8_inv": [float(v) for v in (range(8) if perm8_inv is None else perm8_inv)],
+    })
