@@ -5,12 +5,15 @@ propellers and the plant's force system agree to the bit; only the input-affine 
 in the last bit (libm's hypot vs Python's math.hypot).
 """
 
+import importlib
+
 import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+import sobolev_drake.native as native_pkg
 from sobolev_drake.native import kernel
 from sobolev_drake.native.forces import force_model
 from sobolev_drake.systems import tiltrotor_controller as tc
@@ -19,7 +22,14 @@ from sobolev_drake.systems.input_affine import (affine_terms_scalar, affine_term
                                                 cores)
 from sobolev_drake.systems.propulsion import body_kinematics_scalar
 
-K = kernel("forces")
+K = importlib.import_module("sobolev_drake.native._forces")   # ImportError: not built
+
+
+@pytest.fixture(autouse=True)
+def kernels_on(monkeypatch):
+    """These tests compare the kernel with Python, so they switch it on even under
+    SOBOLEV_DRAKE_NATIVE=0 (and off where they test the fallback)."""
+    monkeypatch.setattr(native_pkg, "_ENABLED", True)
 
 
 def random_case(rng, k):
@@ -34,9 +44,9 @@ def random_case(rng, k):
     return q.tolist(), qd.tolist(), zeta.tolist()
 
 
-def test_kernel_is_built():
+def test_kernel_is_built_and_selected():
     # CI machines have a C compiler: a missing build is a packaging error, not a fallback case
-    assert K is not None, "sobolev_drake.native._forces was not built (pip install -e . with gcc)"
+    assert kernel("forces") is K
 
 
 @pytest.mark.parametrize("crossflow", ["independence", "thesis"])
@@ -72,7 +82,7 @@ def test_affine_terms_dispatch_and_fallback(monkeypatch):
     params = TiltrotorParams()
     ql, qdl, zl = random_case(np.random.default_rng(2), 1)
     native = affine_terms_scalar(params, ql, qdl, zl, [50.0, 52.0])
-    monkeypatch.setenv("SOBOLEV_DRAKE_NATIVE", "0")
+    monkeypatch.setattr(native_pkg, "_ENABLED", False)
     assert kernel("forces") is None and force_model(*cores(params)) is None
     python = affine_terms_scalar_python(params, ql, qdl, zl, [50.0, 52.0])
     np.testing.assert_allclose(native.B, python.B, rtol=1e-13, atol=1e-13)
@@ -119,7 +129,7 @@ def test_plant_force_system_native_equals_python():
 def test_native_true_requires_the_kernel(monkeypatch):
     with pytest.raises(ValueError, match="native must be None"):
         add_tiltrotor(DiagramBuilder(), native="yes")
-    monkeypatch.setenv("SOBOLEV_DRAKE_NATIVE", "off")
+    monkeypatch.setattr(native_pkg, "_ENABLED", False)
     with pytest.raises(RuntimeError, match="kernel is not built"):
         add_tiltrotor(DiagramBuilder(), native=True)
     assert not add_tiltrotor(DiagramBuilder()).forces.native
@@ -151,7 +161,7 @@ def test_surface_bounds_equal_python_and_reject_bad_speed(monkeypatch):
         tiltrotor_bounds([1.0, -1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="non-negative"):
         tiltrotor_bounds([1.0, np.nan, 2.0, 3.0])
-    monkeypatch.setenv("SOBOLEV_DRAKE_NATIVE", "0")
+    monkeypatch.setattr(native_pkg, "_ENABLED", False)
     for v, (lo, hi) in zip(speeds, native):
         lo_p, hi_p = tiltrotor_bounds(v)
         assert np.array_equal(lo, lo_p) and np.array_equal(hi, hi_p)
@@ -181,7 +191,7 @@ def test_mission_states_equal_with_and_without_kernels(monkeypatch):
         built, _ = simulate_mission(2, 2.0)
         return built["simulator"].get_context().get_continuous_state_vector().CopyToVector()
 
-    native = final_state()
-    monkeypatch.setenv("SOBOLEV_DRAKE_NATIVE", "0")
-    python = final_state()
-    assert np.max(np.abs(native - python)) < 1e-9
+    native_run = final_state()
+    with native_pkg.disabled():
+        python = final_state()
+    assert np.max(np.abs(native_run - python)) < 1e-9

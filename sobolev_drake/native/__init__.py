@@ -2,34 +2,59 @@
 
 Each C file ``native/<name>.c`` is the extension module ``sobolev_drake.native._<name>``; each
 kernel reproduces a pure-Python reference implementation of the library operation for operation
-(tests compare them).  :func:`kernel` returns the module or None, so callers fall back to Python
-when it was not built (no C compiler at install time).  ``SOBOLEV_DRAKE_NATIVE=0`` in the
-environment disables every kernel (A/B comparisons, debugging).
+(``tests/test_native_*.py`` compare them).  :func:`kernel` returns the module or None, so callers
+fall back to Python when it was not built (no C compiler at install time) or is switched off:
+``SOBOLEV_DRAKE_NATIVE=0`` in the environment (read at import) or :func:`set_enabled` /
+:func:`disabled` at run time (A/B comparisons, debugging).  Systems built while the kernels were
+on keep using them.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 
-__all__ = ["kernel", "enabled"]
+__all__ = ["kernel", "enabled", "set_enabled", "disabled"]
 
 _CACHE: dict = {}
+_ENABLED = os.environ.get("SOBOLEV_DRAKE_NATIVE", "1").strip().lower() not in ("0", "false", "no", "off")
 
 
 def enabled() -> bool:
-    """False when ``SOBOLEV_DRAKE_NATIVE`` is set to 0/false/no/off."""
-    return os.environ.get("SOBOLEV_DRAKE_NATIVE", "1").strip().lower() not in ("0", "false", "no", "off")
+    """Whether :func:`kernel` hands out compiled kernels."""
+    return _ENABLED
+
+
+def set_enabled(flag: bool) -> bool:
+    """Switch the kernels on or off for the code that looks them up from now on; returns the
+    previous setting."""
+    global _ENABLED
+    previous, _ENABLED = _ENABLED, bool(flag)
+    return previous
+
+
+@contextlib.contextmanager
+def disabled():
+    """Context manager: the pure-Python paths inside the block."""
+    previous = set_enabled(False)
+    try:
+        yield
+    finally:
+        set_enabled(previous)
 
 
 def kernel(name: str):
     """The compiled module ``sobolev_drake.native._<name>``, or None if it is not built or the
-    kernels are disabled."""
-    if not enabled():
+    kernels are switched off (cheap: called per controller sample)."""
+    if not _ENABLED:
         return None
-    if name not in _CACHE:
+    try:
+        return _CACHE[name]
+    except KeyError:
         try:
-            _CACHE[name] = importlib.import_module(f"sobolev_drake.native._{name}")
+            module = importlib.import_module(f"sobolev_drake.native._{name}")
         except ImportError:
-            _CACHE[name] = None
-    return _CACHE[name]
+            module = None
+        _CACHE[name] = module
+        return module

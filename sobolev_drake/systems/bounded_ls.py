@@ -3,8 +3,9 @@
 The solver behind :func:`sobolev_drake.systems.allocation.bounded_least_squares` (re-exported
 there, which is where to import it from): a primal–dual active-set method on the small box QP
 with a primal active-set and scipy BVLS fallbacks, and a fast path for the default call (the
-controller allocates at every sample: Python floats for the vector work, LAPACK called directly
-for the solves, same algebra as the general path).
+controller allocates at every sample): the compiled kernel ``sobolev_drake/native/bls.c`` when
+built, else Python floats for the vector work and LAPACK called directly for the solves, same
+algebra as the general path.
 
 Rank deficiency.  At low airspeed the surface columns of B are (nearly) zero, so the LS problem
 has no unique minimizer.  We solve it in scaled variables s = (τ̄ − τ̄_p)/D, D = (hi − lo)/2,
@@ -25,6 +26,8 @@ import math
 import numpy as np
 from scipy.linalg import lapack as _lapack
 from scipy.optimize import lsq_linear
+
+from sobolev_drake.native import kernel
 
 __all__ = ["bounded_least_squares"]
 
@@ -283,9 +286,23 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
 
 def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     """The default path of :func:`bounded_least_squares` (PDAS, ε > 0, every lo < hi, float64
-    arrays) with the 8-element vector work on Python floats and numpy kept for the matrix
-    products and LAPACK solves: the same algebra as ``_box_qp_pdas`` + ``_polish`` in fewer,
-    cheaper calls (a controller allocates at every sample).  Returns (τ̄, info), or None when
+    arrays): the compiled kernel ``native/bls.c`` when it is built and enabled, else
+    :func:`_bls_fast_python`, which the kernel mirrors step by step (same results to
+    rounding).  The kernel declines (NotImplemented) the rare inputs it leaves to the Python
+    reference (see bls.c: e.g. a warm start given as a list, values that may overflow)."""
+    k = kernel("bls")
+    if k is not None:
+        out = k.solve(B, u, lo, hi, reg, warm_start, max_iter)
+        if out is not NotImplemented:
+            return out
+    return _bls_fast_python(B, u, lo, hi, reg, warm_start, max_iter)
+
+
+def _bls_fast_python(B, u, lo, hi, reg, warm_start, max_iter=25):
+    """Reference implementation of :func:`_bls_fast` (the compiled kernel mirrors it), with
+    the 8-element vector work on Python floats and numpy kept for the matrix products and
+    LAPACK solves: the same algebra as ``_box_qp_pdas`` + ``_polish`` in fewer, cheaper calls
+    (a controller allocates at every sample).  Returns (τ̄, info), or None when
     the problem is not of that kind, fails a check or PDAS does not settle — the general path
     then handles it (and raises the descriptive errors).
 
@@ -410,7 +427,7 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
                  "active": np.array(active)}
 
 
-#: index arrays (free, active) per (size, active-set pattern) of :func:`_bls_fast`
+#: index arrays (free, active) per (size, active-set pattern) of :func:`_bls_fast_python`
 _INDEX: dict = {}
 
 
