@@ -90,6 +90,8 @@ def _timed(obj, name, acc, key=None):
             rec = acc[key]
             rec[0] += time.process_time() - t0
             rec[1] += 1
+    if hasattr(f, "parts"):               # the law's fused sample checks its parts
+        wrapper.parts = f.parts
     setattr(obj, name, wrapper)
 
 
@@ -98,10 +100,14 @@ def instrument(built):
     from sobolev_drake.systems import tiltrotor_controller as tc
     acc = {}
     law = built["law"]
-    for name in ("input_affine", "bounds", "allocate", "thrust_to_speed"):
-        _timed(law, name, acc, f"  law.{name}")
+    if law.fused_sample is not None:
+        # the fused path calls the kernels directly and binds the RNEA when it is made
+        _timed(law, "fused_sample", acc, "  law.fused_sample (B, u*, bounds, allocation, n)")
+    else:
+        for name in ("input_affine", "bounds", "allocate", "thrust_to_speed"):
+            _timed(law, name, acc, f"  law.{name}")
+        _timed(law.mech_law, "recursive_inverse_dynamics", acc, "  mech_law M q̈ + C q̇ + g (RNEA)")
     _timed(law.mech_law, "desired_acceleration_scalar", acc, "  mech_law q̈_des (floats)")
-    _timed(law.mech_law, "recursive_inverse_dynamics", acc, "  mech_law M q̈ + C q̇ + g (RNEA)")
     _timed(law, "step", acc, "controller law.step (per sample)")
     _timed(tc, "saturation_flags", acc, "controller saturation flags (per sample)")
     forces = built["handles"].forces

@@ -195,3 +195,18 @@ def test_mission_states_equal_with_and_without_kernels(monkeypatch):
     with native_pkg.disabled():
         python = final_state()
     assert np.max(np.abs(native_run - python)) < 1e-9
+
+
+def test_saturation_flags_equal_python():
+    rng = np.random.default_rng(9)
+    rows = []
+    for _ in range(200):
+        lo = -rng.uniform(0, 2, 8) * (rng.uniform(size=8) > 0.2)
+        up = lo + rng.uniform(0, 2, 8) * (rng.uniform(size=8) > 0.2)
+        tau = np.clip(rng.uniform(-2.5, 2.5, 8), lo, up)
+        tau[rng.uniform(size=8) > 0.7] = (lo + 5e-4 * (up - lo))[0]
+        rows.append((tau, lo, up, tc.saturation_flags(tau, lo, up)))
+    with native_pkg.disabled():
+        for tau, lo, up, flags in rows:
+            assert np.array_equal(flags, tc.saturation_flags(tau, lo, up))
+    assert len({f.tobytes() for *_, f in rows}) > 20

@@ -787,6 +787,33 @@ static PyObject *py_surface_bounds(PyObject *self, PyObject *const *args, Py_ssi
     return Py_BuildValue("(NN)", list_of(lo, 8), list_of(hi, 8));
 }
 
+static PyObject *py_saturation_flags(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    /* (tau[8], lo[8], up[8], rel_tol, min_width) -> list 8 of ±1/0: the per-sample branch of
+     * saturation_flags (systems/tiltrotor_controller.py) */
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "saturation_flags takes 5 arguments");
+        return NULL;
+    }
+    double t[8], lo[8], up[8], out[8];
+    if (read_vec(args[0], 8, t, 0, "tau") || read_vec(args[1], 8, lo, 0, "lo")
+        || read_vec(args[2], 8, up, 0, "up"))
+        return NULL;
+    double rel_tol = PyFloat_AsDouble(args[3]), min_width = PyFloat_AsDouble(args[4]);
+    if (PyErr_Occurred())
+        return NULL;
+    for (int i = 0; i < 8; i++) {
+        double w = up[i] - lo[i];
+        if (w > min_width) {
+            double tol = rel_tol * w;
+            out[i] = t[i] >= up[i] - tol ? 1.0 : (t[i] <= lo[i] + tol ? -1.0 : 0.0);
+        } else {
+            out[i] = 0.0;
+        }
+    }
+    return list_of(out, 8);
+}
+
 static PyMethodDef methods[] = {
     {"make_model", (PyCFunction)make_model, METH_VARARGS,
      "make_model(constants: dict) -> capsule holding the force model's constants."},
@@ -803,6 +830,8 @@ static PyMethodDef methods[] = {
      "newton_speed(model, f, v_xz, phi, n_guess, iterations, rtol) -> [n_R, n_L] | None."},
     {"surface_bounds", (PyCFunction)(void (*)(void))py_surface_bounds, METH_FASTCALL,
      "surface_bounds(v_air4, s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi) -> (lo, hi)."},
+    {"saturation_flags", (PyCFunction)(void (*)(void))py_saturation_flags, METH_FASTCALL,
+     "saturation_flags(tau, lo, up, rel_tol, min_width) -> list of 8 flags (+1 upper, -1 lower)."},
     {NULL, NULL, 0, NULL},
 };
 

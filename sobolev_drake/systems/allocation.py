@@ -52,6 +52,14 @@ def _thesis_limits() -> dict:
     return _THESIS_LIMITS
 
 
+def _thesis_bounds_constants():
+    """(s, c, f_lo, f_hi, t_lo, t_hi, δ_lo, δ_hi) of the thesis limits, parsed once."""
+    if "_parsed" not in _THESIS_LIMITS:
+        _thesis_limits()
+        _THESIS_LIMITS["_parsed"] = _parse_limits(_THESIS_LIMITS)
+    return _THESIS_LIMITS["_parsed"]
+
+
 def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     """(lo, hi) of τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL] (7.85)–(7.89).
 
@@ -63,10 +71,7 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     < 0.03 % of δ_max: the surfaces are effectively removed from the allocation.
     """
     if limits is None:
-        if "_parsed" not in _THESIS_LIMITS:
-            _thesis_limits()
-            _THESIS_LIMITS["_parsed"] = _parse_limits(_THESIS_LIMITS)
-        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _THESIS_LIMITS["_parsed"]
+        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _thesis_bounds_constants()
     else:
         s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _parse_limits(limits)
     v = np.asarray(v_air, dtype=float)

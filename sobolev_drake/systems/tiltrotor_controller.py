@@ -42,6 +42,7 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
+from sobolev_drake.native import kernel
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
 
@@ -156,6 +157,10 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
     saturated, and counts as inside."""
     tau, lo, up = np.asarray(tau, dtype=float), np.asarray(lo, dtype=float), np.asarray(up, dtype=float)
+    if tau.shape == lo.shape == up.shape == (N_TAU,):
+        k = kernel("forces")
+        if k is not None:                 # the same comparisons in C (per-sample path)
+            return np.array(k.saturation_flags(tau, lo, up, rel_tol, min_width))
     if tau.ndim == 1 and tau.shape == lo.shape == up.shape:     # plain floats: per-sample path
         out = []
         for t, lw, uw in zip(tau.tolist(), lo.tolist(), up.tolist()):
@@ -222,6 +227,9 @@ class TiltrotorWInfLaw:
         self.mech_law, self.model = mech_law, mech_law.model
         self.input_affine, self.allocate, self.bounds = input_affine, allocate, bounds
         self.thrust_to_speed, self.tilt_schedule = thrust_to_speed, tilt_schedule
+        # Optional fused form of everything after q̈_des (set by make_law with the compiled
+        # kernels): used while the four callables are still the ones it was made for.
+        self.fused_sample = None
 
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
@@ -240,6 +248,10 @@ class TiltrotorWInfLaw:
         # q̈_des in floats and u* by recursive Newton–Euler: the per-sample path (equal to
         # desired_acceleration / inverse_dynamics to rounding)
         qdd = np.array(self.mech_law.desired_acceleration_scalar(ql, qdl, iel, tracked))
+        fused = self.fused_sample
+        if (fused is not None and fused.parts == (self.input_affine, self.bounds, self.allocate,
+                                                  self.thrust_to_speed)):
+            return fused(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r)
         if n_prev is None or min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
             B, theta = self.input_affine(self.model, q, qdot, wind)
         else:
@@ -367,10 +379,11 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         sched = plant_trim_schedule(model)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
+    default_allocate = allocate is None
+    last = {"active": None}
     if allocate is None:
         # The previous sample's active set warm-starts the solver: one linear solve when it
         # is unchanged; the solution is the same (KKT-certified), only the iterations differ.
-        last = {"active": None}
 
         def allocate(B, u, lo, up):
             tau, info = bounded_least_squares(B, u, lo, up, warm_start=last["active"],
@@ -432,7 +445,52 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     law = TiltrotorWInfLaw(mech, input_affine=affine, allocate=allocate, bounds=bounds,
                            thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
     law.propulsion, law.aero = prop, aero
+    if native is not None and default_allocate and kernel("bls") is not None:
+        law.fused_sample = _fused_sample(law, native, kernel("bls"), last, prop.coef,
+                                         (affine, bounds, allocate, thrust_to_speed))
     return law
+
+
+def _fused_sample(law, native, bls, last, coef, parts):
+    """The per-sample work of :meth:`TiltrotorWInfLaw.step` after q̈_des — B and ϑ_passive,
+    u*, the bounds, the warm-started allocation and the thrust inversion — with direct calls of
+    the compiled kernels instead of the composed callables (whose shared-term cache, argument
+    checks and array conversions cost more than the arithmetic).  Same kernels, same order, so
+    the same numbers (tested against the composed path)."""
+    from sobolev_drake.systems.allocation import (_thesis_bounds_constants, bounded_least_squares,
+                                                  propeller_speed_for_thrust)
+    from sobolev_drake.systems.input_affine import N_REF
+
+    forces, capsule = native
+    limits = _thesis_bounds_constants()
+    rnea = law.mech_law.recursive_inverse_dynamics
+
+    def sample(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r):
+        nl = None            # B's Cq/Ct at the last speeds, at the hover speed without them
+        if n_prev is not None and min(np.asarray(n_prev, dtype=float).tolist()) > 0:
+            nl = _checked("n", n_prev, 2)[1]
+        Bl, passive, V, vxz, phi = forces.affine_terms(capsule, ql, qdl, wl,
+                                                       [N_REF, N_REF] if nl is None else nl, True)
+        B, theta = np.array(Bl).reshape(8, 8), check_vector("theta_passive", passive, N_Q)
+        u = rnea(q, qdot, qdd) - theta
+        lo, up = forces.surface_bounds(V[1:5], *limits)
+        lo, up = np.array(lo), np.array(up)
+        out = bls.solve(B, u, lo, up, 1e-12, last["active"], 25)
+        if out is None or out is NotImplemented:       # the general path decides (and raises)
+            out = bounded_least_squares(B, u, lo, up, warm_start=last["active"], return_info=True)
+        tau, info = out
+        last["active"] = info["active"]
+        n = None
+        if nl is not None:
+            n = forces.newton_speed(capsule, tau[:2], vxz, phi, nl, 4, 1e-9)
+        n = (np.array(n) if n is not None else
+             propeller_speed_for_thrust(tau[:2], np.array(vxz), np.array(phi), coefficients=coef,
+                                        on_unreachable="clip"))
+        r = u - B @ tau
+        return ControlStep(qdd, u, B, theta, tau, lo, up, n, math.sqrt(float(r @ r)), ref_r)
+
+    sample.parts = parts
+    return sample
 
 
 def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9):
