@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
+from sobolev_drake.models.tiltrotor import add_tiltrotor
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 import sobolev_drake.native as native_pkg
 from sobolev_drake.native import kernel
 from sobolev_drake.native.forces import force_model
 from sobolev_drake.systems import tiltrotor_controller as tc
+from sobolev_drake.systems import tiltrotor_law as tl
 from sobolev_drake.systems.allocation import tiltrotor_bounds
 from sobolev_drake.systems.input_affine import (affine_terms_scalar, affine_terms_scalar_python,
                                                 cores)
@@ -144,7 +145,7 @@ def test_newton_speed_equals_python():
         f = rng.uniform(-5, 90, 2)
         v, phi = rng.uniform(0, 30, 2), rng.uniform(0, np.pi / 2, 2)
         guess = rng.uniform(0.5, 90, 2) if k % 4 else rng.uniform(30, 60, 2)
-        ref = tc.newton_speed_for_thrust(prop.coef, f, v, phi, guess)
+        ref = tl.newton_speed_for_thrust(prop.coef, f, v, phi, guess)
         got = K.newton_speed(cap, f, v, phi, guess, 4, 1e-9)
         assert (ref is None) == (got is None)
         if ref is not None:

@@ -8,6 +8,7 @@ import pytest
 
 from sobolev_drake.models.tiltrotor import TiltrotorModel
 from sobolev_drake.systems import tiltrotor_controller as tc
+from sobolev_drake.systems import tiltrotor_law as tl
 from sobolev_drake.systems.input_affine import input_affine, thrust_inputs
 
 from test_tiltrotor_control import thesis_gains_by_care
@@ -15,7 +16,7 @@ from test_tiltrotor_control import thesis_gains_by_care
 
 @pytest.fixture(scope="module")
 def law():
-    return tc.make_law(TiltrotorModel())
+    return tl.make_law(TiltrotorModel())
 
 
 def _random_case(rng):
@@ -89,9 +90,9 @@ def test_newton_speed_matches_bracketing_solver():
     c = PropellerCoefficients()
     f, v, phi = np.array([20.0, 45.0]), np.array([3.0, 15.0]), np.array([0.2, 1.2])
     n_ref = propeller_speed_for_thrust(f, v, phi, coefficients=c)
-    n = tc.newton_speed_for_thrust(c, f, v, phi, n_ref * 1.05)
+    n = tl.newton_speed_for_thrust(c, f, v, phi, n_ref * 1.05)
     assert n is not None and np.allclose(n, n_ref, rtol=1e-6)
-    assert tc.newton_speed_for_thrust(c, f, v, phi, np.zeros(2)) is None
+    assert tl.newton_speed_for_thrust(c, f, v, phi, np.zeros(2)) is None
 
 
 def test_envelope_is_the_flagship():
@@ -129,7 +130,7 @@ def test_law_rejects_bad_inputs(law):
     with pytest.raises(ValueError, match="period"):
         tc.TiltrotorWInfController(law, period=0.0)
     with pytest.raises(ValueError, match="schedule"):
-        tc.make_law(TiltrotorModel(), schedule="nope")
+        tl.make_law(TiltrotorModel(), schedule="nope")
 
 
 @pytest.fixture(scope="module", params=["tiltrotor-hover", "tiltrotor-envelope"])
@@ -184,7 +185,7 @@ def test_fused_sample_equals_composed_callables():
     """make_law's fused per-sample path (direct kernel calls) gives the same ControlStep as the
     composed callables, sample after sample (warm starts included); replacing a callable
     switches the fused path off."""
-    fused, composed = tc.make_law(TiltrotorModel()), tc.make_law(TiltrotorModel())
+    fused, composed = tl.make_law(TiltrotorModel()), tl.make_law(TiltrotorModel())
     assert fused.fused_sample is not None
     composed.fused_sample = None
     rng = np.random.default_rng(21)

@@ -163,11 +163,12 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     """
     from sobolev_drake.models import tiltrotor as tr
     from sobolev_drake.systems import tiltrotor_controller as tc
+    from sobolev_drake.systems.tiltrotor_law import make_law
 
     spec = load("tiltrotor_missions")[SCENARIOS[scenario]]
     builder = DiagramBuilder()
     handles = tr.add_tiltrotor(builder)
-    law = tc.make_law(handles.model, tc.thesis_inner_law(), schedule=schedule)
+    law = make_law(handles.model, tc.thesis_inner_law(), schedule=schedule)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
     ref = builder.AddSystem(mission_reference(scenario))

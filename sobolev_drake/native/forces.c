@@ -703,7 +703,7 @@ static double thrust_error(const Model *m, double kf4, const double *c, double v
 static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (model, f[2], v_xz[2], φ[2], n_guess[2], iterations, rtol) -> list 2 | None:
-     * newton_speed_for_thrust (systems/tiltrotor_controller.py) */
+     * newton_speed_for_thrust (systems/tiltrotor_law.py) */
     if (nargs != 7) {
         PyErr_SetString(PyExc_TypeError, "newton_speed takes 7 arguments");
         return NULL;

@@ -1,0 +1,244 @@
+"""Composition of the tilt-rotor W∞ law with the plant model, the allocation and the propeller
+data (thesis §7.3.2): :func:`make_law` builds a :class:`~sobolev_drake.systems.
+tiltrotor_controller.TiltrotorWInfLaw` from a ``TiltrotorModel``; the tilt reference schedule
+from the plant's own level-flight trims (:func:`plant_trim_schedule`) and the warm-started
+Newton inversion of the thrust (7.90) (:func:`newton_speed_for_thrust`) live here too.
+
+With the compiled kernels (``sobolev_drake.native``) the law also gets a fused per-sample path
+that calls them directly; it computes the same numbers as the composed callables.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+
+import numpy as np
+
+from sobolev_drake.models.base import check_vector
+from sobolev_drake.native import kernel
+from sobolev_drake.systems.mechanical_controller import MechanicalLaw
+from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
+                                                       _checked, thesis_inner_law,
+                                                       tilt_schedule_polynomial)
+
+
+def make_law(model, inner=None, *, schedule="plant", allocate=None):
+    """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
+
+    ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
+    ``schedule``: ``"plant"`` (default) — spline through the plant model's level-flight trims
+    (:func:`plant_trim_schedule`); ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``
+    (the thesis author's simulator; it rises much faster above 24 m/s than our trims); or a
+    callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
+    ``systems.allocation.bounded_least_squares`` warm-started from the previous sample's active
+    set (same solution, fewer iterations).
+
+    Bounds (7.85)–(7.89) use the air speed of each surface [WR WL TR TL] from the aerodynamic
+    model (measured wind ζ); the thrust inversion (7.90) uses each hub's rotor-frame inflow.
+    B, ϑ_passive, these air speeds and the inflow come from one scalar pass of the force model
+    per sample (``input_affine.input_affine_terms``), shared by the composed callables.
+    """
+    from sobolev_drake.data import load
+    from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
+                                                  tiltrotor_bounds)
+    from sobolev_drake.systems.input_affine import (N_REF, _native_core, affine_terms_scalar, cores,
+                                                    input_affine)
+
+    prop, aero = cores(model.params)
+    if callable(schedule):
+        sched = schedule
+    elif schedule == "data":
+        spec = load("tiltrotor_missions")["scenario_2_full_envelope"]["tilt_reference_vs_forward_speed"]
+        sched = tilt_schedule_polynomial(spec["coefficients"])
+    elif schedule == "plant":
+        sched = plant_trim_schedule(model)
+    else:
+        raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
+    default_allocate = allocate is None
+    last = {"active": None}
+    if allocate is None:
+        # The previous sample's active set warm-starts the solver: one linear solve when it
+        # is unchanged; the solution is the same (KKT-certified), only the iterations differ.
+
+        def allocate(B, u, lo, up):
+            tau, info = bounded_least_squares(B, u, lo, up, warm_start=last["active"],
+                                              return_info=True)
+            last["active"] = info["active"]
+            return tau
+
+    # One scalar pass of the force model per sample serves B, ϑ_passive, the surface air
+    # speeds of the bounds and the rotor inflow of the thrust inversion (all at (q, q̇, ζ)).
+    shared = {"key": None, "terms": None}
+
+    def terms(q, qdot, wind, n=None, reuse=True):
+        nd = np.ndarray
+        if reuse and type(q) is nd and type(qdot) is nd and type(wind) is nd:
+            # same contents as the last (validated) call: no need to check them again
+            key = (q.dtype.str, q.shape, q.tobytes(), qdot.dtype.str, qdot.shape,
+                   qdot.tobytes(), wind.dtype.str, wind.shape, wind.tobytes())
+            if shared["key"] == key:
+                return shared["terms"]
+        q, ql = _checked("q", q, N_Q)
+        qdot, qdl = _checked("qdot", qdot, N_Q)
+        wind, wl = _checked("zeta", wind, 3)
+        key = (q.dtype.str, q.shape, q.tobytes(), qdot.dtype.str, qdot.shape, qdot.tobytes(),
+               wind.dtype.str, wind.shape, wind.tobytes())
+        nl = [N_REF, N_REF] if n is None else _checked("n", n, 2)[1]
+        t = affine_terms_scalar(model.params, ql, qdl, wl, nl)
+        shared["key"], shared["terms"] = key, t   # speeds and inflow do not depend on n
+        return t
+
+    def affine(model_, q, qdot, zeta, n=None):
+        if model_ is not model:
+            return input_affine(model_, q, qdot, zeta, n)
+        t = terms(q, qdot, zeta, n, reuse=False)
+        return t.B, t.passive
+
+    def bounds(q, qdot, wind):
+        V = terms(q, qdot, wind).surface_speed
+        return tiltrotor_bounds(V[1:5])          # surfaces F, WR, WL, TR, TL, I → [WR WL TR TL]
+
+    native = _native_core(model.params)      # compiled Newton solve (same floats) if built
+
+    def thrust_to_speed(f, q, qdot, wind, n_guess=None):
+        t = terms(q, qdot, wind)
+        v_xz, phi = t.rotor_vxz, t.rotor_phi
+        if n_guess is not None:
+            if native is not None and np.size(f) == 2 and np.size(n_guess) == 2:
+                n = native[0].newton_speed(native[1], np.asarray(f, float), v_xz, phi,
+                                           np.asarray(n_guess, float), 4, 1e-9)
+                n = None if n is None else np.array(n)
+            else:
+                n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
+            if n is not None:
+                return n
+        return propeller_speed_for_thrust(f, v_xz, phi, coefficients=prop.coef,
+                                          on_unreachable="clip")
+
+    inner = thesis_inner_law() if inner is None else inner
+    mech = MechanicalLaw(model, PARTITION, inner, allocation=lambda u, q, qd: u)
+    law = TiltrotorWInfLaw(mech, input_affine=affine, allocate=allocate, bounds=bounds,
+                           thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
+    law.propulsion, law.aero = prop, aero
+    if native is not None and default_allocate and kernel("bls") is not None:
+        law.fused_sample = _fused_sample(law, native, kernel("bls"), last, prop.coef,
+                                         (affine, bounds, allocate, thrust_to_speed))
+    return law
+
+
+def _fused_sample(law, native, bls, last, coef, parts):
+    """The per-sample work of :meth:`TiltrotorWInfLaw.step` after q̈_des — B and ϑ_passive,
+    u*, the bounds, the warm-started allocation and the thrust inversion — with direct calls of
+    the compiled kernels instead of the composed callables (whose shared-term cache, argument
+    checks and array conversions cost more than the arithmetic).  Same kernels, same order, so
+    the same numbers (tested against the composed path)."""
+    from sobolev_drake.systems.allocation import (_thesis_bounds_constants, bounded_least_squares,
+                                                  propeller_speed_for_thrust)
+    from sobolev_drake.systems.input_affine import N_REF
+
+    forces, capsule = native
+    limits = _thesis_bounds_constants()
+    rnea = law.mech_law.recursive_inverse_dynamics
+
+    def sample(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r):
+        nl = None            # B's Cq/Ct at the last speeds, at the hover speed without them
+        if n_prev is not None and not min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
+            nl = _checked("n", n_prev, 2)[1]
+        Bl, passive, V, vxz, phi = forces.affine_terms(capsule, ql, qdl, wl,
+                                                       [N_REF, N_REF] if nl is None else nl, True)
+        B, theta = np.array(Bl).reshape(8, 8), check_vector("theta_passive", passive, N_Q)
+        u = rnea(q, qdot, qdd) - theta
+        lo, up = forces.surface_bounds(V[1:5], *limits)
+        lo, up = np.array(lo), np.array(up)
+        out = bls.solve(B, u, lo, up, 1e-12, last["active"], 25)
+        if out is None or out is NotImplemented:       # the general path decides (and raises)
+            out = bounded_least_squares(B, u, lo, up, warm_start=last["active"], return_info=True)
+        tau, info = out
+        last["active"] = info["active"]
+        n = None
+        if nl is not None:
+            n = forces.newton_speed(capsule, tau[:2], vxz, phi, nl, 4, 1e-9)
+        n = (np.array(n) if n is not None else
+             propeller_speed_for_thrust(tau[:2], np.array(vxz), np.array(phi), coefficients=coef,
+                                        on_unreachable="clip"))
+        r = u - B @ tau
+        return ControlStep(qdd, u, B, theta, tau, lo, up, n, math.sqrt(float(r @ r)), ref_r)
+
+    sample.parts = parts
+    return sample
+
+
+def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9):
+    """Warm-started Newton solve of ρ d⁴ n² Ct(V_xz / (n d), φ) = f (7.90); None if it fails.
+
+    The previous sample's speeds are an excellent start (the demand changes little over one
+    sample), so 2–3 Newton steps reach machine-level thrust residuals; the caller falls back to
+    the bracketing solver of ``systems.allocation`` when this returns None (no warm start,
+    zero thrust, non-increasing thrust, or no convergence).  All rotors iterate together
+    (Python floats: a handful of scalars is far cheaper than numpy calls).
+    """
+    f, n, vx, ph = (np.asarray(a, dtype=float).ravel().tolist() for a in (f, n_guess, v_xz, phi))
+    if any(x <= 0 for x in f) or any(x <= 1.0 for x in n):
+        return None
+    k = coef.rho * coef.diameter ** 4
+    d, Jmax = coef.diameter, coef.J_max
+    idx = range(len(f))
+    # φ is fixed during the solve: Ct(J, φ) is a quartic in J per rotor (Horner coefficients)
+    cj = [coef.ct_in_J(p) for p in ph]
+
+    def g(nn, i):  # thrust − f, J clamped to the table range as in the plant's propeller model
+        J = vx[i] / (nn * d)
+        J = J if J < Jmax else Jmax
+        c4, c3, c2, c1, c0 = cj[i]
+        return k * nn * nn * ((((c4 * J + c3) * J + c2) * J + c1) * J + c0) - f[i]
+
+    for _ in range(iterations):
+        g0 = [g(n[i], i) for i in idx]
+        if all(abs(g0[i]) <= rtol * (1.0 + f[i]) for i in idx):
+            return np.array(n)
+        hs = [1e-6 * x for x in n]
+        dg = [(g(n[i] + hs[i], i) - g0[i]) / hs[i] for i in idx]
+        if any(x <= 0 for x in dg):
+            return None
+        n = [n[i] - g0[i] / dg[i] for i in idx]
+        if any(x <= 0 for x in n):
+            return None
+    return np.array(n) if all(abs(g(n[i], i)) <= 1e-6 * (1.0 + f[i]) for i in idx) else None
+
+
+_TRIM_SCHEDULES: dict = {}
+
+
+def plant_trim_schedule(model=None):
+    """α(U) from the plant's level-flight trims (``models.tiltrotor_trim.tilt_schedule``,
+    0–34 m/s every 1 m/s) as a cubic spline ``U -> (α, α', α'')``, clamped like the polynomial.
+
+    The trims are computed once per process (a few seconds) and cached."""
+    from scipy.interpolate import CubicSpline
+    from sobolev_drake.models import tiltrotor_trim as tt
+
+    key = repr(getattr(model, "params", None))      # parameter values, not object identity
+    if key not in _TRIM_SCHEDULES:
+        trims = tt.tilt_schedule(model=model)
+        V = np.array([t.V for t in trims])
+        a = np.array([0.5 * (t.q[0] + t.q[1]) for t in trims])
+        _TRIM_SCHEDULES[key] = (CubicSpline(V, a), V[0], V[-1])
+    spline, lo, hi = _TRIM_SCHEDULES[key]
+    # plain-float evaluation of the spline's pieces (scipy's call costs ~10 µs per derivative)
+    xs = spline.x.tolist()
+    coefs = spline.c.T.tolist()            # per interval: highest power first
+    last = len(xs) - 2
+
+    def sched(U):
+        U = float(U)
+        inside = lo <= U <= hi
+        U = min(max(U, lo), hi)
+        i = min(max(bisect_right(xs, U) - 1, 0), last)
+        c3, c2, c1, c0 = coefs[i]
+        x = U - xs[i]
+        val = ((c3 * x + c2) * x + c1) * x + c0
+        if not inside:
+            return val, 0.0, 0.0
+        return val, (3.0 * c3 * x + 2.0 * c2) * x + c1, 6.0 * c3 * x + 2.0 * c2
+    return sched
