@@ -58,18 +58,14 @@ static void free_model(PyObject *capsule)
     }
 }
 
-static int get_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *out)
+/* n doubles from a sequence of numbers (error messages name the argument) */
+static int seq_to_doubles(PyObject *obj, Py_ssize_t n, double *out, const char *name)
 {
-    PyObject *seq = PyDict_GetItemString(dict, key);   /* borrowed */
-    if (!seq) {
-        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
-        return -1;
-    }
-    PyObject *fast = PySequence_Fast(seq, "make_model: expected a sequence of floats");
+    PyObject *fast = PySequence_Fast(obj, "expected a sequence of floats");
     if (!fast)
         return -1;
     if (PySequence_Fast_GET_SIZE(fast) != n) {
-        PyErr_Format(PyExc_ValueError, "make_model: %s must have %zd entries, got %zd", key, n,
+        PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", name, n,
                      PySequence_Fast_GET_SIZE(fast));
         Py_DECREF(fast);
         return -1;
@@ -84,6 +80,16 @@ static int get_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *ou
     }
     Py_DECREF(fast);
     return 0;
+}
+
+static int get_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *out)
+{
+    PyObject *seq = PyDict_GetItemString(dict, key);   /* borrowed */
+    if (!seq) {
+        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
+        return -1;
+    }
+    return seq_to_doubles(seq, n, out, key);
 }
 
 static int get_double(PyObject *dict, const char *key, double *out)
@@ -206,25 +212,7 @@ static int read_vec(PyObject *obj, Py_ssize_t n, double *out, int allow_none, co
             PyErr_Clear();
         }
     }
-    PyObject *fast = PySequence_Fast(obj, "expected a float vector");
-    if (!fast)
-        return -1;
-    if (PySequence_Fast_GET_SIZE(fast) != n) {
-        PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", name, n,
-                     PySequence_Fast_GET_SIZE(fast));
-        Py_DECREF(fast);
-        return -1;
-    }
-    PyObject **items = PySequence_Fast_ITEMS(fast);
-    for (Py_ssize_t i = 0; i < n; i++) {
-        out[i] = PyFloat_AsDouble(items[i]);
-        if (out[i] == -1.0 && PyErr_Occurred()) {
-            Py_DECREF(fast);
-            return -1;
-        }
-    }
-    Py_DECREF(fast);
-    return 0;
+    return seq_to_doubles(obj, n, out, name);
 }
 
 static PyObject *list_of(const double *v, Py_ssize_t n)
