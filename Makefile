@@ -32,4 +32,4 @@ reproduce: $(STAMP)
 	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT)
 
 clean:
-	rm -rf $(VENV) $(OUT) build *.egg-info
+	rm -rf $(VENV) $(OUT) build *.egg-info sobolev_drake/native/*.so

@@ -2,10 +2,12 @@
 
     python benchmarks/tiltrotor_mission.py [--duration 250] [--profile-seconds 10] [--top 25]
         [--integrator runge_kutta3] [--accuracy 1e-3] [--period 0.01] [--skip-full]
-        [--skip-profile] [--breakdown] [--floor]
+        [--skip-profile] [--breakdown] [--floor] [--no-compare]
 
-Runs the mission once (no Meshcat recording) and prints simulated time / CPU and wall time,
-integrator steps and derivative evaluations per simulated second; ``--breakdown`` wraps the hot
+Runs the mission (no Meshcat recording) with the compiled kernels, then, as baselines in the
+same run, with pure Python (``native.disabled()``) and with fixed-step RK2, and prints
+simulated time / CPU and wall time, the compiled/Python ratio, integrator steps and derivative
+evaluations per simulated second; ``--breakdown`` wraps the hot
 callables with CPU timers (much less distortion than cProfile for many small calls) and prints
 the share of the controller update and its parts, of the plant force system and of the rest
 (MultibodyPlant dynamics, Drake's simulator loop, log sinks).  Then profiles a shorter run with
@@ -58,13 +60,24 @@ Outcome (issue 7, 2-core machine shared with 3 other sessions, load 2–8; CPU t
   derivative evaluations/s: 10–20 % faster; over the full mission the states move by ≤ 8 mm /
   0.12° and every phase RMS by < 1 mm (the RK3 run itself is ~1 mm from an RK5 1e-7 reference
   after 20 s).
-* 20× (50 ms CPU per simulated second) is not reachable with this structure in pure Python:
-  the floor above takes 55–70 % of that budget, leaving 15–20 ms/s for the Python work, which
-  needs ≈ 60 ms/s with hot caches (force system ≈ 60 µs × 365/s ≈ 22 ms/s, controller
-  ≈ 0.35–0.45 ms per sample ≈ 40 ms/s) and 70–100 ms/s in the loop.  What would: the force
-  system and the law in compiled code (a C++ LeafSystem, or numba/Cython, which this project
-  does not depend on), and/or fewer derivative evaluations (fixed-step RK2 at the controller
-  period, which the design's error-controlled integration excludes).
+* pure Python stops at ≈ 8×: 20× (50 ms CPU per simulated second) leaves 15–20 ms/s for the
+  Python work above the diagram's floor, which needed ≈ 60–100 ms/s.
+* compiled kernels (``sobolev_drake/native``, plain C built at install, each equal to its
+  Python reference: forces to the bit, the rest to rounding): the plant force system, the
+  input-affine terms, the bounds, the bounded least squares (≈ 95 → 5.5 µs), the Newton thrust
+  inversion and the saturation flags, plus a fused per-sample path in ``make_law`` that calls
+  them directly.  Full 250 s, same steps and derivative evaluations (121.7/s, 365.4/s),
+  runs one after the other on the shared machine (CPU times; the machine's speed drifts by
+  ±15 % between runs, so compare within one session):
+  - default RK3 (accuracy 1e-3): 12.3–16.7 s CPU, **15.0–20.4×** (Python: 28.5–32.4 s, 7.7–8.8×);
+  - fixed-step RK2 at the controller period (``--integrator runge_kutta2``, 207 derivative
+    evaluations/s): 11.6–13.1 s, **19.1–21.5×**.  ``benchmarks/tiltrotor_integrators.py``:
+    against an RK5 (1e-7) reference over the whole mission RK2 stays within 9.4 mm, 0.075° of
+    attitude and 0.14° of tilt, every phase RMS within 1.0 mm (RK3: 1.2 mm, 0.007°).
+  - floor (constant command and force, RK3): 31 ms/s (32×); a MultibodyPlant with a C++
+    zero-order hold alone: 11 ms/s (91×).  What remains above the floor is Python glue per
+    call (ports, arrays, the RNEA through pydrake: ≈ 35 µs hot, ≈ 60 µs in the loop), not
+    arithmetic.
 """
 
 from __future__ import annotations
@@ -148,7 +161,7 @@ def floor_patches():
     return patched()
 
 
-def run(duration, args, breakdown=False):
+def run(duration, args, breakdown=False, integrator=None, label=""):
     from sobolev_drake.experiments.tiltrotor_missions import simulate_mission
     import sobolev_drake.experiments.tiltrotor_missions as tm
 
@@ -164,8 +177,8 @@ def run(duration, args, breakdown=False):
         tm.build_mission = build_instrumented
     try:
         t0, c0 = time.perf_counter(), time.process_time()
-        built, _ = simulate_mission(2, duration, integrator=args.integrator, period=args.period,
-                                    accuracy=args.accuracy)
+        built, _ = simulate_mission(2, duration, integrator=integrator or args.integrator,
+                                    period=args.period, accuracy=args.accuracy)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     finally:
         if breakdown:
@@ -173,9 +186,9 @@ def run(duration, args, breakdown=False):
     sim = built["simulator"]
     steps = sim.get_num_steps_taken()
     derivs = sim.get_integrator().get_num_derivative_evaluations()
-    print(f"scenario 2, {duration:g} s simulated in {wall:.1f} s wall ({cpu:.1f} s CPU): "
+    print(f"{label}scenario 2, {duration:g} s simulated in {wall:.1f} s wall ({cpu:.1f} s CPU): "
           f"real-time factor {duration / wall:.2f}x wall, {duration / cpu:.2f}x CPU (target 20x); "
-          f"controller period {built['controller'].period} s, integrator {args.integrator} "
+          f"controller period {built['controller'].period} s, integrator {integrator or args.integrator} "
           f"(accuracy {args.accuracy:g}): {steps / duration:.1f} steps/s, "
           f"{derivs / duration:.1f} derivative evaluations/s")
     if acc:
@@ -188,6 +201,7 @@ def run(duration, args, breakdown=False):
                                       "plant force system (per derivative)"))
         print(f"  {'rest (MultibodyPlant, simulator, logs, ports)':42s} {100 * (cpu - top) / cpu:5.1f} %  "
               f"{1e3 * (cpu - top) / duration:7.2f} ms/s")
+    built["cpu_s"] = cpu
     return built
 
 
@@ -205,6 +219,8 @@ def main(argv=None):
     ap.add_argument("--integrator", default="runge_kutta3",
                     help="Drake integrator (runge_kutta3 error-controlled; runge_kutta2 fixed step)")
     ap.add_argument("--accuracy", type=float, default=1e-3, help="error-controlled accuracy")
+    ap.add_argument("--no-compare", dest="compare", action="store_false",
+                    help="skip the pure-Python and fixed-step RK2 runs of the full mission")
     ap.add_argument("--period", type=float, default=0.01, help="controller sampling period [s]")
     args = ap.parse_args(argv)
 
@@ -216,7 +232,16 @@ def main(argv=None):
     print(f"diagram build (incl. imports): {time.perf_counter() - t0:.2f} s")
 
     if not args.skip_full:
-        run(args.duration, args, breakdown=args.breakdown)
+        fast = run(args.duration, args, breakdown=args.breakdown, label="compiled kernels: ")
+        if args.compare:
+            # baselines measured in the same run: pure Python with the same integrator, and
+            # the compiled kernels with fixed-step RK2 at the controller period
+            from sobolev_drake import native
+            with native.disabled():
+                slow = run(args.duration, args, label="pure Python:      ")
+            print(f"  compiled / pure Python: {slow['cpu_s'] / fast['cpu_s']:.2f}x faster (CPU)")
+            if args.integrator != "runge_kutta2":
+                run(args.duration, args, integrator="runge_kutta2", label="compiled kernels: ")
     if args.floor:
         print("floor (constant command, constant force; not a valid flight):")
         with floor_patches():
