@@ -10,6 +10,15 @@ attitude, tilt) and the change of every phase's RMS tracking error and of the la
 The sampled controller (100 Hz) ends an integrator step at every sample, so the step count is
 bounded below by the sampling rate whatever the integrator; RK2 spends two derivative
 evaluations per step instead of RK3's three.
+
+Measured (compiled kernels, 250 s each):
+
+* scenario 2 (envelope): RK3 within 1.2 mm / 0.007° / 0.008° of tilt of the reference, phase
+  RMS within 0.16 mm; RK2 within 9.4 mm / 0.075° / 0.14°, phase RMS within 1.0 mm, landing
+  point within 0.15 mm.
+* scenario 1 (hover, with the two 15 N force pulses, which are steps between integrator
+  steps): RK3 within 72 mm / 0.44° / 0.82°, RK2 within 111 mm / 0.68° / 1.2° (both at the
+  pulses); phase RMS within 0.8 mm (RK3) and 2.3 mm (RK2), landing point within 0.01 mm.
 """
 
 from __future__ import annotations
