@@ -211,3 +211,21 @@ def test_saturation_flags_equal_python():
         for tau, lo, up, flags in rows:
             assert np.array_equal(flags, tc.saturation_flags(tau, lo, up))
     assert len({f.tobytes() for *_, f in rows}) > 20
+
+
+def test_nan_air_data_raises_like_python():
+    """A NaN state or wind must not index the tables (C: undefined behaviour); both paths raise
+    ValueError."""
+    prop, aero = cores(TiltrotorParams())
+    cap = force_model(prop, aero)
+    q, qd, zeta = [0.0] * 8, [0.0] * 5 + [10.0, 0.0, 0.0], [0.0, float("nan"), 0.0]
+    with pytest.raises(ValueError, match="NaN"):
+        K.aero_loads(cap, q, qd, zeta, [0.0] * 4, False)
+    with pytest.raises(ValueError):
+        aero.loads_scalar(body_kinematics_scalar(q, qd, zeta), [0.0] * 4)
+    with pytest.raises(ValueError, match="NaN"):
+        K.affine_terms(cap, q, qd, zeta, [50.0, 50.0], True)
+    state = np.zeros(16)
+    state[8:] = np.nan                 # every velocity, so the body air speed too
+    with pytest.raises(ValueError, match="NaN"):
+        K.plant_force(cap, state, [0.0] * 8, None, None, None, np.zeros(8), True)

@@ -138,6 +138,10 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         || get_double(d, "nterms", &nterms) || get_doubles(d, "d_B_C1", 3, m->dC1))
         goto fail;
     m->indep = indep != 0.0;
+    if (m->nmax != (double)(m->samples - 1) || !(m->step > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "make_model: need nmax = samples - 1 and step > 0");
+        goto fail;
+    }
     if (nterms < 0 || nterms > MAX_TERMS) {
         PyErr_SetString(PyExc_ValueError, "make_model: too many Ct/Cq terms");
         goto fail;
@@ -354,8 +358,10 @@ static void propeller_force(const Model *m, const Kin *k, const Rotor *rot, cons
     body_wrench(k, F, T, out8 + 2);
 }
 
-/* loads_scalar: out8 (ϑ_aero), V6 (surface air speeds), cols (4 × 6, rows 2..7) if not NULL */
-static void aero_loads(const Model *m, const Kin *k, const double *delta, double *out8,
+/* loads_scalar: out8 (ϑ_aero), V6 (surface air speeds), cols (4 × 6, rows 2..7) if not NULL.
+ * Returns -1 with a ValueError set on NaN air data (Python's int(NaN) raises there too): the
+ * table index must never come from a NaN. */
+static int aero_loads(const Model *m, const Kin *k, const double *delta, double *out8,
                        double *V6, double *cols)
 {
     double wx = k->w[0], wy = k->w[1], wz = k->w[2];
@@ -393,7 +399,12 @@ static void aero_loads(const Model *m, const Kin *k, const double *delta, double
         double cb = sqrt(u * u + w * w) / V;
         double beta = asin(sb);
         /* table look-ups at α_NED = −α, β_NED = −β, index clamped to the table ends */
-        double x = (-alpha - start) / step;
+        double x = (-alpha - start) / step, xb = (-beta - start) / step;
+        if (isnan(x) || isnan(xb)) {
+            PyErr_SetString(PyExc_ValueError,
+                            "aerodynamic loads: NaN angle of attack or sideslip (NaN state or wind)");
+            return -1;
+        }
         x = x < 0.0 ? 0.0 : (x > nmax ? nmax : x);
         int i = (int)x;
         i = i <= imax ? i : imax;
@@ -401,8 +412,7 @@ static void aero_loads(const Model *m, const Kin *k, const double *delta, double
         const double *r0 = m->atab + 3 * (s * N + i), *r1 = r0 + 3;
         double cl = r0[0] + fr * (r1[0] - r0[0]), cda_ = r0[1] + fr * (r1[1] - r0[1]);
         double cm = r0[2] + fr * (r1[2] - r0[2]);
-        x = (-beta - start) / step;
-        x = x < 0.0 ? 0.0 : (x > nmax ? nmax : x);
+        x = xb < 0.0 ? 0.0 : (xb > nmax ? nmax : xb);
         i = (int)x;
         i = i <= imax ? i : imax;
         fr = x - i;
@@ -438,7 +448,7 @@ static void aero_loads(const Model *m, const Kin *k, const double *delta, double
     out8[0] = out8[1] = 0.0;
     body_wrench(k, F, T, out8 + 2);
     if (!cols)
-        return;
+        return 0;
     /* deflection columns [δWR δWL δTR δTL]: aileron lift at WR / WL, ruddervator ±½ δe, δr */
     for (int j = 0; j < 4; j++) {
         double G[3] = {0.0, 0.0, 0.0}, M[3] = {0.0, 0.0, 0.0};
@@ -481,6 +491,7 @@ static void aero_loads(const Model *m, const Kin *k, const double *delta, double
         }
         body_wrench(k, G, M, cols + 6 * j);
     }
+    return 0;
 }
 
 /* ---------------------------------------------------------------- Python entry points ---- */
@@ -510,7 +521,8 @@ static PyObject *py_plant_force(PyObject *self, PyObject *const *args, Py_ssize_
     body_kinematics(q, qd, z, &k);
     rotors(m, q, qd, &k, rot);
     propeller_force(m, &k, rot, u, tp);
-    aero_loads(m, &k, u + 4, ta, V6, NULL);
+    if (aero_loads(m, &k, u + 4, ta, V6, NULL))
+        return NULL;
     for (int i = 0; i < 8; i++)
         tau[i] = tp[i] + ta[i];
     tau[0] += m->cosb_servo * u[2] - m->nu * qd[0];   /* servos (7.33) */
@@ -571,7 +583,8 @@ static PyObject *py_aero_loads(PyObject *self, PyObject *const *args, Py_ssize_t
     int columns = PyObject_IsTrue(args[5]);
     Kin k;
     body_kinematics(q, qd, z, &k);
-    aero_loads(m, &k, delta, out, V6, columns ? cols : NULL);
+    if (aero_loads(m, &k, delta, out, V6, columns ? cols : NULL))
+        return NULL;
     PyObject *c = Py_None;
     if (columns) {
         c = PyList_New(4);
@@ -629,7 +642,8 @@ static PyObject *py_affine_terms(PyObject *self, PyObject *const *args, Py_ssize
     static const double zero4[4] = {0.0, 0.0, 0.0, 0.0};
     body_kinematics(q, qd, z, &k);
     rotors(m, q, qd, &k, rot);
-    aero_loads(m, &k, zero4, passive, V6, cols);
+    if (aero_loads(m, &k, zero4, passive, V6, cols))
+        return NULL;
     memset(B, 0, sizeof(B));
     B[0 * 8 + 2] = m->cosb_B;
     B[1 * 8 + 3] = m->cosb_B;
@@ -826,7 +840,7 @@ static PyMethodDef methods[] = {
 static struct PyModuleDef moduledef = {
     PyModuleDef_HEAD_INIT, "_forces",
     "Compiled tilt-rotor force model (mirrors the Python scalar paths; see forces.c).", -1,
-    methods,
+    methods, NULL, NULL, NULL, NULL,
 };
 
 PyMODINIT_FUNC PyInit__forces(void)
