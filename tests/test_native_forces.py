@@ -229,3 +229,19 @@ def test_nan_air_data_raises_like_python():
     state[8:] = np.nan                 # every velocity, so the body air speed too
     with pytest.raises(ValueError, match="NaN"):
         K.plant_force(cap, state, [0.0] * 8, None, None, None, np.zeros(8), True)
+
+
+def test_switching_off_after_first_use_reaches_every_dispatch():
+    """native.disabled() after the kernels were used (and their model capsules cached) still
+    gives the Python paths: the affine terms, make_law (no fused path) and the plant forces."""
+    from sobolev_drake.models.tiltrotor import TiltrotorModel
+    from sobolev_drake.systems import input_affine
+
+    params = TiltrotorParams()
+    ql, qdl, zl = random_case(np.random.default_rng(4), 1)
+    affine_terms_scalar(params, ql, qdl, zl, [50.0, 50.0])          # caches the capsule
+    assert input_affine._native_core(params) is not None
+    with native_pkg.disabled():
+        assert input_affine._native_core(params) is None
+        assert tl.make_law(TiltrotorModel(params)).fused_sample is None
+        assert not add_tiltrotor(DiagramBuilder(), params).forces.native

@@ -44,6 +44,9 @@ def cores(params: TiltrotorParams | None = None):
 def _native_core(params: TiltrotorParams):
     """(kernel, model capsule) of the compiled force kernel for ``params``, or None (cached
     beside :func:`cores`; see ``sobolev_drake.native``)."""
+    from sobolev_drake.native import enabled
+    if not enabled():            # switched off after the capsule was cached
+        return None
     prop, aero = cores(params)
     entry = _CORES[id(params)]
     if len(entry) == 3:
