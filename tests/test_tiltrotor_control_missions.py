@@ -181,10 +181,12 @@ def test_per_sample_paths_equal_general_ones(law):
         np.testing.assert_allclose(u2, u1, rtol=1e-12, atol=1e-11 * np.max(np.abs(u1)))
 
 
-def test_fused_sample_equals_composed_callables():
+def test_fused_sample_equals_composed_callables(monkeypatch):
     """make_law's fused per-sample path (direct kernel calls) gives the same ControlStep as the
     composed callables, sample after sample (warm starts included); replacing a callable
     switches the fused path off."""
+    import sobolev_drake.native as native
+    monkeypatch.setattr(native, "_ENABLED", True)    # a kernel feature: on even under =0
     fused, composed = tl.make_law(TiltrotorModel()), tl.make_law(TiltrotorModel())
     assert fused.fused_sample is not None
     composed.fused_sample = None
