@@ -26,8 +26,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
-from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
 from sobolev_drake.native import kernel
+from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
 from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
 
 # --------------------------------------------------------------------------------------------

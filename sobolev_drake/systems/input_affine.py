@@ -53,7 +53,9 @@ def _native_core(params: TiltrotorParams):
         from sobolev_drake.native import kernel
         from sobolev_drake.native.forces import force_model
         capsule = force_model(prop, aero)
-        entry = _CORES[id(params)] = (*entry, None if capsule is None else (kernel("forces"), capsule))
+        if capsule is None:                   # not built: nothing to cache
+            return None
+        entry = _CORES[id(params)] = (*entry, (kernel("forces"), capsule))
     return entry[3]
 
 
