@@ -285,6 +285,19 @@ def test_auto_backend_falls_back_and_says_so():
     assert abs(a.gamma_opt - b.gamma_opt) <= 1e-5 * b.gamma_opt
 
 
+def test_backend_chain_behaves_like_auto_without_drake():
+    """backend=("ipm", "clarabel") rejects the IPM result the way "auto" does and stops
+    before the Drake fallbacks; bad chains are refused by name."""
+    p = _bench3_plant()
+    r = output_feedback(p, backend=("ipm", "clarabel"))
+    auto = output_feedback(p, backend="auto")
+    assert r.backend == auto.backend == "clarabel" and "ipm" in r.fallback and r.certificate.ok
+    assert r.gamma_opt == pytest.approx(auto.gamma_opt, rel=1e-9)
+    for bad in ((), ("auto",), ("ipm", 3), ("ipm", "nope")):
+        with pytest.raises(ValueError, match="backend chain"):
+            output_feedback(p, backend=bad)
+
+
 def test_strict_check_rejects_a_wrong_lyapunov_matrix():
     from sobolev_drake.synthesis.hinf_common import _strict_check
     p = sgc_example7()

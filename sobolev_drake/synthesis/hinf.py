@@ -105,8 +105,10 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     certificate is always computed in the original coordinates.  ``backend``: None (default:
     direct Clarabel, Drake/Clarabel then CSDP if it fails), "auto" (own IPM first, kept only if
     its result passes the certificate and the bounded-real test of P, else the default chain;
-    4-8x faster on 12-20 states, see ``benchmarks/synthesis.py``) or one of
-    ``lmi.BACKENDS``; ``result.backend`` / ``result.fallback`` say what produced the result.
+    4-8x faster on 12-20 states, see ``benchmarks/synthesis.py``), one of ``lmi.BACKENDS``,
+    or a sequence of those tried in order (e.g. ``("ipm", "clarabel")``: "auto" without Drake's
+    single-threaded fallbacks, which take tens of minutes on 28-state output feedback);
+    ``result.backend`` / ``result.fallback`` say what produced the result.
 
     ``initial_states``: x0 (n,) or columns x0_i (n, k).  Changes the secondary objective used
     at a fixed gamma (``gamma`` given, or the regularizing re-solve at (1+delta) gamma_opt)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .certificates import (Certificate, as_matrix, brl_residual, certify_closed_loop,
                            require_detectable, require_stabilizable)
-from .lmi import InfeasibleLMIError, SynthesisError
+from .lmi import BACKENDS, InfeasibleLMIError, SynthesisError
 from .regions import LMIRegion
 
 COUPLING_MARGIN = 1e-6  # [[X, I], [I, Y]] >= margin I keeps I - XY invertible (see reconstruct)
@@ -183,6 +183,8 @@ def _solve(prog, backend, options, timings, label, check=None):
     """Solve the LMI program with ``backend``; None and "auto" are chains of backends.
 
     ``None`` (default): direct Clarabel, then on solver failure Drake/Clarabel, then CSDP.
+    A sequence of backend names is a chain tried in that order, like "auto" (an own-IPM result
+    is checked the same way).
     ``"auto"``: the own interior-point method ("ipm", 4-8x faster on the 20-state benchmark)
     first; its outcome is kept only if the solver reports (almost) solved *and* ``check(out)``
     (the result built from it, with :func:`_strict_check`) passes; otherwise the default chain
@@ -191,6 +193,13 @@ def _solve(prog, backend, options, timings, label, check=None):
     """
     if backend is None:
         chain = [None, *FALLBACKS]
+    elif isinstance(backend, (list, tuple)):
+        # an explicit chain, e.g. ("ipm", "clarabel"): "auto" without the slow Drake fallbacks
+        if not backend or not all(isinstance(b, str) and b.lower() != "auto"
+                                  and b.lower() in BACKENDS for b in backend):
+            raise ValueError("a backend chain must be a non-empty sequence of lmi.BACKENDS "
+                             f"names other than 'auto' {BACKENDS}, got {backend!r}")
+        chain = list(backend)
     elif str(backend).lower() == "auto":
         chain = list(AUTO_CHAIN)
     else:
