@@ -174,9 +174,9 @@ def _solve(lin, kind, backend, x0=None):
         # optimum and says so.
         g = DM_TRANSIENT_FACTOR * float(r.gamma_opt)
         try:
-            # "auto" without Drake's fallbacks: when the IPM and Clarabel both fail, Drake's
-            # single-threaded Clarabel on this 28-state problem ran > 45 min (measured) and
-            # the optimum is kept anyway
+            # "auto" without Drake's fallbacks: when the IPM and Clarabel both failed on the
+            # W-inf-D re-solve (279 s), Drake's single-threaded Clarabel ran > 45 min (measured)
+            # and the optimum is kept anyway
             r = hinf.output_feedback(plant, region=disk, backend=backend or ("ipm", "clarabel"), gamma=g,
                                      initial_states=np.r_[x0, np.zeros(Ad.shape[0])])
             notes.append(f"regularized: gamma fixed at {DM_TRANSIENT_FACTOR:g} x gamma_opt = {g:.4g} "
