@@ -8,10 +8,6 @@ Python; None when the kernel is not available.
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
 from sobolev_drake.native import kernel
 
 __all__ = ["force_model"]

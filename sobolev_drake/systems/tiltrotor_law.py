@@ -16,7 +16,6 @@ from bisect import bisect_right
 import numpy as np
 
 from sobolev_drake.models.base import check_vector
-from sobolev_drake.native import kernel
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw
 from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
                                                        _checked, thesis_inner_law,
@@ -55,11 +54,10 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         sched = plant_trim_schedule(model)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
-    default_allocate = allocate is None
-    last = {"active": None}
     if allocate is None:
         # The previous sample's active set warm-starts the solver: one linear solve when it
         # is unchanged; the solution is the same (KKT-certified), only the iterations differ.
+        last = {"active": None}
 
         def allocate(B, u, lo, up):
             tau, info = bounded_least_squares(B, u, lo, up, warm_start=last["active"],
@@ -101,9 +99,9 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
 
     native = _native_core(model.params)      # compiled Newton solve (same floats) if built
 
-    def thrust_to_speed(f, q, qdot, wind, n_guess=None):
-        t = terms(q, qdot, wind)
-        v_xz, phi = t.rotor_vxz, t.rotor_phi
+    def speeds(f, v_xz, phi, n_guess):
+        """(7.90) inverted: warm Newton from ``n_guess`` if given, else (or if it fails) the
+        bracketing solver, saturating unreachable thrusts."""
         if n_guess is not None:
             if native is not None and np.size(f) == 2 and np.size(n_guess) == 2:
                 n = native[0].newton_speed(native[1], np.asarray(f, float), v_xz, phi,
@@ -116,30 +114,35 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         return propeller_speed_for_thrust(f, v_xz, phi, coefficients=prop.coef,
                                           on_unreachable="clip")
 
+    def thrust_to_speed(f, q, qdot, wind, n_guess=None):
+        t = terms(q, qdot, wind)
+        return speeds(f, t.rotor_vxz, t.rotor_phi, n_guess)
+
     inner = thesis_inner_law() if inner is None else inner
     mech = MechanicalLaw(model, PARTITION, inner, allocation=lambda u, q, qd: u)
     law = TiltrotorWInfLaw(mech, input_affine=affine, allocate=allocate, bounds=bounds,
                            thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
     law.propulsion, law.aero = prop, aero
-    if native is not None and default_allocate and kernel("bls") is not None:
-        law.fused_sample = _fused_sample(law, native, kernel("bls"), last, prop.coef,
+    if native is not None:
+        law.fused_sample = _fused_sample(law, native, speeds,
                                          (affine, bounds, allocate, thrust_to_speed))
     return law
 
 
-def _fused_sample(law, native, bls, last, coef, parts):
+def _fused_sample(law, native, speeds, parts):
     """The per-sample work of :meth:`TiltrotorWInfLaw.step` after q̈_des — B and ϑ_passive,
-    u*, the bounds, the warm-started allocation and the thrust inversion — with direct calls of
-    the compiled kernels instead of the composed callables (whose shared-term cache, argument
-    checks and array conversions cost more than the arithmetic).  Same kernels, same order, so
-    the same numbers (tested against the composed path)."""
-    from sobolev_drake.systems.allocation import (_thesis_bounds_constants, bounded_least_squares,
-                                                  propeller_speed_for_thrust)
+    u*, the bounds, the allocation and the thrust inversion — with the compiled force kernel
+    called directly instead of through the composed callables' shared-term cache, argument
+    checks and array conversions (which cost more than the arithmetic).  The allocation is the
+    law's own ``allocate`` and the inversion make_law's ``speeds``, so the numbers are the same
+    (tested against the composed path)."""
+    from sobolev_drake.systems.allocation import _thesis_bounds_constants
     from sobolev_drake.systems.input_affine import N_REF
 
     forces, capsule = native
     limits = _thesis_bounds_constants()
     rnea = law.mech_law.recursive_inverse_dynamics
+    allocate = parts[2]
 
     def sample(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r):
         nl = None            # B's Cq/Ct at the last speeds, at the hover speed without them
@@ -151,17 +154,8 @@ def _fused_sample(law, native, bls, last, coef, parts):
         u = rnea(q, qdot, qdd) - theta
         lo, up = forces.surface_bounds(V[1:5], *limits)
         lo, up = np.array(lo), np.array(up)
-        out = bls.solve(B, u, lo, up, 1e-12, last["active"], 25)
-        if out is None or out is NotImplemented:       # the general path decides (and raises)
-            out = bounded_least_squares(B, u, lo, up, warm_start=last["active"], return_info=True)
-        tau, info = out
-        last["active"] = info["active"]
-        n = None
-        if nl is not None:
-            n = forces.newton_speed(capsule, tau[:2], vxz, phi, nl, 4, 1e-9)
-        n = (np.array(n) if n is not None else
-             propeller_speed_for_thrust(tau[:2], np.array(vxz), np.array(phi), coefficients=coef,
-                                        on_unreachable="clip"))
+        tau = np.asarray(allocate(B, u, lo, up), dtype=float)
+        n = speeds(tau[:2], np.array(vxz), np.array(phi), nl)
         r = u - B @ tau
         return ControlStep(qdd, u, B, theta, tau, lo, up, n, math.sqrt(float(r @ r)), ref_r)
 
