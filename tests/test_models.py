@@ -201,6 +201,7 @@ def test_two_wheeled_closed_forms(tw_model):
     assert abs(tw_model.M(q)[1, 1] - (p.m * p.l**2 + p.Ip)) < 1e-12
     np.testing.assert_array_equal(tw_model.B(q), [[1.0], [-1.0]])
     np.testing.assert_allclose(tw_model.friction([2.0, 5.0]), [2 * p.k, -2 * p.k])
+    assert not tw_model.frictionless        # per-sample laws must add its K(q̇)
 
 
 def test_two_wheeled_closed_forms_other_params():

@@ -207,3 +207,30 @@ def test_fused_sample_equals_composed_callables(monkeypatch):
     fused.allocate = lambda B, u, lo, up: calls.append(1) or composed.allocate(B, u, lo, up)
     fused.step(q, qd, ref, wind, ie, n_prev=n_prev)
     assert calls == [1]
+
+
+def test_mission_steps_once_per_sample_and_record_splits():
+    """The mission integrates one RK3 step per controller sample (no ulp-sized extra steps from
+    max_step = period or from log events a rounding apart), and the one C++ log of the
+    controller's sample record splits into the named signals of its output ports."""
+    from sobolev_drake.experiments.tiltrotor_missions import simulate_mission
+
+    built, data = simulate_mission(2, 1.0)
+    sim, ctrl = built["simulator"], built["controller"]
+    assert sim.get_num_steps_taken() <= 1.0 / ctrl.period + 3
+    assert data["t"][1] - data["t"][0] == pytest.approx(ctrl.period)
+    ctx = ctrl.GetMyContextFromRoot(sim.get_context())
+    for name, sl in tc.TiltrotorWInfController.RECORD_FIELDS.items():
+        np.testing.assert_array_equal(data[name][:, -1], ctrl.GetOutputPort(name).Eval(ctx))
+        assert data[name].shape == (sl.stop - sl.start, data["t"].size)
+    with pytest.raises(ValueError, match="30 rows"):
+        tc.TiltrotorWInfController.split_record(np.zeros((29, 4)))
+
+
+def test_frictionless_flag_is_truthful(law):
+    """The tilt-rotor model declares K(q̇) ≡ 0, which lets the per-sample u* skip adding it."""
+    model = law.mech_law.model
+    assert model.frictionless
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        np.testing.assert_array_equal(model.friction(rng.normal(size=8)), np.zeros(8))

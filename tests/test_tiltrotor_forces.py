@@ -206,7 +206,10 @@ def test_leaf_systems_match_combined_plant_forces(model):
     total = (pf.GetOutputPort("generalized_force").Eval(pc) + af.GetOutputPort("generalized_force").Eval(ac)
              + force_disturbance_generalized(model, q, fdist))
     np.testing.assert_allclose(h.generalized_force.Eval(fc), total, atol=1e-12)
-    np.testing.assert_allclose(h.x.Eval(fc), np.concatenate([q, qd]), atol=0)
+    # handles.x (C++ Selector) and the force system's own x port: the thesis-ordered state, exactly
+    xc = h.x.get_system().GetMyContextFromRoot(ctx)
+    np.testing.assert_array_equal(h.x.Eval(xc), np.concatenate([q, qd]))
+    np.testing.assert_array_equal(h.forces.GetOutputPort("x").Eval(fc), np.concatenate([q, qd]))
     # separate command ports add to u; the generalized disturbance w adds to ϑ
     w = rng.normal(size=8)
     h.u.FixValue(fc, np.concatenate([n - 5.0, ts, de]))
@@ -361,3 +364,13 @@ def test_actuator_input_cache_follows_port_changes(model):
                 p.FixValue(ff, p.Eval(fc))
         np.testing.assert_array_equal(h.generalized_force.Eval(ff), f3)
         f1 = f3
+
+
+def test_state_selector_rejects_non_permutations():
+    from sobolev_drake.models.handles import add_state_selector
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    with pytest.raises(ValueError, match="permutation of range\\(16\\)"):
+        add_state_selector(b, h.plant.get_state_output_port(), [0] * 16, "bad")
+    with pytest.raises(ValueError, match="permutation"):
+        add_state_selector(b, h.plant.get_state_output_port(), range(15), "short")

@@ -120,6 +120,10 @@ class MechanicalModel:
         """Input matrix B(q) (thesis order, columns = actuator inputs). Overridden per model."""
         raise NotImplementedError(f"{self.name} does not define an input matrix")
 
+    #: True when K(q̇) ≡ 0, so per-sample paths may skip adding it (a model overriding
+    #: :meth:`friction` with a non-zero K must leave this False).
+    frictionless: bool = False
+
     def friction(self, qdot) -> np.ndarray:
         """Velocity-dependent generalized friction K(q̇) (thesis order, on the left-hand side of
         M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it."""

@@ -70,6 +70,38 @@ class PlantHandles:
         return q, v
 
 
+def add_state_selector(builder: DiagramBuilder, state: OutputPort, index, name: str) -> OutputPort:
+    """Output port ``x`` with ``x[j] = state[index[j]]``, computed by Drake's C++ ``Selector``.
+
+    Used for the thesis-ordered state of a plant whose Drake order is a permutation of it: the
+    copy is exact (no arithmetic) and costs no Python call per evaluation, which matters for
+    ports read by a sampled controller and log sinks at every sample.
+    """
+    from pydrake.systems.primitives import Selector, SelectorParams
+
+    index = [int(i) for i in np.asarray(index).ravel()]
+    n = state.size()
+    if sorted(index) != list(range(n)):
+        raise ValueError(f"index must be a permutation of range({n}) (the size of {state.get_name()!r}), "
+                         f"got {index}")
+    params = SelectorParams()
+    port_in = SelectorParams.InputPortParams()
+    port_in.name, port_in.size = "state", n
+    port_out = SelectorParams.OutputPortParams()
+    port_out.name = "x"
+    selections = []
+    for i in index:
+        sel = SelectorParams.OutputSelection()
+        sel.input_port_index, sel.input_offset = 0, i
+        selections.append(sel)
+    port_out.selections = selections
+    params.inputs, params.outputs = [port_in], [port_out]
+    selector = builder.AddSystem(Selector(params))
+    selector.set_name(name)
+    builder.Connect(state, selector.get_input_port())
+    return selector.get_output_port()
+
+
 # --- URDF helpers -------------------------------------------------------------------------------
 URDF_DIR = Path(__file__).resolve().parent.parent / "urdf"
 

@@ -22,7 +22,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.models.base import MechanicalModel
-from sobolev_drake.models.handles import PlantHandles
+from sobolev_drake.models.handles import PlantHandles, add_state_selector
 from sobolev_drake.models.tiltrotor_params import DOF_NAMES, TiltrotorParams
 from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
 
@@ -162,6 +162,8 @@ class TiltrotorModel(MechanicalModel):
             plant, _ = _build_plant(self.params)
         super().__init__(plant, coordinate_map=thesis_coordinate_map(plant), dof_names=DOF_NAMES,
                          name="tiltrotor")
+
+    frictionless = True
 
     def friction(self, qdot) -> np.ndarray:
         """K(q̇) = 0: the servo friction ν α̇ (7.33) is part of the generalized forces (passive
@@ -359,6 +361,10 @@ def add_tiltrotor(builder, params: TiltrotorParams | None = None, *,
     builder.Connect(plant.get_state_output_port(), forces.GetInputPort("plant_state"))
     builder.Connect(forces.GetOutputPort("applied_generalized_force"),
                     plant.get_applied_generalized_force_input_port())
+    # handles.x: the same thesis-ordered state as the force system's ``x`` port, copied by a C++
+    # Selector (the controller and the log sinks read it every sample: no Python callback)
+    x = add_state_selector(builder, plant.get_state_output_port(), forces._perm16,
+                           "tiltrotor_thesis_state")
     return TiltrotorHandles(plant=plant, scene_graph=scene_graph, model=model,
                             u=forces.GetInputPort("u"), disturbance=forces.GetInputPort("disturbance"),
-                            x=forces.GetOutputPort("x"), adapter=None, forces=forces)
+                            x=x, adapter=None, forces=forces)

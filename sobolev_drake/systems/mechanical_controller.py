@@ -231,7 +231,8 @@ class MechanicalLaw:
         """:meth:`inverse_dynamics` by Drake's recursive Newton–Euler pass (gravity through the
         plant's force elements, no mass matrix): equal to rounding, ≈ 3× cheaper when only the
         force is needed once per state (the tilt-rotor law's u* per sample).  Models without the
-        permutation fast path (own M, C q̇, g) use :meth:`inverse_dynamics`."""
+        permutation fast path (own M, C q̇, g) use :meth:`inverse_dynamics`.  A per-sample path:
+        the caller validates q, q̇ and ``acc`` (the laws do, once per sample)."""
         if self._perm is None:
             return self.inverse_dynamics(q, qdot, acc)
         m = self.model
@@ -244,7 +245,7 @@ class MechanicalLaw:
             forces = self._cache["mbf"] = MultibodyForces(plant)
         plant.CalcForceElementsContribution(ctx, forces)     # gravity (and any force elements)
         tau = plant.CalcInverseDynamics(ctx, np.asarray(acc, float)[to_drake[:self.n]], forces)
-        return tau[to_thesis] + m.friction(qdot)
+        return tau[to_thesis] if m.frictionless else tau[to_thesis] + m.friction(qdot)
 
     def _B(self, q):
         key = np.asarray(q, float).tobytes()

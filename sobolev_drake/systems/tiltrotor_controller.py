@@ -52,6 +52,7 @@ from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition
 STABILIZED = np.array([2, 3])        # φ θ
 REGULATED = np.array([0, 1, 4])      # αR αL ψ
 CONTROLLED = np.array([5, 6, 7])     # x y z
+_CONTROLLED_IDX = tuple(CONTROLLED.tolist())
 N_Q = 8
 N_TAU = 8
 
@@ -319,7 +320,24 @@ class TiltrotorWInfController(LeafSystem):
                          ("saturation", self._SAT)]:
             self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(sl),
                                          prerequisites_of_calc=dep)
+        # everything above in one port copied by Drake in C++ (a log sink on it costs no Python
+        # call per sample); split with :meth:`split_record`
+        self.DeclareStateOutputPort("sample_record", self._state)
         self.last_step: ControlStep | None = None
+
+    #: fields of the ``sample_record`` port (30) and their slices
+    RECORD_FIELDS = {"integral_error": _I, "tau_bar": _TAU, "propeller_speed": _N, "u_star": _U,
+                     "allocation_residual": _RES, "saturation": _SAT}
+
+    @classmethod
+    def split_record(cls, record) -> dict:
+        """Named parts of ``sample_record`` values (rows = the 30 record entries, e.g. a log's
+        ``data()`` of shape 30 × samples), as in :attr:`RECORD_FIELDS`."""
+        record = np.asarray(record)
+        if record.shape[:1] != (cls._SIZE,):
+            raise ValueError(f"record must have {cls._SIZE} rows (the sample_record port), "
+                             f"got shape {record.shape}")
+        return {name: record[sl] for name, sl in cls.RECORD_FIELDS.items()}
 
     def _slicer(self, sl):
         def calc(context, output):
@@ -328,21 +346,22 @@ class TiltrotorWInfController(LeafSystem):
 
     def _update(self, context, discrete_state):
         x = self.x_port.Eval(context)
-        q, qdot = x[:N_Q], x[N_Q:]
         ref = self.reference_port.Eval(context)
-        wind = self.wind_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
-        ie = old[self._I]
-        step = self.law.step(q, qdot, ref, wind, ie, n_prev=old[self._N])
-        # layout [∫e_c | τ̄ | n | u* | residual | saturation]; forward-Euler integral of the
-        # controlled-DOF error over one sample
+        step = self.law.step(x[:N_Q], x[N_Q:], ref, self.wind_port.Eval(context), old[self._I],
+                             n_prev=old[self._N])
+        # layout [∫e_c | τ̄ | n | u* | residual | saturation], assembled from float lists (a
+        # few numpy calls on 3-vectors cost more than the arithmetic); forward-Euler integral
+        # of the controlled-DOF error over one sample
         tau, n = step.tau_bar, step.propeller_speed
-        new = np.concatenate([ie + self.period * (q[CONTROLLED] - ref[0:3]), tau, n,
-                              step.u_star, [step.residual],
-                              saturation_flags(tau, step.lo, step.up)])
-        discrete_state.get_mutable_vector(self._state).SetFromVector(new)
+        xl, rl, h = x.tolist(), ref.tolist(), self.period
+        ie = [e + h * (xl[c] - r) for e, c, r in zip(old[self._I].tolist(), _CONTROLLED_IDX, rl)]
+        tl, nl = tau.tolist(), n.tolist()
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            ie + tl + nl + step.u_star.tolist() + [step.residual]
+            + saturation_flags(tau, step.lo, step.up).tolist())
         g_n, g_s, g_d = self._held
-        discrete_state.get_mutable_vector(g_n).SetFromVector(n)
-        discrete_state.get_mutable_vector(g_s).SetFromVector(tau[2:4])
-        discrete_state.get_mutable_vector(g_d).SetFromVector(tau[4:8])
+        discrete_state.get_mutable_vector(g_n).SetFromVector(nl)
+        discrete_state.get_mutable_vector(g_s).SetFromVector(tl[2:4])
+        discrete_state.get_mutable_vector(g_d).SetFromVector(tl[4:8])
         self.last_step = step
