@@ -15,7 +15,6 @@ from bisect import bisect_right
 
 import numpy as np
 
-from sobolev_drake.models.base import check_vector
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw
 from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
                                                        _checked, thesis_inner_law,
@@ -150,7 +149,7 @@ def _fused_sample(law, native, speeds, parts):
             nl = _checked("n", n_prev, 2)[1]
         Bl, passive, V, vxz, phi = forces.affine_terms(capsule, ql, qdl, wl,
                                                        [N_REF, N_REF] if nl is None else nl, True)
-        B, theta = np.array(Bl).reshape(8, 8), check_vector("theta_passive", passive, N_Q)
+        B, theta = np.array(Bl).reshape(8, 8), _checked("theta_passive", passive, N_Q)[0]
         u = rnea(q, qdot, qdd) - theta
         lo, up = forces.surface_bounds(V[1:5], *limits)
         lo, up = np.array(lo), np.array(up)
