@@ -278,7 +278,9 @@ class TiltrotorWInfController(LeafSystem):
     accelerations), ``wind_measured`` (3, inertial m/s; Assumption 19 — gusts are *not* in it).
     Outputs: ``propeller_speed`` (2, rev/s), ``servo_torque`` (2, N m), ``surface_deflection``
     (4, rad [δWR δWL δTR δTL]), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1,
-    ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound).  All outputs are zero-order holds of the last update.
+    ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound), ``sample_record`` (30,
+    all of these in one vector for logging, split by :meth:`split_record`).  All outputs are
+    zero-order holds of the last update.
     """
 
     # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
