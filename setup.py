@@ -2,9 +2,9 @@
 
 Every ``native/<name>.c`` becomes the extension module ``sobolev_drake.native._<name>``: plain C
 (CPython API only, no other library), the hot scalar paths of the tilt-rotor simulation.  Each
-has a pure-Python reference implementation that the tests compare it with; when a kernel is not
-built (no compiler) the package falls back to Python (``sobolev_drake.native``).  All other
-metadata is in pyproject.toml.
+has a reference implementation (Python, or Drake for ``rnea``) that the tests compare it with;
+when a kernel is not built (no compiler) the package falls back to the reference
+(``sobolev_drake.native``).  All other metadata is in pyproject.toml.
 """
 
 from pathlib import Path

@@ -2,11 +2,12 @@
 
 Each C file ``native/<name>.c`` is the extension module ``sobolev_drake.native._<name>``; each
 kernel reproduces a pure-Python reference implementation of the library operation for operation
-(``tests/test_native_*.py`` compare them).  :func:`kernel` returns the module or None, so callers
-fall back to Python when it was not built (no C compiler at install time) or is switched off:
-``SOBOLEV_DRAKE_NATIVE=0`` in the environment (read at import) or :func:`set_enabled` /
-:func:`disabled` at run time (A/B comparisons, debugging).  Systems built while the kernels were
-on keep using them.
+(``tests/test_native_*.py`` compare them), except ``rnea`` (inverse dynamics of a tree of
+revolute and prismatic joints), whose reference is Drake's CalcInverseDynamics, matched to
+rounding.  :func:`kernel` returns the module or None, so callers fall back to the reference when
+it was not built (no C compiler at install time) or is switched off: ``SOBOLEV_DRAKE_NATIVE=0``
+in the environment (read at import) or :func:`set_enabled` / :func:`disabled` at run time (A/B
+comparisons, debugging).  Systems built while the kernels were on keep using them.
 """
 
 from __future__ import annotations
