@@ -9,7 +9,11 @@ wind-tunnel slopes say so):
 * air-relative velocity (u, v, w) = R_Bᵀ(ṗ_S − ζ) (7.37); V = |(u, v, w)| (7.38);
   α = atan2(w, max(u, 0)), i.e. atan2(w, u) clipped to [−π/2, π/2] ((7.39) with a sign-safe
   arctangent, continuous through u = 0 when w ≠ 0, e.g. vertical climb in hover; pure backward
-  flow w = 0, u < 0 gives α = 0), β = asin(v / V) (7.40);
+  flow w = 0, u < 0 gives α = 0), β = asin(v / V) (7.40).  Known limitation: in reverse flow
+  (u < 0) α is ±90° by the sign of w, so the loads jump where w changes sign (1.4 N, 0.4 N m on
+  the fuselage at 3.3 m/s backwards; met in the hover mission, where it limits integrator
+  accuracy: ``benchmarks/tiltrotor_integrators.py``).  The tables stop at ±90°; a continuous
+  reverse-flow model (mirrored tables, drag along the flow) is an open modelling decision;
 * table arguments α_NED = −α, β_NED = −β (App. B), linear interpolation on the 0.5° grid;
 * wind-axes forces (after the NED → z-up rotation Rx(π) of (B.1)–(B.4)):
   f_d = −κ s (c_d^xy(β_NED) + c_d^xz(α_NED)), f_y = κ s (c_y(β_NED) [+ c_δr δr]),
