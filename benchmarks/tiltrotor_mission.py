@@ -78,6 +78,24 @@ Outcome (issue 7, 2-core machine shared with 3 other sessions, load 2–8; CPU t
     zero-order hold alone: 11 ms/s (91×).  What remains above the floor is Python glue per
     call (ports, arrays, the RNEA through pydrake: ≈ 35 µs hot, ≈ 60 µs in the loop), not
     arithmetic.
+* fourth round (Drake plumbing, then the RNEA):
+  - ulp-sized steps: with ``max_step`` equal to the controller period, many integrator steps
+    ended an ulp before the sample event and the simulator then took an extra full RK3 step of
+    ~1e-16 s to reach it; the log sinks' 0.05 s events and the controller's 0.01 s events also
+    differ by an ulp at some instants (k·0.05 ≠ 5k·0.01 in floating point).  121.7 steps/s
+    where 100 suffice.  ``simulate`` now applies ``max_step`` with a relative slack of 1e-6
+    and the missions log at the controller period: 100.1 steps/s, 300.6 derivative
+    evaluations/s; states within 1.2e-11 of before after 60 s.
+  - the four Python slicer outputs the log sinks read per sample (τ̄, u*, residual, saturation)
+    became one C++ state output port (``sample_record``); ``handles.x`` is a C++ Selector
+    instead of a Python output: floor 31 → 21 ms/s (48×).
+  - ``native/rnea.c``: u* = M q̈ + C q̇ + g by a compiled recursive Newton–Euler pass equal to
+    Drake's CalcInverseDynamics within 3.4e-15 (relative): 2.5–3 µs hot instead of 12 µs,
+    5–8 µs instead of 29–43 µs in the loop.
+  - Full 250 s, runs alternating with the previous code (the other core busy with
+    ``make reproduce``): before 15.6–17.0× (median 16.2×), now 17.3–20.7× (median 20.3×) at
+    the default RK3; on a quieter machine 17.3–21.1× in three runs.  Fixed-step RK2
+    23.1–26.4×; pure Python 8.9–9.6×.
 """
 
 from __future__ import annotations
