@@ -11,7 +11,7 @@ export OMP_NUM_THREADS ?= 1
 
 .PHONY: demo test bench reproduce install clean
 
-$(STAMP): pyproject.toml setup.py $(wildcard sobolev_drake/native/*.c)
+$(STAMP): pyproject.toml setup.py $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'

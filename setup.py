@@ -13,8 +13,11 @@ from setuptools import Extension, setup
 
 _FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-std=c99"]   # IEEE, no FMA contraction
 
+_NATIVE = Path("sobolev_drake/native")
+_HEADERS = [str(h) for h in sorted(_NATIVE.glob("*.h"))]     # shared by the kernels
+
 setup(ext_modules=[
-    Extension(f"sobolev_drake.native._{src.stem}", [str(src)], extra_compile_args=_FLAGS,
-              optional=True)
-    for src in sorted(Path("sobolev_drake/native").glob("*.c"))
+    Extension(f"sobolev_drake.native._{src.stem}", [str(src)], depends=_HEADERS,
+              extra_compile_args=_FLAGS, optional=True)
+    for src in sorted(_NATIVE.glob("*.c"))
 ])

@@ -18,6 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pyconvert.h"
+
 #define HALF_PI 1.5707963267948966
 #define MAX_TERMS 32
 
@@ -58,40 +60,6 @@ static void free_model(PyObject *capsule)
     }
 }
 
-/* n doubles from a sequence of numbers (error messages name the argument) */
-static int seq_to_doubles(PyObject *obj, Py_ssize_t n, double *out, const char *name)
-{
-    PyObject *fast = PySequence_Fast(obj, "expected a sequence of floats");
-    if (!fast)
-        return -1;
-    if (PySequence_Fast_GET_SIZE(fast) != n) {
-        PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", name, n,
-                     PySequence_Fast_GET_SIZE(fast));
-        Py_DECREF(fast);
-        return -1;
-    }
-    PyObject **items = PySequence_Fast_ITEMS(fast);
-    for (Py_ssize_t i = 0; i < n; i++) {
-        out[i] = PyFloat_AsDouble(items[i]);
-        if (out[i] == -1.0 && PyErr_Occurred()) {
-            Py_DECREF(fast);
-            return -1;
-        }
-    }
-    Py_DECREF(fast);
-    return 0;
-}
-
-static int get_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *out)
-{
-    PyObject *seq = PyDict_GetItemString(dict, key);   /* borrowed */
-    if (!seq) {
-        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
-        return -1;
-    }
-    return seq_to_doubles(seq, n, out, key);
-}
-
 static int get_double(PyObject *dict, const char *key, double *out)
 {
     PyObject *v = PyDict_GetItemString(dict, key);   /* borrowed */
@@ -121,9 +89,9 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         PyErr_NoMemory();
         goto fail;
     }
-    if (get_doubles(d, "points", 18, &m->pts[0][0]) || get_doubles(d, "half_rho_s", 6, m->hrs)
-        || get_doubles(d, "alpha_tab", 18 * m->samples, m->atab)
-        || get_doubles(d, "beta_tab", 18 * m->samples, m->btab)
+    if (dict_doubles(d, "points", 18, &m->pts[0][0]) || dict_doubles(d, "half_rho_s", 6, m->hrs)
+        || dict_doubles(d, "alpha_tab", 18 * m->samples, m->atab)
+        || dict_doubles(d, "beta_tab", 18 * m->samples, m->btab)
         || get_double(d, "start", &m->start) || get_double(d, "step", &m->step)
         || get_double(d, "nmax", &m->nmax) || get_double(d, "chord", &m->chord)
         || get_double(d, "span", &m->span) || get_double(d, "c_delta_a", &m->cda)
@@ -131,11 +99,11 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         || get_double(d, "independence", &indep) || get_double(d, "sin_beta", &m->sb)
         || get_double(d, "cos_beta", &m->cb) || get_double(d, "cos_beta_servo", &m->cosb_servo)
         || get_double(d, "cos_beta_B", &m->cosb_B) || get_double(d, "nu", &m->nu)
-        || get_doubles(d, "d_A_P", 3, m->dAP) || get_doubles(d, "d_B_A", 6, &m->dBA[0][0])
-        || get_doubles(d, "lam", 2, m->lam) || get_double(d, "kf", &m->kf)
+        || dict_doubles(d, "d_A_P", 3, m->dAP) || dict_doubles(d, "d_B_A", 6, &m->dBA[0][0])
+        || dict_doubles(d, "lam", 2, m->lam) || get_double(d, "kf", &m->kf)
         || get_double(d, "kt", &m->kt) || get_double(d, "diameter", &m->d)
         || get_double(d, "J_max", &m->Jmax) || get_double(d, "rho", &m->rho)
-        || get_double(d, "nterms", &nterms) || get_doubles(d, "d_B_C1", 3, m->dC1))
+        || get_double(d, "nterms", &nterms) || dict_doubles(d, "d_B_C1", 3, m->dC1))
         goto fail;
     m->indep = indep != 0.0;
     if (m->nmax != (double)(m->samples - 1) || !(m->step > 0.0)) {
@@ -148,7 +116,7 @@ static PyObject *make_model(PyObject *self, PyObject *args)
     }
     m->nterms = (int)nterms;
     double terms[4 * MAX_TERMS];
-    if (get_doubles(d, "terms", 4 * m->nterms, terms))
+    if (dict_doubles(d, "terms", 4 * m->nterms, terms))
         goto fail;
     for (int k = 0; k < m->nterms; k++) {
         m->ti[k] = (int)terms[4 * k];
@@ -160,11 +128,11 @@ static PyObject *make_model(PyObject *self, PyObject *args)
             goto fail;
         }
     }
-    if (get_doubles(d, "perm16", 16, tmp))
+    if (dict_doubles(d, "perm16", 16, tmp))
         goto fail;
     for (int i = 0; i < 16; i++)
         m->perm16[i] = (int)tmp[i];
-    if (get_doubles(d, "perm8_inv", 8, tmp))
+    if (dict_doubles(d, "perm8_inv", 8, tmp))
         goto fail;
     for (int i = 0; i < 8; i++)
         m->perm8_inv[i] = (int)tmp[i];
@@ -202,37 +170,7 @@ static int read_vec(PyObject *obj, Py_ssize_t n, double *out, int allow_none, co
         memset(out, 0, sizeof(double) * n);
         return 0;
     }
-    if (PyObject_CheckBuffer(obj)) {
-        Py_buffer view;
-        if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
-            int ok = view.format && strcmp(view.format, "d") == 0 && view.itemsize == 8
-                     && view.len == (Py_ssize_t)(8 * n);
-            if (ok)
-                memcpy(out, view.buf, sizeof(double) * n);
-            PyBuffer_Release(&view);
-            if (ok)
-                return 0;
-        } else {
-            PyErr_Clear();
-        }
-    }
-    return seq_to_doubles(obj, n, out, name);
-}
-
-static PyObject *list_of(const double *v, Py_ssize_t n)
-{
-    PyObject *lst = PyList_New(n);
-    if (!lst)
-        return NULL;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *f = PyFloat_FromDouble(v[i]);
-        if (!f) {
-            Py_DECREF(lst);
-            return NULL;
-        }
-        PyList_SET_ITEM(lst, i, f);
-    }
-    return lst;
+    return read_doubles(obj, n, out, name);
 }
 
 /* ---------------------------------------------------------------- the force model ---- */

@@ -28,6 +28,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pyconvert.h"
+
 #define CAPSULE_NAME "sobolev_drake.native.rnea.Model"
 #define MAX_BODIES 100000
 #define REVOLUTE 0
@@ -232,39 +234,10 @@ static void free_model(PyObject *capsule)
     }
 }
 
-/* n doubles from a sequence of numbers (error messages name the argument) */
-static int seq_to_doubles(PyObject *obj, Py_ssize_t n, double *out, const char *name)
-{
-    PyObject *fast = PySequence_Fast(obj, "expected a sequence of floats");
-    if (!fast)
-        return -1;
-    if (PySequence_Fast_GET_SIZE(fast) != n) {
-        PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", name, n,
-                     PySequence_Fast_GET_SIZE(fast));
-        Py_DECREF(fast);
-        return -1;
-    }
-    PyObject **items = PySequence_Fast_ITEMS(fast);
-    for (Py_ssize_t i = 0; i < n; i++) {
-        out[i] = PyFloat_AsDouble(items[i]);
-        if (out[i] == -1.0 && PyErr_Occurred()) {
-            Py_DECREF(fast);
-            return -1;
-        }
-    }
-    Py_DECREF(fast);
-    return 0;
-}
-
 /* dict[key] as n finite doubles */
 static int get_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *out)
 {
-    PyObject *seq = PyDict_GetItemString(dict, key);   /* borrowed */
-    if (!seq) {
-        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
-        return -1;
-    }
-    if (seq_to_doubles(seq, n, out, key))
+    if (dict_doubles(dict, key, n, out))
         return -1;
     for (Py_ssize_t i = 0; i < n; i++)
         if (!isfinite(out[i])) {
@@ -406,52 +379,6 @@ fail:
 
 /* ---------------------------------------------------------------- Python entry ---- */
 
-/* n doubles from a float64 buffer or a sequence of numbers */
-static int read_vec(PyObject *obj, Py_ssize_t n, double *out, const char *name)
-{
-    if (PyObject_CheckBuffer(obj)) {
-        Py_buffer view;
-        if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
-            int is_f64 = view.format && strcmp(view.format, "d") == 0 && view.itemsize == 8;
-            int ok = is_f64 && view.len == (Py_ssize_t)(8 * n);
-            if (ok)
-                memcpy(out, view.buf, sizeof(double) * n);
-            PyBuffer_Release(&view);
-            if (ok)
-                return 0;
-            if (is_f64) {
-                PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", name, n,
-                             view.len / 8);
-                return -1;
-            }
-        } else {
-            PyErr_Clear();
-        }
-    }
-    if (!PySequence_Check(obj)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a sequence of %zd floats, got %s", name, n,
-                     Py_TYPE(obj)->tp_name);
-        return -1;
-    }
-    return seq_to_doubles(obj, n, out, name);
-}
-
-static PyObject *list_of(const double *v, Py_ssize_t n)
-{
-    PyObject *lst = PyList_New(n);
-    if (!lst)
-        return NULL;
-    for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *f = PyFloat_FromDouble(v[i]);
-        if (!f) {
-            Py_DECREF(lst);
-            return NULL;
-        }
-        PyList_SET_ITEM(lst, i, f);
-    }
-    return lst;
-}
-
 static PyObject *py_inverse_dynamics(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (model, x[2n], vdot[n]) or (model, q[n], v[n], vdot[n]) -> tau list n */
@@ -472,9 +399,9 @@ static PyObject *py_inverse_dynamics(PyObject *self, PyObject *const *args, Py_s
     }
     double *q = buf, *v = buf + n, *vd = buf + 2 * n, *tau = buf + 3 * n;
     int err = nargs == 3
-        ? (read_vec(args[1], 2 * n, q, "x") || read_vec(args[2], n, vd, "vdot"))
-        : (read_vec(args[1], n, q, "q") || read_vec(args[2], n, v, "v")
-           || read_vec(args[3], n, vd, "vdot"));
+        ? (read_doubles(args[1], 2 * n, q, "x") || read_doubles(args[2], n, vd, "vdot"))
+        : (read_doubles(args[1], n, q, "q") || read_doubles(args[2], n, v, "v")
+           || read_doubles(args[3], n, vd, "vdot"));
     PyObject *out = NULL;
     if (!err) {
         inverse_dynamics(m, q, v, vd, tau);
