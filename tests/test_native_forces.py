@@ -50,9 +50,12 @@ def test_kernel_is_built_and_selected():
     assert kernel("forces") is K
 
 
-@pytest.mark.parametrize("crossflow", ["independence", "thesis"])
-def test_loads_propellers_and_affine_terms_equal_python(crossflow):
-    params = TiltrotorParams(crossflow=crossflow)
+@pytest.mark.parametrize("crossflow, reverse_flow", [("independence", "clipped"),
+                                                     ("thesis", "clipped"),
+                                                     ("independence", "mirrored"),
+                                                     ("thesis", "mirrored")])
+def test_loads_propellers_and_affine_terms_equal_python(crossflow, reverse_flow):
+    params = TiltrotorParams(crossflow=crossflow, reverse_flow=reverse_flow)
     prop, aero = cores(params)
     cap = force_model(prop, aero)
     rng = np.random.default_rng(11)

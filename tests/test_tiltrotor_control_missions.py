@@ -234,3 +234,13 @@ def test_frictionless_flag_is_truthful(law):
     rng = np.random.default_rng(3)
     for _ in range(5):
         np.testing.assert_array_equal(model.friction(rng.normal(size=8)), np.zeros(8))
+
+
+def test_mission_params_reach_plant_and_controller_model():
+    from sobolev_drake.experiments.tiltrotor_missions import build_mission
+    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+
+    built = build_mission(1, 1.0, params=TiltrotorParams(reverse_flow="mirrored"))
+    assert built["handles"].model.params.reverse_flow == "mirrored"
+    assert built["handles"].forces.aero.mirrored
+    assert built["law"].mech_law.model.params.reverse_flow == "mirrored"

@@ -154,12 +154,13 @@ def mission_reference(scenario):
     raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")
 
 
-def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None):
+def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Returns a dict with the diagram, handles, controller and the log sinks.
     ``schedule``: ``"plant"`` (level-flight trims of the plant model, default) or ``"data"``
-    (polynomial of the mission file) for the regulated tilt references.
+    (polynomial of the mission file) for the regulated tilt references.  ``params``:
+    TiltrotorParams of the plant and of the controller's model (default: the defaults).
     """
     from sobolev_drake.models import tiltrotor as tr
     from sobolev_drake.systems import tiltrotor_controller as tc
@@ -167,7 +168,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 
     spec = load("tiltrotor_missions")[SCENARIOS[scenario]]
     builder = DiagramBuilder()
-    handles = tr.add_tiltrotor(builder)
+    handles = tr.add_tiltrotor(builder, params)
     law = make_law(handles.model, tc.thesis_inner_law(), schedule=schedule)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
@@ -212,7 +213,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 
 # --- run, score, plot ----------------------------------------------------------------------------
 def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
-                     integrator="runge_kutta3", accuracy=1e-3, period=0.01):
+                     integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate; returns (built dict, logs dict).
 
     The integrator's maximum step is the controller period (the sampled controller's events
@@ -224,7 +225,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
     if record:
         from sobolev_drake import viz
         meshcat = viz.start_meshcat()
-    built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period)
+    built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period,
+                          params=params)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()

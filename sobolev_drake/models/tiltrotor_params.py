@@ -28,6 +28,9 @@ SURFACES = ("F", "WR", "WL", "TR", "TL", "I")
 #: how the angle-of-attack tables meet sideslip (``TiltrotorParams.crossflow``; the
 #: aerodynamics module docstring explains both)
 CROSSFLOW_MODELS = ("independence", "thesis")
+#: how the angle-of-attack tables (−90°…90°) meet reverse flow u < 0
+#: (``TiltrotorParams.reverse_flow``; see the aerodynamics module docstring)
+REVERSE_FLOW_MODELS = ("clipped", "mirrored")
 
 
 def _v(x):
@@ -78,10 +81,16 @@ class TiltrotorParams:
     # "thesis": on κ = ½ρV² as (7.41)–(7.45) are written (7× the measured side force in a
     # pure crossflow, see systems/aerodynamics.py)
     crossflow: str = "independence"
+    # "clipped": α = atan2(w, max(u, 0)) (loads jump where w changes sign in reverse flow);
+    # "mirrored": tables at atan2(w, |u|), axes along the flow (continuous; see aerodynamics)
+    reverse_flow: str = "clipped"
 
     def __post_init__(self):
         if self.crossflow not in CROSSFLOW_MODELS:
             raise ValueError(f"crossflow must be one of {CROSSFLOW_MODELS}, got {self.crossflow!r}")
+        if self.reverse_flow not in REVERSE_FLOW_MODELS:
+            raise ValueError(f"reverse_flow must be one of {REVERSE_FLOW_MODELS}, "
+                             f"got {self.reverse_flow!r}")
 
     @property
     def mass(self) -> float:

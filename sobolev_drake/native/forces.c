@@ -29,7 +29,7 @@ typedef struct {
     double *atab, *btab;            /* [6][N][3] each */
     int samples;
     double start, step, nmax, chord, span, cda, cde, cdr;
-    int indep;
+    int indep, mirror;
     /* propellers and servos */
     double sb, cb, cosb_servo, cosb_B, nu, dAP[3], dBA[2][3], lam[2], kf, kt, d, Jmax, rho;
     int nterms, ti[MAX_TERMS], tj[MAX_TERMS];
@@ -79,7 +79,7 @@ static PyObject *make_model(PyObject *self, PyObject *args)
     Model *m = (Model *)calloc(1, sizeof(Model));
     if (!m)
         return PyErr_NoMemory();
-    double tmp[16], samples, indep, nterms;
+    double tmp[16], samples, indep, mirror, nterms;
     if (get_double(d, "samples", &samples) || samples < 2 || samples > 100000)
         goto fail;
     m->samples = (int)samples;
@@ -96,7 +96,8 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         || get_double(d, "nmax", &m->nmax) || get_double(d, "chord", &m->chord)
         || get_double(d, "span", &m->span) || get_double(d, "c_delta_a", &m->cda)
         || get_double(d, "c_delta_e", &m->cde) || get_double(d, "c_delta_r", &m->cdr)
-        || get_double(d, "independence", &indep) || get_double(d, "sin_beta", &m->sb)
+        || get_double(d, "independence", &indep) || get_double(d, "mirrored", &mirror)
+        || get_double(d, "sin_beta", &m->sb)
         || get_double(d, "cos_beta", &m->cb) || get_double(d, "cos_beta_servo", &m->cosb_servo)
         || get_double(d, "cos_beta_B", &m->cosb_B) || get_double(d, "nu", &m->nu)
         || dict_doubles(d, "d_A_P", 3, m->dAP) || dict_doubles(d, "d_B_A", 6, &m->dBA[0][0])
@@ -106,6 +107,7 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         || get_double(d, "nterms", &nterms) || dict_doubles(d, "d_B_C1", 3, m->dC1))
         goto fail;
     m->indep = indep != 0.0;
+    m->mirror = mirror != 0.0;
     if (m->nmax != (double)(m->samples - 1) || !(m->step > 0.0)) {
         PyErr_SetString(PyExc_ValueError, "make_model: need nmax = samples - 1 and step > 0");
         goto fail;
@@ -321,13 +323,14 @@ static int aero_loads(const Model *m, const Kin *k, const double *delta, double 
         double V = V6[s] = sqrt(V2);
         if (V2 < 1e-24)
             continue;
-        double up = u > 0.0 ? u : 0.0;
-        double h = sqrt(up * up + w * w);
-        double alpha = atan2(w, up);
+        /* mirrored: tables at atan2(w, |u|), wind axes along the flow; clipped: u⁺ = max(u, 0) */
+        double ux = m->mirror ? u : (u > 0.0 ? u : 0.0);
+        double h = sqrt(ux * ux + w * w);
+        double alpha = atan2(w, fabs(ux));
         double sa, ca;
         if (h > 0.0) {
             sa = w / h;
-            ca = up / h;
+            ca = ux / h;
         } else {
             sa = 0.0;
             ca = 1.0;

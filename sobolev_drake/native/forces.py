@@ -28,7 +28,8 @@ def force_model(prop, aero, *, perm16=None, perm8_inv=None, cos_beta_servo=None)
         raise ValueError("prop and aero must be built from the same TiltrotorParams")
     if aero._fast is None:
         aero._prepare_fast()
-    (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep) = aero._fast
+    (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep,
+     mirror) = aero._fast
     p, c = prop.params, prop.coef
     terms = [v for (i, j), a, b in c._terms for v in (i, j, a, b)]
     flat = lambda tab: [x for surface in tab for row in surface for x in row]   # noqa: E731
@@ -38,7 +39,7 @@ def force_model(prop, aero, *, perm16=None, perm8_inv=None, cos_beta_servo=None)
         "half_rho_s": list(hrs), "alpha_tab": flat(atab), "beta_tab": flat(btab),
         "start": start, "step": step, "nmax": nmax, "chord": float(chord), "span": float(span),
         "c_delta_a": float(cda), "c_delta_e": float(cde), "c_delta_r": float(cdr),
-        "independence": float(bool(indep)), "sin_beta": prop._sb, "cos_beta": prop._cb,
+        "independence": float(bool(indep)), "mirrored": float(bool(mirror)), "sin_beta": prop._sb, "cos_beta": prop._cb,
         "cos_beta_servo": cb if cos_beta_servo is None else float(cos_beta_servo),
         "cos_beta_B": cb, "nu": float(p.nu), "d_A_P": prop._dAP_f,
         "d_B_A": [x for r in prop._dBA_f for x in r], "lam": prop._lam_f,

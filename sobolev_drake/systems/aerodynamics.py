@@ -9,11 +9,8 @@ wind-tunnel slopes say so):
 * air-relative velocity (u, v, w) = R_Bᵀ(ṗ_S − ζ) (7.37); V = |(u, v, w)| (7.38);
   α = atan2(w, max(u, 0)), i.e. atan2(w, u) clipped to [−π/2, π/2] ((7.39) with a sign-safe
   arctangent, continuous through u = 0 when w ≠ 0, e.g. vertical climb in hover; pure backward
-  flow w = 0, u < 0 gives α = 0), β = asin(v / V) (7.40).  Known limitation: in reverse flow
-  (u < 0) α is ±90° by the sign of w, so the loads jump where w changes sign (1.4 N, 0.4 N m on
-  the fuselage at 3.3 m/s backwards; met in the hover mission, where it limits integrator
-  accuracy: ``benchmarks/tiltrotor_integrators.py``).  The tables stop at ±90°; a continuous
-  reverse-flow model (mirrored tables, drag along the flow) is an open modelling decision;
+  flow w = 0, u < 0 gives α = 0), β = asin(v / V) (7.40) — ``reverse_flow="clipped"``, the
+  default; see "Reverse flow" below for ``"mirrored"``;
 * table arguments α_NED = −α, β_NED = −β (App. B), linear interpolation on the 0.5° grid;
 * wind-axes forces (after the NED → z-up rotation Rx(π) of (B.1)–(B.4)):
   f_d = −κ s (c_d^xy(β_NED) + c_d^xz(α_NED)), f_y = κ s (c_y(β_NED) [+ c_δr δr]),
@@ -40,6 +37,21 @@ hover trim) and equal to the β tables alone in a pure crossflow; where α flips
 the α-table terms vanish instead of jumping by ~10 N at 12 m/s.  What stays is the direction of
 the side force, which rotates with α (|c_y(±90°)| ≤ 0.07: 0.2 N at 12 m/s).  ``"thesis"`` keeps
 (7.41)–(7.45) as written.
+
+Reverse flow (``TiltrotorParams.reverse_flow``; u < 0: flying backwards through the air, e.g.
+hovering in a tail wind).  The tables cover α ∈ [−90°, 90°] only.  (7.39)'s atan(w/u) would map
+reverse flow to a small α but orient the drag *along* the motion.  ``"clipped"`` (default, the
+form above) gives α = ±90° by the sign of w, so the drag acts across the flow and the loads jump
+where w changes sign: 44 N at 10 m/s backwards for the whole aircraft, 1.4 N and 0.4 N m on
+the fuselage at 3.3 m/s.  The hover mission meets it at 18.6 s and its state slides along
+that switching surface (RK5 at 1e-7 creeps through in 10 µs steps; RK3 ends 72 mm from it,
+``benchmarks/tiltrotor_integrators.py``).  ``"mirrored"`` reads the tables at atan2(w, |u|)
+(front and back of each surface mirrored) and orients the wind axes by the flow direction
+θ = atan2(w, u): identical in forward flow, continuous over the whole circle of flow
+directions (with ``crossflow="independence"``; the thesis crossflow form still jumps in pure
+sideways flow, where the α terms do not vanish), and drag opposes the motion.  Its reverse-flow
+lift and moments are an extrapolation without data.  Measured on the hover mission's first
+60 s: RK3 within 0.5 mm of RK5 (72 mm clipped), RK2 within 14 mm (111 mm).
 """
 
 from __future__ import annotations
@@ -115,6 +127,7 @@ class AeroModel:
         # points of the deflection columns: WR, WL, TR, TL, TR, TL
         self._ctrl_pts = self.points[[1, 2, 3, 4, 3, 4]]
         self.independence = p.crossflow == "independence"
+        self.mirrored = p.reverse_flow == "mirrored"
         self._fast = None
 
     def _lookup(self, tab, angle):
@@ -131,7 +144,10 @@ class AeroModel:
         w = W @ qdot[2:5]
         v = (R.T @ (qdot[5:8] - zeta)) + cross_rows(w[None, :], self.points)
         V = np.sqrt((v * v).sum(axis=1))
-        alpha = np.arctan2(v[:, 2], np.maximum(v[:, 0], 0.0))    # clip(atan2(w, u), ±π/2), see module doc
+        if self.mirrored:   # table angle of reverse flow mirrored front to back (module doc)
+            alpha = np.arctan2(v[:, 2], np.abs(v[:, 0]))
+        else:               # clip(atan2(w, u), ±π/2), see module doc
+            alpha = np.arctan2(v[:, 2], np.maximum(v[:, 0], 0.0))
         beta = np.arcsin(np.clip(v[:, 1] / np.where(V > 1e-12, V, 1.0), -1.0, 1.0))
         return v, V, alpha, beta
 
@@ -140,11 +156,17 @@ class AeroModel:
         M (6,3) body-axes moments, (κs, κs of the α-table terms) (6,) each, y_w (6,3), z_w (6,3))
         (B.1)–(B.11) with δ = 0."""
         p = self.params
-        _, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
+        v, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
         ca = self._lookup(self._atab, -alpha)      # α_NED = −α: [lift, drag_α, pitch moment]
         cb = self._lookup(self._btab, -beta)       # β_NED = −β: [side, drag_β, yaw moment]
         ks = self._half_rho_s * V * V              # κ s per surface
-        sa, cal, sb, cbe = np.sin(alpha), np.cos(alpha), np.sin(beta), np.cos(beta)
+        if self.mirrored:   # wind axes along the flow direction θ = atan2(w, u) (= α if u ≥ 0)
+            h = np.hypot(v[:, 0], v[:, 2])
+            hs = np.where(h > 0.0, h, 1.0)
+            sa, cal = np.where(h > 0.0, v[:, 2] / hs, 0.0), np.where(h > 0.0, v[:, 0] / hs, 1.0)
+        else:
+            sa, cal = np.sin(alpha), np.cos(alpha)
+        sb, cbe = np.sin(beta), np.cos(beta)
         ksa = ks * cbe * cbe if self.independence else ks    # κ s of the α-table terms
         fd = -(ks * cb[:, 1] + ksa * ca[:, 1])
         fy = ks * cb[:, 0]
@@ -215,7 +237,8 @@ class AeroModel:
         """
         if self._fast is None:
             self._prepare_fast()
-        (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep) = self._fast
+        (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep,
+         mirror) = self._fast
         imax = int(nmax) - 1
         sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
         _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
@@ -234,10 +257,15 @@ class AeroModel:
             V = Vs[k] = sqrt(V2)
             if V2 < 1e-24:
                 continue
-            up = u if u > 0.0 else 0.0
-            h = sqrt(up * up + w * w)
-            alpha = atan2(w, up)
-            sa, ca = (w / h, up / h) if h > 0.0 else (0.0, 1.0)
+            if mirror:      # tables at atan2(w, |u|), wind axes along the flow (module doc)
+                h = sqrt(u * u + w * w)
+                alpha = atan2(w, abs(u))
+                sa, ca = (w / h, u / h) if h > 0.0 else (0.0, 1.0)
+            else:
+                up = u if u > 0.0 else 0.0
+                h = sqrt(up * up + w * w)
+                alpha = atan2(w, up)
+                sa, ca = (w / h, up / h) if h > 0.0 else (0.0, 1.0)
             sb = v / V
             sb = 1.0 if sb > 1.0 else (-1.0 if sb < -1.0 else sb)
             cb = sqrt(u * u + w * w) / V
@@ -328,7 +356,7 @@ class AeroModel:
         btab = [[tuple(row) for row in t.beta_tab[k].T.tolist()] for k in range(6)]
         self._fast = ([tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(), atab, btab,
                       float(t.start), float(t.step), float(t.samples - 1), p.chord, p.span,
-                      p.c_delta_a, p.c_delta_e, p.c_delta_r, self.independence)
+                      p.c_delta_a, p.c_delta_e, p.c_delta_r, self.independence, self.mirrored)
 
 
 class AerodynamicSurfaces(LeafSystem):
