@@ -257,15 +257,12 @@ class AeroModel:
             V = Vs[k] = sqrt(V2)
             if V2 < 1e-24:
                 continue
-            if mirror:      # tables at atan2(w, |u|), wind axes along the flow (module doc)
-                h = sqrt(u * u + w * w)
-                alpha = atan2(w, abs(u))
-                sa, ca = (w / h, u / h) if h > 0.0 else (0.0, 1.0)
-            else:
-                up = u if u > 0.0 else 0.0
-                h = sqrt(up * up + w * w)
-                alpha = atan2(w, up)
-                sa, ca = (w / h, up / h) if h > 0.0 else (0.0, 1.0)
+            # mirrored: tables at atan2(w, |u|), wind axes along the flow; clipped: u⁺ = max(u, 0)
+            # (module doc).  abs(u⁺) = u⁺, so the clipped form is unchanged to the bit.
+            ux = u if mirror else (u if u > 0.0 else 0.0)
+            h = sqrt(ux * ux + w * w)
+            alpha = atan2(w, abs(ux))
+            sa, ca = (w / h, ux / h) if h > 0.0 else (0.0, 1.0)
             sb = v / V
             sb = 1.0 if sb > 1.0 else (-1.0 if sb < -1.0 else sb)
             cb = sqrt(u * u + w * w) / V

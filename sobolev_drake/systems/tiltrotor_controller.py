@@ -317,9 +317,8 @@ class TiltrotorWInfController(LeafSystem):
         for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
             self.DeclareStateOutputPort(name, idx)
         dep = {self.discrete_state_ticket(self._state)}
-        for name, sl in [("tau_bar", self._TAU), ("u_star", self._U),
-                         ("allocation_residual", self._RES), ("integral_error", self._I),
-                         ("saturation", self._SAT)]:
+        for name in ("tau_bar", "u_star", "allocation_residual", "integral_error", "saturation"):
+            sl = self.RECORD_FIELDS[name]
             self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(sl),
                                          prerequisites_of_calc=dep)
         # everything above in one port copied by Drake in C++ (a log sink on it costs no Python
