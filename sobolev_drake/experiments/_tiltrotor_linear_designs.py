@@ -24,9 +24,6 @@ UPSILON0 = np.diag([5.0, 5.0, 5.0])
 UPSILON1_SF = np.diag([16.0, 9.5, 14.7])
 UPSILON1_OF = np.diag([0.1, 0.1, 0.1])
 DISK_RADIUS = 250.0
-#: the well-posed disturbance-model designs are re-solved at this multiple of their optimal γ
-#: for the transient of the flight's initial error (see ``_solve``)
-DM_TRANSIENT_FACTOR = 2.0
 
 #: design name -> (kind, LMI of the thesis, Table 7.2 column or None)
 #:   "sf"   : state feedback (6.7);              "of": output feedback (6.22) + disk (6.40)
@@ -114,8 +111,7 @@ def _solve(lin, kind, backend, x0=None):
     # output feedback, 4-8x faster than Clarabel at an equal certified gamma.  The thesis'
     # non-strict LMIs are degenerate: plain Clarabel without the fallback chain, whose CSDP
     # step ran > 30 min on (6.36) without an answer.  The optimum of the well-posed
-    # disturbance-model designs is pinned to Clarabel below (dm_backend); their transient
-    # re-solve takes "auto".
+    # disturbance-model designs is pinned to Clarabel below (dm_backend).
     thesis_form = kind.startswith("dm_thesis")
     dm_backend = backend or "clarabel"
     if backend is None:
@@ -164,28 +160,18 @@ def _solve(lin, kind, backend, x0=None):
     # 0.03491 gave a controller so stiff that 0.2 s of flight took 240 s of wall time;
     # Clarabel's 0.03546 flies.  The least-gain re-solve (regularize=True) did not finish in
     # 15 min on this 28-state problem, so the design is pinned to Clarabel and says so.
+    # No transient re-solve (unlike the W-inf and W-inf-O.F. designs).  Measured on the
+    # W-inf-O.F.D plant, all certified unless said: re-solves at 1.2-4 x gamma_opt minimizing
+    # the transient bound either failed (IPM stalled, Clarabel NumericalError, e.g. at 2 x in
+    # the last make reproduce) or gave controllers that fly or not by where the solver stopped:
+    # Clarabel's inexact solutions at 1.5 x and 2 x flew 60 s (0.84 m, 46 deg), the IPM's
+    # converged ones (transient_gain_weight 1e-4..1e-1 at 2 x; 1e-3 at 3 x, 4 x; delay margins
+    # 4.8-9 ms) lost the aircraft at 7.6-9.5 s, and a regular problem (measurement noise
+    # eps I, eps 1e-2 / 1e-3: Clarabel "Solved", delay margins 36 / 29 ms) at 1.9 / 4.2 s.
+    # For W-inf-D the converged re-solve at 2 x (delay margin 5.9 ms) was lost at 47 s while its
+    # optimum (2 ms) flies.  Linear margins do not predict the nonlinear flight here, so the
+    # solver optimum is flown, deterministically, and the table says what it does.
     r = hinf.output_feedback(plant, region=disk, backend=dm_backend)
-    if x0 is not None:
-        # The optimum is fragile (W-inf-O.F.D: input delay margin 0.85 ms, lost after 4 s on the
-        # nonlinear plant).  Transient re-solve at DM_TRANSIENT_FACTOR x gamma_opt: at 1.01 and
-        # 1.05 it ended in NumericalError (Clarabel, IPM stalled); at 2 x it certified for
-        # W-inf-O.F.D (delay margin 4.3 ms, flies) - but it is not robust to small changes
-        # (from the IPM's gamma_opt the same re-solve was rejected), so a failure keeps the
-        # optimum and says so.
-        g = DM_TRANSIENT_FACTOR * float(r.gamma_opt)
-        try:
-            # "auto" without Drake's fallbacks: when the IPM and Clarabel both failed on the
-            # W-inf-D re-solve (268-279 s), Drake's single-threaded Clarabel ran > 45 min
-            # (measured twice) and the optimum is kept anyway.  Also when the caller asked
-            # for "auto" (the experiment does): that is how the first fix was bypassed.
-            chain = ("ipm", "clarabel") if backend in (None, "auto") else backend
-            r = hinf.output_feedback(plant, region=disk, backend=chain, gamma=g,
-                                     initial_states=np.r_[x0, np.zeros(Ad.shape[0])])
-            notes.append(f"regularized: gamma fixed at {DM_TRANSIENT_FACTOR:g} x gamma_opt = {g:.4g} "
-                         f"minimizing the transient bound from the flight's initial error")
-        except SynthesisError as exc:
-            notes.append(f"transient re-solve at {DM_TRANSIENT_FACTOR:g} x gamma_opt failed "
-                         f"({str(exc)[:120]}); the solver optimum is flown")
     return r, (np.eye(20) if C is None else C), notes
 
 
@@ -195,10 +181,9 @@ def design(lin, which, *, backend=None, initial_state=None):
     ``initial_state``: Δx(0) (20,) of the flight.  Given, the designs whose γ is fixed at
     (1+δ)γ* (W∞, W∞-O.F.: optimum on the feedthrough bound) minimize the guaranteed transient
     cost Δx(0)ᵀ P Δx(0) at that γ instead of a gain bound (``initial_states`` of the
-    synthesis).  The thesis-form LMIs are solved as written.  The well-posed W∞-D, W∞-O.F.D
-    are re-solved for that cost at :data:`DM_TRANSIENT_FACTOR` × their optimal γ (their
-    optimum is fragile; if the re-solve fails the optimum is kept, see ``_solve``).
-    None: least-gain regularization (the well-posed designs keep their optimum).
+    synthesis).  The thesis-form LMIs are solved as written; the well-posed W∞-D, W∞-O.F.D
+    keep their solver optimum either way (re-solves measured not to help, see ``_solve``).
+    None: least-gain regularization.
 
     ``backend``: LMI backend; None picks "auto" for the W-inf state/output-feedback designs and
     "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate LMIs

@@ -14,8 +14,9 @@ synthesis in :mod:`._tiltrotor_linear_designs`):
 * ``W∞-D`` / ``W∞-O.F.D`` — the well-posed form: filter states in the plant, Lyapunov function
   on the augmented state, output-feedback LMI with the filter states unmeasured (a dynamic
   controller even for W∞-D).  A singular problem: its optimum has input delay margins of a
-  few milliseconds, so with ``regularization="transient"`` these designs are re-solved at 2 ×
-  their optimal γ for the transient cost below (kept at the optimum if that re-solve fails).
+  few milliseconds.  It is flown as solved (Clarabel): re-solves for the transient cost below,
+  or with measurement noise making the problem regular, raised the delay margins to 5–36 ms
+  but flew no better, often worse (measurements in ``_tiltrotor_linear_designs._solve``).
 
 Every controller is simulated on the *nonlinear* plant: Table 7.1 path, q(0) = [0 0 0 0 0 −1 20 0],
 von Kármán wind for 30 ≤ t ≤ 170 s with ζx offset −3 m/s.  The controller's Δq̇ is q̇ itself

@@ -26,7 +26,7 @@ from .scaling import resolve_scaling, scale_plant, unscale_controller
 
 # --------------------------------------------------------------------------- output feedback
 def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, margin=EPS,
-                x0=None):
+                x0=None, gain_weight=0.0):
     """LMI program in the linearizing variables; returns (prog, variables, gamma variable)
     (``gamma`` None: minimized; else fixed).  With ``gain_bound`` the objective is a bound on
     the controller variables (least gain) or, given ``x0`` (n x k, program coordinates), the
@@ -68,17 +68,23 @@ def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, 
     prog.add_pos(XY, COUPLING_MARGIN)
     if region is not None:
         prog.add_lmi(region_lmi(region, XY, bmat([[AX, AC], [Ak, YA]])), EPS)
-    if gain_bound and x0 is not None:
-        terms = [c[None, :] @ Y @ c[:, None] for c in x0.T]  # sum_i x0_i' Y x0_i
-        prog.minimize(sum(terms[1:], terms[0]))
-    elif gain_bound:
+    def gain_bound_var():  # k >= |[Ak Bk; Ck Dk]|, X <= k I, Y <= k I
         k = prog.scalar()
         Th = bmat([[Ak, Bk], [Ck, Dk]])
         m1, m2 = Th.shape
         prog.add_pos(bmat([[k * np.eye(m2), Th.T], [Th, k * np.eye(m1)]]))
         prog.add_lmi(X - k * I)
         prog.add_lmi(Y - k * I)
-        prog.minimize(k)
+        return k
+
+    if gain_bound and x0 is not None:
+        terms = [c[None, :] @ Y @ c[:, None] for c in x0.T]  # sum_i x0_i' Y x0_i
+        obj = sum(terms[1:], terms[0])
+        if gain_weight > 0:  # tie-breaker: bounds the otherwise free X and controller variables
+            obj = obj + gain_weight * gain_bound_var()
+        prog.minimize(obj)
+    elif gain_bound:
+        prog.minimize(gain_bound_var())
     else:
         prog.minimize(g)
     return prog, (X, Y, Ak, Bk, Ck, Dk), g
@@ -131,7 +137,8 @@ def singular_problem(plant, tol=1e-9):
 
 def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
                     regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                    strictly_proper=False, margin=EPS, scaling=True, initial_states=None):
+                    strictly_proper=False, margin=EPS, scaling=True, initial_states=None,
+                    transient_gain_weight=0.0):
     """Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
 
     Keywords as :func:`~sobolev_drake.synthesis.hinf.state_feedback`. ``scaling``: True
@@ -142,7 +149,15 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     Y = T^-1 Y~ T^-1), and the certificate is computed on the original plant.
     ``initial_states``: as for state feedback, with the controller state starting at 0; the
     secondary objective sum_i x0_i' Y x0_i is linear in Y.
+    ``transient_gain_weight``: w >= 0; with ``initial_states``, adds w * |x0|^2 * k to that
+    objective (program coordinates), k the least-gain bound on X, Y and the controller
+    variables.  The transient objective alone leaves X and (Ak, Bk, Ck, Dk) free along
+    directions that do not change Y, so on singular problems the solver drifts along an
+    unbounded optimal set; a small w makes the optimum attained (w = 1e-3: k costs a thousandth
+    of what a uniform Y = k I would).
     """
+    if not (np.isfinite(transient_gain_weight) and transient_gain_weight >= 0):
+        raise ValueError(f"transient_gain_weight must be a finite number >= 0, got {transient_gain_weight!r}")
     p = plant
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
@@ -152,10 +167,13 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     t0 = time.perf_counter()
     T, Su, Sy = resolve_scaling(scaling, [p], outputs=True)
     X0 = check_initial_states(initial_states, p.n)
+    if transient_gain_weight > 0 and X0 is None:
+        raise ValueError("transient_gain_weight > 0 needs initial_states (it weights the transient objective)")
     sp_ = scale_plant(p, T, Su, Sy)
     _validate([sp_], True)  # stabilizability/detectability are invariant; test the balanced plant
+    x0s = None if X0 is None else X0 / T[:, None]
     kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin,
-              x0=None if X0 is None else X0 / T[:, None])
+              x0=x0s, gain_weight=0.0 if x0s is None else transient_gain_weight * float(np.sum(x0s**2)))
     prog, V, gv = _of_program(sp_, gamma=gamma,
                               gain_bound=gamma is not None, **kw)
     gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
