@@ -101,7 +101,7 @@ def _solve(lin, kind, backend, x0=None):
     """Returns (SynthesisResult, C or None, extra notes); ``x0``: see :func:`design`."""
     from sobolev_drake.synthesis import hinf, regions
     from sobolev_drake.synthesis import sobolev as sb
-    from sobolev_drake.synthesis.lmi import InfeasibleLMIError, SynthesisError
+    from sobolev_drake.synthesis.lmi import InfeasibleLMIError
 
     A, B, D = lin.A, lin.B, lin.D
     disk = regions.disk(DISK_RADIUS)
