@@ -43,7 +43,10 @@ def test_sgc_example7_output_feedback(backend):
     ("drake:scs", None)])
 def test_sgc_scs_rejected_or_verified(backend, options):
     """SCS (loose or default tolerance): a SynthesisError, or a result that passes the checks.
-    Measured: every SCS variant is rejected (unstable loop or norm 6.5e-4 .. 12x above gamma)."""
+    Measured: SCS's gammas are 6.5e-4 .. 12x below its controllers' norms; a stable controller
+    within ``delta`` (1e-2) of the LMI optimum is certified at its own norm (the status says
+    so), the others are rejected.  A certified gamma can never be below the published optimum
+    9.5081 (5 digits: >= 9.50805) and is within delta of it."""
     try:  # (regularize="auto" adds up to three more SCS solves: 15-40 s, measured rejected too)
         _, gamma, res = hinfsyn(sgc_example7(), backend=backend, regularize=False,
                                 solver_options=options)
@@ -52,7 +55,8 @@ def test_sgc_scs_rejected_or_verified(backend, options):
     else:
         cl = sgc_example7().closed_loop(controller=res.controller)
         assert hinf_norm(*cl)[0] <= gamma * (1 + 1e-4)
-        assert abs(gamma - 9.5081) < 1e-3
+        assert 9.50805 <= gamma <= 9.5081 * (1 + 1e-2)
+        assert abs(gamma - 9.5081) < 1e-3 or "raised to the certified norm" in res.status
 
 
 def test_hinf_norm_matches_sweep_with_feedthrough():
@@ -90,12 +94,35 @@ def random_plant(rng, n, sensor_noise=0.1):
 # 10- and 12-state output-feedback plants without region (measured: 3.5 s cvxpy, 4.6 s Drake)
 RANDOM_CASES = [(s, [2, 3, 4, 5, 6][s % 5], bool(s % 2)) for s in range(18)] + \
     [(18, 8, False), (19, 12, True), (20, 7, False), (21, 10, False), (22, 12, False)]
-# output-feedback LMI optima that do NOT agree to 1e-4 between Drake and cvxpy (measured):
-# seed 21, 10 states: gamma_opt 21.14045 (Drake, "AlmostSolved") vs 21.13787 (cvxpy), 1.22e-4;
-# the infimum needs |Y| -> infinity (|Y| ~ 5e5 at both points) and both solvers stop early:
-# the certified norms of both controllers (21.12466, 21.12442) are 6e-4 *below* both gamma_opt
-# and agree to 1.1e-5.  Checked separately in test_unattained_infimum_output_feedback.
+# seed 21 (10 states) is an unattained infimum (|Y| ~ 5e5): checked separately in
+# test_unattained_infimum_output_feedback.
 OF_UNATTAINED = {21}
+
+# Full-accuracy statuses of Clarabel (direct, through cvxpy / through Drake); anything else
+# ("optimal_inaccurate", "AlmostSolved") is a stop at Clarabel's reduced tolerances.
+FULL_ACCURACY = ("optimal", "(Solved)")
+
+
+def assert_backends_agree(results):
+    """Two backends' results for the same plant describe the same optimum.
+
+    Both at full accuracy (Clarabel: relative gap and feasibility <= 1e-8 of the scaled
+    problem): the LMI optima must agree to 1e-4.  Derivation: the objective error is the
+    tolerance times the size of the optimal variables relative to gamma; on these plants
+    |Y|/|X| reaches 5e4 (infima approached with Y growing), so 1e-8 * 5e4 = 5e-4 is the worst
+    case, and the measured spread is <= 2.2e-5 under all four OpenBLAS kernel families.
+    Either at reduced accuracy (relative gap 5e-5, feasibility 1e-4): the LMI point may be
+    infeasible and gamma_opt may even lie below the infimum (measured: 5.8e-4 below the
+    controller's norm on seed 1 under SkylakeX kernels), so the LMI optima are not comparable;
+    the certified bounds gamma are (each >= the infimum, each certified independently), and
+    must agree to 1e-3 = 10x the reduced feasibility tolerance (measured <= 3.6e-4).
+    """
+    a, b = results
+    if all(any(f in r.status for f in FULL_ACCURACY) for r in results):
+        assert abs(a.gamma_opt - b.gamma_opt) <= 1e-4 * a.gamma_opt, (a.status, b.status)
+    else:
+        assert abs(a.gamma - b.gamma) <= 1e-3 * min(a.gamma, b.gamma), (a.status, b.status)
+    assert a.regularized == b.regularized   # the same kind of answer from both backends
 
 
 @pytest.mark.parametrize("seed, n, with_disk", RANDOM_CASES)
@@ -104,15 +131,11 @@ def test_random_winf_plants_backends_agree(seed, n, with_disk):
     sf_plant, of_plant = random_plant(rng, n)
     region = disk(4 * max(1.0, np.abs(np.linalg.eigvals(sf_plant.A)).max())) if with_disk else None
     sf = [state_feedback(sf_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
-    assert abs(sf[0].gamma_opt - sf[1].gamma_opt) <= 1e-4 * sf[0].gamma_opt
+    assert_backends_agree(sf)
     checks = list(sf)
     if not (n > 8 and with_disk) and seed not in OF_UNATTAINED:
         of = [output_feedback(of_plant, backend=b, region=region) for b in ("cvxpy", "drake")]
-        # the LMI optimum gamma_opt (not the certified norm) of both backends; measured
-        # spread with the gamma-form BRL and scaling: <= 7e-5 (seed 18), mostly < 1e-5.
-        # Both are Clarabel: on plants whose infimum needs Y -> infinity the own IPM certifies
-        # gammas up to 5.3e-4 lower (seed 18), i.e. Clarabel stops early on those.
-        assert abs(of[0].gamma_opt - of[1].gamma_opt) <= 1e-4 * of[0].gamma_opt
+        assert_backends_agree(of)
         checks += of
     for r in checks:
         c = r.certificate
@@ -122,15 +145,18 @@ def test_random_winf_plants_backends_agree(seed, n, with_disk):
 
 
 def test_unattained_infimum_output_feedback():
-    """Seed 21 (10 states): the OF infimum is approached with Y growing without bound; the
-    solvers' LMI optima differ by ~1.2e-4 but both controllers certify, their achieved norms
-    agree to 1e-4 and lie below both gamma_opt (the LMI points are not at the infimum)."""
+    """Seed 21 (10 states): the OF infimum is approached with Y growing without bound, so each
+    solver stops somewhere along that ray (|Y| 4.9e5-5.4e5 measured) and its LMI optimum moves
+    with the CPU's rounding (21.1287-21.1404 over four OpenBLAS kernel families).  What holds:
+    both controllers certify; their certified norms lie below both LMI optima (the LMI points
+    are above the infimum); and they agree to 1e-3, the reduced-accuracy bound of
+    :func:`assert_backends_agree` (measured spread <= 1.8e-4)."""
     rng = np.random.default_rng(121)
     _, of_plant = random_plant(rng, 10)
     of = [output_feedback(of_plant, backend=b) for b in ("cvxpy", "drake")]
     ach = [r.certificate.achieved for r in of]
     assert all(r.certificate.ok for r in of)
-    assert abs(ach[0] - ach[1]) <= 1e-4 * ach[0]
+    assert abs(ach[0] - ach[1]) <= 1e-3 * min(ach)
     assert max(ach) < min(r.gamma_opt for r in of)
     assert min(np.linalg.norm(r.Y, 2) for r in of) > 1e5 * max(np.linalg.norm(r.X, 2) for r in of) / 10
 

@@ -162,7 +162,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     out = _solve(prog, backend, solver_options, timings, "lmi", check)
     g_opt = lam = gval(out)
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
-                                         regularize, warns)
+                                         regularize, warns, delta)
     if need:
         def solve_at(g):
             prog2, X2, W2, _ = _sf_program(splants, region=region, gamma=g, input_weight=input_weight,

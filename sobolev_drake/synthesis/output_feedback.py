@@ -206,7 +206,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     g_opt = gval(out)
     lam[0] = g_opt
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
-                                         regularize, warns)
+                                         regularize, warns, delta)
     if need:
         def solve_at(g):
             prog2, V2, _ = _of_program(sp_, gamma=g, gain_bound=True, **kw)
