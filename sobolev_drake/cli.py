@@ -11,7 +11,7 @@ Exit codes: 0 success (a thesis claim that does not hold is a finding, not an er
 from __future__ import annotations
 
 import argparse
-import shutil
+import math
 import sys
 import time
 import traceback
@@ -23,13 +23,36 @@ from sobolev_drake.experiments import Claim, ExperimentResult
 __all__ = ["main"]
 
 
+class UsageError(Exception):
+    """Bad command-line usage: reported as one line on stderr, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (no usage block, no traceback)."""
+
+    def error(self, message):
+        raise UsageError(message)
+
+
+def _duration(text: str) -> float:
+    """``--duration`` value: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number of seconds > 0, got {text!r}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="sobolev-drake", description="Robust W2/W∞ control experiments on Drake.")
-    sub = p.add_subparsers(dest="command", required=True)
+    p = _Parser(prog="sobolev-drake", description="Robust W2/W∞ control experiments on Drake.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the registered experiments")
     r = sub.add_parser("run", help="run one experiment")
     r.add_argument("name", help="experiment name (see `sobolev-drake list`)")
-    r.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the experiment's)")
+    r.add_argument("--duration", type=_duration, default=None,
+                   help="simulated seconds (default: the experiment's; at most 10x that)")
     r.add_argument("--out", default="out", help="output root; files go to OUT/NAME/ (default: out)")
     r.add_argument("--no-record", action="store_true", help="skip Meshcat recordings")
     r.add_argument("--smoke", action="store_true", help="short version (seconds of wall time)")
@@ -55,9 +78,20 @@ def _print_outputs(result: ExperimentResult, stream=sys.stdout) -> None:
               file=stream)
 
 
+def _writable_dir(path: Path) -> Path:
+    """Create ``path`` (and parents) and check a file can be written there; UsageError if not."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".sobolev-drake-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as err:
+        raise UsageError(f"--out: cannot write to {str(path)!r} ({err.strerror or err})") from None
+    return path
+
+
 def _run(exp, out_root: Path, *, duration=None, record=True, smoke=False) -> ExperimentResult:
-    out_dir = out_root / exp.name
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = _writable_dir(out_root / exp.name)
     t0 = time.perf_counter()
     print(f"== {exp.name}: {exp.summary}" + (" [smoke]" if smoke else ""), file=sys.stderr)
     result = exp.run(out_dir, duration=duration, record=record, smoke=smoke)
@@ -84,16 +118,39 @@ def _cmd_list() -> int:
     return 0
 
 
+def _crash_result(name: str, err: BaseException, out_dir: Path | None) -> ExperimentResult:
+    """Print the traceback and record the crash as a failed claim (in ``out_dir`` if given)."""
+    traceback.print_exc()
+    result = ExperimentResult(name, claims=[Claim("experiment ran to completion", False,
+                                                  f"{type(err).__name__}: {err}")])
+    if out_dir is not None:
+        from sobolev_drake.report import save_result
+
+        save_result(result, out_dir)
+    return result
+
+
 def _cmd_run(args) -> int:
     try:
         exp = exps.get(args.name)
     except exps.UnknownExperimentError as err:
-        print(f"sobolev-drake: {err}", file=sys.stderr)
-        return 2
-    if args.duration is not None and not args.duration > 0:
-        print(f"sobolev-drake: --duration must be positive, got {args.duration}", file=sys.stderr)
-        return 2
-    result = _run(exp, Path(args.out), duration=args.duration, record=not args.no_record, smoke=args.smoke)
+        raise UsageError(str(err)) from None
+    limit = exp.max_duration
+    if args.duration is not None and limit is not None and args.duration > limit:
+        raise UsageError(f"--duration {args.duration:g} s is longer than experiment {exp.name!r} can "
+                         f"use (at most {limit:g} s, {exps.MAX_DURATION_FACTOR:g}x its default "
+                         f"{exp.default_duration:g} s)" if exp.max_duration_override is None else
+                         f"--duration {args.duration:g} s is longer than experiment {exp.name!r} "
+                         f"can use (at most {limit:g} s)")
+    out_dir = _writable_dir(Path(args.out) / exp.name)
+    try:
+        result = _run(exp, Path(args.out), duration=args.duration, record=not args.no_record,
+                      smoke=args.smoke)
+    except Exception as err:  # a crash is exit 1 with the failure recorded, not a bare traceback
+        _crash_result(exp.name, err, out_dir)
+        print(f"sobolev-drake: experiment {exp.name!r} crashed ({type(err).__name__}: {err}); "
+              f"recorded in {out_dir / 'result.json'}", file=sys.stderr)
+        return 1
     _print_outputs(result)
     return 0
 
@@ -107,7 +164,15 @@ def _cmd_demo(args) -> int:
     from sobolev_drake.report import write_reproduction
 
     out_root = Path(args.out)
-    result = _run(exp, out_root, smoke=args.smoke)
+    out_dir = _writable_dir(out_root / exp.name)
+    try:
+        result = _run(exp, out_root, smoke=args.smoke)
+    except Exception as err:
+        result = _crash_result(exp.name, err, out_dir)
+        write_reproduction([result], out_dir / "REPORT.md", title=f"Demo: {exp.name}")
+        print(f"sobolev-drake: the demo crashed ({type(err).__name__}: {err}); report in "
+              f"{out_dir / 'REPORT.md'}", file=sys.stderr)
+        return 1
     report = write_reproduction([result], out_root / exp.name / "REPORT.md", title=f"Demo: {exp.name}")
     print(f"Demo '{exp.name}' finished. Outputs in {out_root / exp.name}/")
     _print_outputs(result)
@@ -121,16 +186,14 @@ def _cmd_demo(args) -> int:
 def _cmd_reproduce(args) -> int:
     from sobolev_drake.report import write_reproduction
 
-    out_root = Path(args.out)
+    out_root = _writable_dir(Path(args.out))
     results, crashed = [], []
     for name, exp in sorted(exps.discover().items()):
         try:
             results.append(_run(exp, out_root, smoke=args.smoke))
         except Exception as err:  # one broken experiment must not hide the others' results
-            traceback.print_exc()
             crashed.append(name)
-            results.append(ExperimentResult(name, claims=[Claim("experiment ran to completion", False,
-                                                                f"{type(err).__name__}: {err}")]))
+            results.append(_crash_result(name, err, None))
     path = write_reproduction(results, out_root / "REPRODUCTION.md")
     # same content with links relative to the current directory
     local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md")
@@ -149,31 +212,34 @@ def _cmd_report(args) -> int:
     if not files:
         print(f"sobolev-drake: no */result.json under {out_root}; run experiments first", file=sys.stderr)
         return 2
-    results = [load_result(f) for f in files]
+    try:
+        results = [load_result(f) for f in files]
+    except (OSError, ValueError, KeyError) as err:
+        raise UsageError(f"cannot read the results under {str(out_root)!r}: {err}") from None
+    _writable_dir(out_root)
     path = write_reproduction(results, out_root / "REPRODUCTION.md")
     local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md")
     print(f"wrote {path} and {local.name} from {len(results)} result(s)")
     return 0
 
 
+_COMMANDS = {"list": lambda args: _cmd_list(), "run": _cmd_run, "demo": _cmd_demo,
+             "reproduce": _cmd_reproduce, "report": _cmd_report}
+
+
 def main(argv=None) -> int:
-    parser = _parser()
+    """Entry point of ``sobolev-drake``; returns the exit code (0 ok, 1 crash, 2 usage)."""
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse exits 2 on bad usage, 0 on --help
+        args = _parser().parse_args(argv)
+        return _COMMANDS[args.command](args)
+    except SystemExit as exc:  # --help / --version
         return int(exc.code or 0)
-    if args.command == "list":
-        return _cmd_list()
-    if args.command == "run":
-        return _cmd_run(args)
-    if args.command == "demo":
-        return _cmd_demo(args)
-    if args.command == "reproduce":
-        return _cmd_reproduce(args)
-    if args.command == "report":
-        return _cmd_report(args)
-    parser.error(f"unknown command {args.command!r}")  # unreachable (argparse validates)
-    return 2
+    except UsageError as err:
+        print(f"sobolev-drake: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("sobolev-drake: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

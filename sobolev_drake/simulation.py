@@ -9,13 +9,16 @@ the Python LeafSystems of our diagrams.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import EventStatus
 
-__all__ = ["simulate", "ProgressMonitor", "INTEGRATORS"]
+from .validation import one_of, positive_scalar
+
+__all__ = ["simulate", "SimulationTimeout", "ProgressMonitor", "INTEGRATORS"]
 
 # Error-controlled schemes accepted by ResetIntegratorFromFlags (plus the fixed-step ones).
 INTEGRATORS = ("runge_kutta3", "runge_kutta5", "radau3", "implicit_euler", "bogacki_shampine3",
@@ -63,13 +66,39 @@ class ProgressMonitor:
         self.stream.flush()
 
 
+class SimulationTimeout(TimeoutError):
+    """:func:`simulate` ran longer than its ``wall_time_limit``; ``simulated`` is where it stopped."""
+
+    def __init__(self, message: str, simulated: float):
+        super().__init__(message)
+        self.simulated = simulated
+
+
+class _WallClock(ProgressMonitor):
+    """Progress monitor that also stops the simulation after ``limit`` seconds of wall time."""
+
+    def __init__(self, t_start, t_end, *, limit, show, **kw):
+        super().__init__(t_start, t_end, **kw)
+        self.limit, self.show, self.expired = limit, show, False
+
+    def __call__(self, context) -> EventStatus:
+        if self.limit is not None and time.perf_counter() - self.wall0 > self.limit:
+            self.expired = True
+            return EventStatus.ReachedTermination(None, "wall_time_limit reached")
+        return super().__call__(context) if self.show else EventStatus.Succeeded()
+
+
 def simulate(diagram, context, duration: float, *, progress: bool = True, label: str = "",
              integrator: str = "runge_kutta3", accuracy: float = 1e-4, max_step: float = 0.05,
-             simulator: Simulator | None = None) -> Simulator:
+             simulator: Simulator | None = None, wall_time_limit: float | None = None) -> Simulator:
     """Advance ``context`` (the root context of ``diagram``) by ``duration`` seconds.
 
     Parameters
     ----------
+    duration : simulated seconds, a finite number > 0.
+    wall_time_limit : optional bound on the wall-clock seconds this call may take; past it the
+        simulation stops and :class:`SimulationTimeout` is raised (the context keeps the state
+        reached, ``error.simulated`` the simulated time).  ``None`` (default): no bound.
     integrator : Drake scheme name (default ``"runge_kutta3"``, error controlled).
     accuracy : target accuracy of the error-controlled integrator.
     max_step : maximum step size (s); also bounds how far a time-profiled discontinuity can be
@@ -83,12 +112,12 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
 
     Returns the Simulator (its context holds the final state; logs are in the diagram's sinks).
     """
-    if not duration > 0:
-        raise ValueError(f"duration must be positive, got {duration!r}")
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    if not accuracy > 0 or not max_step > 0:
-        raise ValueError(f"accuracy and max_step must be positive, got {accuracy!r}, {max_step!r}")
+    duration = positive_scalar("duration", duration)
+    one_of("integrator", integrator, INTEGRATORS)
+    accuracy = positive_scalar("accuracy", accuracy)
+    max_step = positive_scalar("max_step", max_step)
+    if wall_time_limit is not None:
+        wall_time_limit = positive_scalar("wall_time_limit", wall_time_limit)
     if simulator is None:
         simulator = Simulator(diagram, context)
     else:  # reuse: the simulator's own context is advanced (``context`` may be None)
@@ -98,15 +127,24 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
     if integrator not in _FIXED_STEP:  # fixed-step schemes use max_step as their step
         integ.set_target_accuracy(float(accuracy))
     t0 = context.get_time()
+    t_end = t0 + duration
+    if not math.isfinite(t_end) or t_end == t0:
+        raise ValueError(f"duration {duration!r} cannot be added to the context time {t0!r} "
+                         "(the sum overflows or rounds back to the start time)")
     monitor = None
-    if progress:
-        monitor = ProgressMonitor(t0, t0 + duration, label=label)
+    if progress or wall_time_limit is not None:
+        monitor = _WallClock(t0, t_end, label=label, limit=wall_time_limit, show=progress)
         simulator.set_monitor(monitor)
     simulator.Initialize()
     try:
-        simulator.AdvanceTo(t0 + float(duration))
+        simulator.AdvanceTo(t_end)
     finally:
         if monitor is not None:
             simulator.clear_monitor()
-            monitor.finish(simulator.get_context().get_time(), simulator.get_num_steps_taken())
+            if progress:
+                monitor.finish(simulator.get_context().get_time(), simulator.get_num_steps_taken())
+    if monitor is not None and monitor.expired:
+        reached = simulator.get_context().get_time()
+        raise SimulationTimeout(f"simulate: wall_time_limit={wall_time_limit:g} s reached at simulated "
+                                f"t = {reached:.6g} s of {t_end:.6g} s", reached)
     return simulator

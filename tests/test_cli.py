@@ -1,5 +1,6 @@
 """The command line: list, run (smoke), demo, reproduce, and usage errors."""
 
+import json
 import re
 
 import pytest
@@ -21,14 +22,39 @@ def test_unknown_experiment_exit_2(capsys):
     assert "models-tour" in err  # lists the known names
 
 
-@pytest.mark.parametrize("argv", [[], ["fly"], ["run"], ["run", "models-tour", "--duration", "abc"]])
-def test_bad_usage_exit_2(argv, capsys):
+@pytest.mark.parametrize("argv, message", [
+    ([], "required: command"),
+    (["fly"], "invalid choice: 'fly'"),
+    (["run"], "required: name"),
+    (["run", "models-tour", "--duration", "abc"], "expected a number of seconds, got 'abc'"),
+    (["run", "models-tour", "--duration", "-1"], "finite number of seconds > 0, got '-1'"),
+    (["run", "models-tour", "--duration", "0"], "finite number of seconds > 0, got '0'"),
+    (["run", "models-tour", "--duration", "inf"], "finite number of seconds > 0, got 'inf'"),
+    (["run", "models-tour", "--duration", "nan"], "finite number of seconds > 0, got 'nan'"),
+    (["run", "manipulator", "--duration", "1e6"], "longer than experiment 'manipulator' can use (at most 400 s"),
+    (["run", "linear-simple", "--duration", "1e12"], "longer than experiment 'linear-simple' can use"),
+    (["run", "models-tour", "--smoke", "--out", "/proc/x"], "--out: cannot write to"),
+    (["run", "models-tour", "--bogus"], "unrecognized arguments: --bogus"),
+    (["report", "--out", "/no/such/dir"], "no */result.json under"),
+])
+def test_bad_usage_exit_2_one_line(argv, message, capsys):
+    """Usage and output-path problems: exit 2 and a single line on stderr, no traceback."""
     assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_negative_duration(capsys):
-    assert cli.main(["run", "models-tour", "--duration", "-1"]) == 2
-    assert "--duration must be positive" in capsys.readouterr().err
+def test_out_is_a_file(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert cli.main(["run", "models-tour", "--smoke", "--out", str(blocker)]) == 2
+    assert "--out: cannot write to" in capsys.readouterr().err
+
+
+def test_every_experiment_bounds_its_duration():
+    for exp in exps.discover().values():
+        assert exp.max_duration is not None and exp.max_duration >= exp.default_duration
 
 
 @pytest.fixture(scope="module")
@@ -88,5 +114,18 @@ def test_report_rebuilds_from_result_json(tour_dir, tmp_path, monkeypatch, capsy
 def test_experiment_must_return_result(tmp_path, monkeypatch, capsys):
     fake = exps.Experiment("zz-bad", "returns None", lambda out_dir, **kw: None)
     monkeypatch.setattr(exps, "get", lambda name: fake)
-    with pytest.raises(TypeError, match="not ExperimentResult"):
-        cli.main(["run", "zz-bad", "--out", str(tmp_path)])
+    assert cli.main(["run", "zz-bad", "--out", str(tmp_path)]) == 1
+    assert "not ExperimentResult" in capsys.readouterr().err
+
+
+def test_crashing_experiment_exits_1_with_its_report(tmp_path, monkeypatch, capsys):
+    def boom(out_dir, **kw):
+        raise RuntimeError("integrator diverged")
+    fake = exps.Experiment("zz-crash", "crashes", boom, default_duration=1.0)
+    monkeypatch.setattr(exps, "get", lambda name: fake)
+    assert cli.main(["run", "zz-crash", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert "RuntimeError: integrator diverged" in err
+    data = json.loads((tmp_path / "zz-crash" / "result.json").read_text())
+    assert data["claims"] == [{"text": "experiment ran to completion", "held": False,
+                               "detail": "RuntimeError: integrator diverged"}]

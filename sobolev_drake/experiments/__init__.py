@@ -49,6 +49,23 @@ class Experiment:
     default_duration: float | None = None
     flagship: int = 0  # priority for `make demo`; the highest registered wins
     thesis_ref: str = ""
+    #: longest ``duration`` the experiment accepts (s); ``None``: MAX_DURATION_FACTOR x default
+    max_duration_override: float | None = None
+
+    @property
+    def max_duration(self) -> float | None:
+        """Longest simulated time this experiment is meant for: its references, disturbance
+        profiles and log buffers are laid out for about its default duration, so far longer
+        runs only add hours of wall time (or memory for time grids) without new information."""
+        if self.max_duration_override is not None:
+            return self.max_duration_override
+        if self.default_duration is None:
+            return None
+        return MAX_DURATION_FACTOR * self.default_duration
+
+
+#: default bound on ``--duration``: this many times the experiment's default duration
+MAX_DURATION_FACTOR = 10.0
 
 
 REGISTRY: dict[str, Experiment] = {}
@@ -59,13 +76,16 @@ class UnknownExperimentError(KeyError):
         return self.args[0]
 
 
-def register(name: str, summary: str, *, default_duration=None, flagship=0, thesis_ref=""):
-    """Decorator registering ``run`` as experiment ``name``."""
+def register(name: str, summary: str, *, default_duration=None, flagship=0, thesis_ref="",
+             max_duration=None):
+    """Decorator registering ``run`` as experiment ``name`` (``max_duration``: see
+    :attr:`Experiment.max_duration`)."""
 
     def wrap(run):
         if name in REGISTRY and REGISTRY[name].run is not run:
             raise ValueError(f"experiment {name!r} registered twice")
-        REGISTRY[name] = Experiment(name, summary, run, default_duration, flagship, thesis_ref)
+        REGISTRY[name] = Experiment(name, summary, run, default_duration, flagship, thesis_ref,
+                                    max_duration)
         return run
 
     return wrap

@@ -17,35 +17,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..validation import real_matrix, real_scalar, real_vector
 from .lmi import SynthesisError
 
 
 # --------------------------------------------------------------------------- validation
 def as_matrix(name, M, shape=None):
-    """Return M as a finite float 2-D array; check its shape (None entries = any size)."""
-    try:
-        A = np.atleast_2d(np.asarray(M, dtype=float))
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be a real matrix ({e})") from None
-    if A.ndim != 2:
-        raise ValueError(f"{name} must be 2-D, got shape {A.shape}")
-    if shape is not None:
-        for got, want in zip(A.shape, shape):
-            if want is not None and got != want:
-                raise ValueError(f"{name} must have shape {tuple('*' if s is None else s for s in shape)}, "
-                                 f"got {A.shape}")
-    if not np.all(np.isfinite(A)):
-        raise ValueError(f"{name} contains non-finite entries")
-    return A
+    """Return M as a finite real 2-D float array; check its shape (None entries = any size).
+    Empty matrices pass (e.g. D21 of a plant without measurements); complex ones are refused."""
+    return real_matrix(name, M, shape, allow_empty=True)
 
 
 def check_weight(name, W, n, definite=True):
     """Symmetric positive (semi)definite n x n weight; scalars / vectors mean diagonal."""
-    W = np.asarray(W, dtype=float)
-    if W.ndim == 0:
-        W = W * np.eye(n)
-    elif W.ndim == 1:
-        W = np.diag(W)
+    if np.ndim(W) == 0:
+        W = real_scalar(name, W) * np.eye(n)
+    elif np.ndim(W) == 1:
+        W = np.diag(real_vector(name, W, n))
     W = as_matrix(name, W, (n, n))
     if not np.allclose(W, W.T, atol=1e-12 * max(1.0, np.abs(W).max())):
         raise ValueError(f"{name} must be symmetric")

@@ -42,10 +42,16 @@ class GeneralizedPlant:
         A = as_matrix("A", A)
         n = A.shape[0]
         as_matrix("A", A, (n, n))
+        if n == 0:
+            raise ValueError("A must be a non-empty square matrix (the plant has no state), got shape (0, 0)")
         B1 = as_matrix("B1", B1, (n, None))
         B2 = as_matrix("B2", B2, (n, None))
         C1 = as_matrix("C1", C1, (None, n))
         nw, nu, nz = B1.shape[1], B2.shape[1], C1.shape[0]
+        for name, size, what in (("B1", nw, "disturbance"), ("B2", nu, "control input"),
+                                 ("C1", nz, "performance output")):
+            if size == 0:
+                raise ValueError(f"{name} must have at least one {what} channel, got none")
         D11 = np.zeros((nz, nw)) if D11 is None else as_matrix("D11", D11, (nz, nw))
         D12 = np.zeros((nz, nu)) if D12 is None else as_matrix("D12", D12, (nz, nu))
         C2 = np.eye(n) if C2 is None else as_matrix("C2", C2, (None, n))

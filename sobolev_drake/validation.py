@@ -1,0 +1,180 @@
+"""Argument checks shared by the whole library.
+
+Every public entry point that takes numbers from a user runs them through one of these
+functions, so that bad input fails early with the same kind of message everywhere: a
+``TypeError`` (wrong kind of object) or ``ValueError`` (right kind, wrong value) that names the
+argument, shows the value it got and says what was expected.  Nothing here imports the rest of
+the package; every layer may import it.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import operator
+
+import numpy as np
+
+__all__ = ["real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
+           "bounds_pair", "one_of", "describe"]
+
+
+def describe(value, limit: int = 60) -> str:
+    """Short ``repr`` of ``value`` for an error message (long arrays are abbreviated)."""
+    if isinstance(value, np.ndarray) and value.size > 6:
+        return f"array of shape {value.shape} and dtype {value.dtype}"
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _real_array(name, value):
+    """``value`` as a float array; refuses strings, objects, booleans used as numbers and
+    complex values (whose imaginary part would otherwise be dropped silently)."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a real number or array, got the string {describe(value)}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name} must be a real number or array, got {describe(value)} ({e})") from None
+    if arr.dtype == object:
+        try:
+            arr = np.asarray(value, dtype=complex)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a real number or array, got {describe(value)} "
+                            "(entries that are not numbers, or rows of different lengths)") from None
+    if np.iscomplexobj(arr):
+        if np.any(np.imag(arr) != 0):
+            raise TypeError(f"{name} must be real, got complex entries ({describe(value)})")
+        arr = np.real(arr)
+    if arr.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must be a real number or array, got dtype {arr.dtype} "
+                        f"({describe(value)})")
+    return arr.astype(float)
+
+
+def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> np.ndarray:
+    """``value`` as a finite real 2-D float array (scalars and vectors are promoted to 2-D).
+
+    ``shape``: expected (rows, cols), ``None`` entries meaning any size.  Empty matrices are
+    refused unless ``allow_empty`` (a 0 x 0 plant has nothing to control).
+    """
+    arr = _real_array(name, value)
+    if arr.ndim > 2:
+        raise ValueError(f"{name} must be a matrix (2-D), got an array of shape {arr.shape}")
+    arr = np.atleast_2d(arr)
+    if shape is not None:
+        for got, want in zip(arr.shape, shape):
+            if want is not None and got != want:
+                expected = tuple("*" if s is None else s for s in shape)
+                raise ValueError(f"{name} must have shape {expected}, got {arr.shape}")
+    if arr.size == 0 and not allow_empty:
+        raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got non-finite entries ({describe(value)})")
+    return arr
+
+
+def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool = False) -> np.ndarray:
+    """``value`` as a finite real 1-D float array (a scalar becomes length 1); ``size``: expected length."""
+    arr = _real_array(name, value)
+    if arr.ndim > 1:
+        raise ValueError(f"{name} must be a vector (1-D), got an array of shape {arr.shape}")
+    arr = np.atleast_1d(arr)
+    if size is not None and arr.size != size:
+        raise ValueError(f"{name} must have {size} entries, got {arr.size}")
+    if arr.size == 0 and not allow_empty:
+        raise ValueError(f"{name} must not be empty")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {describe(value)}")
+    return arr
+
+
+def real_scalar(name: str, value, *, low=None, high=None, low_open: bool = False,
+                high_open: bool = False, finite: bool = True) -> float:
+    """``value`` as a Python float, checked against [low, high] (open ends with ``*_open``)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iuf":
+            value = value.item()
+        else:
+            raise TypeError(f"{name} must be a real number, got {describe(value)} "
+                            f"({type(value).__name__})")
+    x = float(value)
+    if math.isnan(x) or (finite and math.isinf(x)):
+        raise ValueError(f"{name} must be a finite number, got {x!r}")
+    if low is not None and (x < low or (low_open and x == low)):
+        raise ValueError(f"{name} must be {'>' if low_open else '>='} {low:g}, got {x!r}")
+    if high is not None and (x > high or (high_open and x == high)):
+        raise ValueError(f"{name} must be {'<' if high_open else '<='} {high:g}, got {x!r}")
+    return x
+
+
+def positive_scalar(name: str, value) -> float:
+    """A finite number > 0."""
+    return real_scalar(name, value, low=0.0, low_open=True)
+
+
+def index_tuple(name: str, value, size: int, *, names=None) -> tuple[int, ...]:
+    """Distinct integer indices in ``range(size)`` (a single int is a one-element tuple).
+
+    ``names``: optional sequence of ``size`` labels (e.g. joint names) that may be given instead
+    of indices.  Floats (even 1.0), booleans and unknown names are refused: a silently
+    truncated index would control the wrong degree of freedom.
+    """
+    items = [value] if isinstance(value, (numbers.Integral, str)) else value
+    try:
+        items = list(items)
+    except TypeError:
+        raise TypeError(f"{name} must be a sequence of indices in range({size}), "
+                        f"got {describe(value)}") from None
+    out = []
+    for item in items:
+        if isinstance(item, str):
+            if names is None or item not in list(names):
+                known = f"; known names: {list(names)}" if names is not None else ""
+                raise ValueError(f"{name}: {item!r} is not an index in range({size}){known}")
+            out.append(list(names).index(item))
+            continue
+        if isinstance(item, (bool, np.bool_)):
+            raise TypeError(f"{name} must contain integer indices, got the boolean {item!r}")
+        try:
+            i = operator.index(item)
+        except TypeError:
+            raise TypeError(f"{name} must contain integer indices in range({size}), got "
+                            f"{describe(item)} ({type(item).__name__})") from None
+        if not 0 <= i < size:
+            raise ValueError(f"{name}: index {i} is out of range({size})")
+        out.append(i)
+    if len(set(out)) != len(out):
+        raise ValueError(f"{name} must not repeat an index, got {describe(value)}")
+    return tuple(out)
+
+
+def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
+    """(lo, hi) as float vectors of one length with lo <= hi entrywise (infinite ends allowed)."""
+    lo_arr, hi_arr = _real_array(lo_name, lo), _real_array(hi_name, hi)
+    lo_arr, hi_arr = np.atleast_1d(lo_arr), np.atleast_1d(hi_arr)
+    if size is not None:
+        lo_arr = np.broadcast_to(lo_arr, (size,)) if lo_arr.size == 1 else lo_arr
+        hi_arr = np.broadcast_to(hi_arr, (size,)) if hi_arr.size == 1 else hi_arr
+    for nm, a in ((lo_name, lo_arr), (hi_name, hi_arr)):
+        if a.ndim != 1 or (size is not None and a.size != size):
+            raise ValueError(f"{nm} must have {size if size is not None else 'one'} entries per "
+                             f"bound, got shape {a.shape}")
+        if np.any(np.isnan(a)):
+            raise ValueError(f"{nm} must not contain NaN, got {describe(a)}")
+    if lo_arr.shape != hi_arr.shape:
+        raise ValueError(f"{lo_name} and {hi_name} must have the same length, got "
+                         f"{lo_arr.size} and {hi_arr.size}")
+    bad = np.flatnonzero(lo_arr > hi_arr)
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{lo_name} must not exceed {hi_name}: entry {i} has "
+                         f"{lo_name}={lo_arr[i]!r} > {hi_name}={hi_arr[i]!r}")
+    return np.array(lo_arr, dtype=float), np.array(hi_arr, dtype=float)
+
+
+def one_of(name: str, value, options):
+    """``value`` if it is one of ``options``, else a ValueError listing them."""
+    if value not in tuple(options):
+        raise ValueError(f"{name} must be one of {tuple(options)}, got {describe(value)}")
+    return value
