@@ -65,7 +65,7 @@ def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> n
     if shape is not None:
         for got, want in zip(arr.shape, shape):
             if want is not None and got != want:
-                expected = tuple("*" if s is None else s for s in shape)
+                expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
                 raise ValueError(f"{name} must have shape {expected}, got {arr.shape}")
     if arr.size == 0 and not allow_empty:
         raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
@@ -113,25 +113,30 @@ def positive_scalar(name: str, value) -> float:
     return real_scalar(name, value, low=0.0, low_open=True)
 
 
-def index_tuple(name: str, value, size: int, *, names=None) -> tuple[int, ...]:
-    """Distinct integer indices in ``range(size)`` (a single int is a one-element tuple).
+def index_tuple(name: str, value, size: int | None, *, names=None) -> tuple[int, ...]:
+    """Distinct integer indices in ``range(size)`` (a single int is a one-element tuple;
+    ``size`` None: any index >= 0).
 
     ``names``: optional sequence of ``size`` labels (e.g. joint names) that may be given instead
     of indices.  Floats (even 1.0), booleans and unknown names are refused: a silently
     truncated index would control the wrong degree of freedom.
     """
-    items = [value] if isinstance(value, (numbers.Integral, str)) else value
+    where = f"range({size})" if size is not None else "0, 1, 2, ..."
+    items = [value] if isinstance(value, (numbers.Number, str, np.generic)) else value
+    if isinstance(items, np.ndarray):
+        items = items.ravel().tolist() if items.dtype.kind in "iu" else list(items.ravel())
     try:
         items = list(items)
     except TypeError:
-        raise TypeError(f"{name} must be a sequence of indices in range({size}), "
+        raise TypeError(f"{name} must be a sequence of indices in {where}, "
                         f"got {describe(value)}") from None
     out = []
     for item in items:
         if isinstance(item, str):
             if names is None or item not in list(names):
-                known = f"; known names: {list(names)}" if names is not None else ""
-                raise ValueError(f"{name}: {item!r} is not an index in range({size}){known}")
+                known = (f"; known names: {list(names)}" if names is not None
+                         else " (names are not accepted here: give integer indices)")
+                raise ValueError(f"{name}: {item!r} is not an index in {where}{known}")
             out.append(list(names).index(item))
             continue
         if isinstance(item, (bool, np.bool_)):
@@ -139,10 +144,12 @@ def index_tuple(name: str, value, size: int, *, names=None) -> tuple[int, ...]:
         try:
             i = operator.index(item)
         except TypeError:
-            raise TypeError(f"{name} must contain integer indices in range({size}), got "
+            raise TypeError(f"{name} must contain integer indices in {where}, got "
                             f"{describe(item)} ({type(item).__name__})") from None
-        if not 0 <= i < size:
-            raise ValueError(f"{name}: index {i} is out of range({size})")
+        if i < 0:
+            raise ValueError(f"{name}: index {i} is negative (indices count from 0)")
+        if size is not None and i >= size:
+            raise ValueError(f"{name}: index {i} is out of {where}")
         out.append(i)
     if len(set(out)) != len(out):
         raise ValueError(f"{name} must not repeat an index, got {describe(value)}")
@@ -158,8 +165,8 @@ def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
         hi_arr = np.broadcast_to(hi_arr, (size,)) if hi_arr.size == 1 else hi_arr
     for nm, a in ((lo_name, lo_arr), (hi_name, hi_arr)):
         if a.ndim != 1 or (size is not None and a.size != size):
-            raise ValueError(f"{nm} must have {size if size is not None else 'one'} entries per "
-                             f"bound, got shape {a.shape}")
+            what = f"a vector of {size} entries (one per channel)" if size is not None else "a vector"
+            raise ValueError(f"{nm} must be a scalar or {what}, got shape {a.shape}")
         if np.any(np.isnan(a)):
             raise ValueError(f"{nm} must not contain NaN, got {describe(a)}")
     if lo_arr.shape != hi_arr.shape:

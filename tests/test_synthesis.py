@@ -221,7 +221,7 @@ def test_bad_input_errors():
         state_feedback(GeneralizedPlant.make(p.A, p.B1, p.B2, p.C1, [[2.0], [0]], p.D12), gamma=1.0)
     with pytest.raises(ValueError, match="backend"):
         state_feedback(p, backend="matlab")
-    with pytest.raises(ValueError, match="disk radius"):
+    with pytest.raises(ValueError, match="radius must be > 0, got -1.0"):
         disk(-1)
 
 

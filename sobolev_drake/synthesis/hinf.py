@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
-                          SynthesisResult, SynthesisWarning, _check_gamma_request, _finish,
+                          SynthesisResult, SynthesisWarning, _check_gamma_request, _finish, check_options,
                           check_initial_states, transient_bound,
                           _first_attempt, _ladder, _publish, _solve, _strict_check, _validate,
                           compress_performance)
@@ -125,6 +125,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
            for p in plants):
         raise ValueError("all vertex plants must have the same dimensions")
     fb = max(np.linalg.norm(p.D11, 2) if p.D11.size else 0.0 for p in plants)  # SF: D_cl = D11
+    check_options(delta=delta, rtol=rtol, margin=margin)
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()

@@ -14,6 +14,7 @@ import numpy as np
 
 from .certificates import (Certificate, as_matrix, brl_residual, certify_closed_loop,
                            require_detectable, require_stabilizable)
+from ..validation import real_scalar
 from .lmi import BACKENDS, InfeasibleLMIError, SynthesisError
 from .regions import LMIRegion
 
@@ -175,7 +176,17 @@ def transient_bound(res, X0):
     return float(np.sum(X0 * (res.P[:n, :n] @ X0)))
 
 
+def check_options(*, delta, rtol, margin=None):
+    """Validate the numeric keywords shared by the syntheses (clear errors, not solver noise)."""
+    real_scalar("delta", delta, low=0.0, low_open=True)
+    real_scalar("rtol", rtol, low=0.0, low_open=True)
+    if margin is not None:
+        real_scalar("margin", margin, low=0.0)
+
+
 def _check_gamma_request(gamma, bound, what="gamma"):
+    if gamma is not None:
+        gamma = real_scalar(what, gamma, low=0.0, low_open=True)
     if gamma is not None and gamma <= bound * (1 + 1e-9):
         raise ValueError(f"{what}={gamma:g} is not achievable: it must exceed the feedthrough "
                          f"(Parrott) bound {bound:.6g}")
@@ -385,6 +396,15 @@ def _validate(plants, need_detectable):
     for p in plants:
         if tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in p0.as_tuple()):
             raise ValueError("all vertex plants must have the same dimensions")
+        if not (p.C1.any() or p.D12.any()):
+            raise ValueError("the performance output z depends on neither x nor u (C1 = 0 and "
+                             "D12 = 0; for W-infinity: Gamma0 = Gamma1 = 0): every stabilizing "
+                             "controller gives the same norm, there is nothing to optimize")
+        if not (p.B1.any() or p.D11.any() or (need_detectable and p.D21.any())):
+            raise ValueError("the disturbance w reaches neither the state nor z (B1 = 0 and "
+                             "D11 = 0" + (" and D21 = 0" if need_detectable else "") +
+                             "; for W-infinity: D = 0): the closed-loop norm is 0 for every "
+                             "stabilizing controller; use an LQR / H2 design for this plant")
         require_stabilizable(p.A, p.B2)
         if need_detectable:
             require_detectable(p.A, p.C2)

@@ -16,7 +16,7 @@ import numpy as np
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
-                          _check_gamma_request, _finish, _first_attempt, _ladder, _publish,
+                          _check_gamma_request, _finish, check_options, _first_attempt, _ladder, _publish,
                           _solve, _strict_check, _validate, check_initial_states,
                           compress_performance, transient_bound)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
@@ -162,6 +162,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
         fb = np.linalg.norm(p.D11, 2)
+    check_options(delta=delta, rtol=rtol, margin=margin)
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()

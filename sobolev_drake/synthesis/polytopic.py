@@ -13,6 +13,7 @@ import itertools
 
 import numpy as np
 
+from .certificates import as_matrix
 from .hinf import state_feedback
 from .sobolev import hinf_plant, winf_plant
 
@@ -50,15 +51,38 @@ def interval_vertices(fn, nominal, spread):
     return out
 
 
+def _vertex_triples(vertices):
+    """``vertices`` as a list of (A, B, D) real matrices of one common set of shapes."""
+    try:
+        triples = list(vertices)
+    except TypeError:
+        raise TypeError(f"vertices must be a sequence of (A, B, D) tuples, got {type(vertices).__name__}") from None
+    if not triples:
+        raise ValueError("vertices must contain at least one (A, B, D) tuple, got none")
+    out = []
+    for i, v in enumerate(triples):
+        try:
+            A, B, D = v
+        except (TypeError, ValueError):
+            raise TypeError(f"vertices[{i}] must be an (A, B, D) tuple, got {type(v).__name__}") from None
+        mats = tuple(as_matrix(f"vertices[{i}].{n}", M) for n, M in zip("ABD", (A, B, D)))
+        if out and tuple(M.shape for M in mats) != tuple(M.shape for M in out[0]):
+            raise ValueError(f"vertices[{i}] has shapes A {mats[0].shape}, B {mats[1].shape}, "
+                             f"D {mats[2].shape}; vertices[0] has A {out[0][0].shape}, "
+                             f"B {out[0][1].shape}, D {out[0][2].shape}: all must match")
+        out.append(mats)
+    return out
+
+
 def robust_winf_state_feedback(vertices, Gamma0, Gamma1, *, region=None, **kw):
     """Common-Lyapunov W-infinity state feedback over vertices [(A, B, D), ...]."""
-    plants = [winf_plant(A, B, D, Gamma0, Gamma1) for A, B, D in vertices]
+    plants = [winf_plant(A, B, D, Gamma0, Gamma1) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 
 def robust_hinf_state_feedback(vertices, Q, R, *, region=None, **kw):
     """Common-Lyapunov classic H-infinity state feedback over vertices [(A, B, D), ...]."""
-    plants = [hinf_plant(A, B, D, Q, R) for A, B, D in vertices]
+    plants = [hinf_plant(A, B, D, Q, R) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 

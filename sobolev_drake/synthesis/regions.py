@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from ..validation import real_matrix, real_scalar
+
 
 @dataclass(frozen=True)
 class LMIRegion:
@@ -28,8 +30,8 @@ class LMIRegion:
     label: str = "region"
 
     def __post_init__(self):
-        L = np.atleast_2d(np.asarray(self.L, float))
-        M = np.atleast_2d(np.asarray(self.M, float))
+        L = real_matrix("L", self.L)
+        M = real_matrix("M", self.M)
         if L.shape != M.shape or L.shape[0] != L.shape[1]:
             raise ValueError(f"region matrices L, M must be square and equal-sized, got {L.shape}, {M.shape}")
         if not np.allclose(L, L.T):
@@ -59,42 +61,43 @@ class LMIRegion:
 
 def disk(radius, center=0.0):
     """Disk |s - center| < radius (center real; the thesis uses center 0)."""
-    r, c = float(radius), -float(center)
-    if r <= 0:
-        raise ValueError(f"disk radius must be positive, got {radius}")
+    r = real_scalar("radius", radius, low=0.0, low_open=True)
+    c = -real_scalar("center", center)
     return LMIRegion([[-r, c], [c, -r]], [[0.0, 1.0], [0.0, 0.0]], f"disk(r={r:g}, c={-c:g})")
 
 
 def half_plane(a):
     """Re s < -a (decay rate a)."""
-    return LMIRegion([[2.0 * float(a)]], [[1.0]], f"Re s < {-float(a):g}")
+    a = real_scalar("a", a)
+    return LMIRegion([[2.0 * a]], [[1.0]], f"Re s < {-a:g}")
 
 
 def sector(theta):
     """Conic sector |Im s| < -Re s tan(theta), i.e. damping ratio >= cos(theta)."""
-    th = float(theta)
-    if not 0 < th < np.pi / 2:
-        raise ValueError(f"sector half-angle theta must be in (0, pi/2), got {theta}")
+    th = real_scalar("theta", theta, low=0.0, high=np.pi / 2, low_open=True, high_open=True)
     s, c = np.sin(th), np.cos(th)
     return LMIRegion(np.zeros((2, 2)), [[s, c], [-c, s]], f"sector({np.degrees(th):.1f} deg)")
 
 
 def damping(zeta):
     """Damping ratio >= zeta (a conic sector)."""
-    if not 0 < zeta < 1:
-        raise ValueError(f"damping ratio must be in (0, 1), got {zeta}")
+    zeta = real_scalar("zeta", zeta, low=0.0, high=1.0, low_open=True, high_open=True)
     return sector(np.arccos(zeta))
 
 
 def strip(a_min, a_max):
     """Vertical strip -a_max < Re s < -a_min."""
+    a_min, a_max = real_scalar("a_min", a_min), real_scalar("a_max", a_max)
     if not a_max > a_min:
-        raise ValueError(f"strip needs a_max > a_min, got {a_min}, {a_max}")
+        raise ValueError(f"strip needs a_max > a_min, got a_min={a_min!r}, a_max={a_max!r}")
     return LMIRegion(np.diag([2.0 * a_min, -2.0 * a_max]), np.diag([1.0, -1.0]),
                      f"strip({-a_max:g} < Re s < {-a_min:g})")
 
 
 def intersect(*regions):
+    """Intersection of one or more regions (same as ``r1 & r2 & ...``)."""
+    if not regions or not all(isinstance(r, LMIRegion) for r in regions):
+        raise TypeError(f"intersect takes one or more LMIRegion objects, got {regions!r}")
     out = regions[0]
     for r in regions[1:]:
         out = out & r

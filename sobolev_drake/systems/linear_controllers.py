@@ -23,32 +23,20 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from sobolev_drake.validation import bounds_pair, real_matrix
+
 
 def _mat(name, M, shape=None):
-    M = np.atleast_2d(np.asarray(M, dtype=float))
-    if M.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D matrix, got {M.ndim} dimensions")
-    if shape is not None and any(w is not None and g != w for g, w in zip(M.shape, shape)):
-        raise ValueError(f"{name} must have shape {shape}, got {M.shape}")
-    if not np.all(np.isfinite(M)):
-        raise ValueError(f"{name} contains non-finite entries")
-    return M
+    return real_matrix(name, M, shape, allow_empty=True)
 
 
 def _bounds(nu, u_min, u_max):
     """Elementwise (lo, hi) of size nu, or None without bounds."""
     if u_min is None and u_max is None:
         return None
-    try:
-        lo = np.full(nu, -np.inf) if u_min is None else np.broadcast_to(
-            np.asarray(u_min, dtype=float), (nu,)).copy()
-        hi = np.full(nu, np.inf) if u_max is None else np.broadcast_to(
-            np.asarray(u_max, dtype=float), (nu,)).copy()
-    except ValueError:
-        raise ValueError(f"u_min / u_max must be scalars or of size {nu} (the input size)") from None
-    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
-        raise ValueError(f"u_min must be <= u_max elementwise, got {lo} and {hi}")
-    return lo, hi
+    lo = -np.inf if u_min is None else u_min
+    hi = np.inf if u_max is None else u_max
+    return bounds_pair("u_min", lo, "u_max", hi, nu)
 
 
 def _selection(S, n):
@@ -161,8 +149,20 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
 
     @classmethod
     def from_controller(cls, controller, **kw):
-        """From a synthesis ``DynamicController`` (or any (AK, BK, CK, DK) iterable)."""
-        AK, BK, CK, DK = controller
+        """From a synthesis ``DynamicController``, an output-feedback ``SynthesisResult`` or any
+        (AK, BK, CK, DK) iterable."""
+        kind = getattr(controller, "kind", None)
+        if kind == "state_feedback":
+            raise TypeError("from_controller got a state-feedback SynthesisResult (u = K x); "
+                            "wire it with LinearStateFeedback(result.K) instead")
+        if kind is not None:
+            controller = controller.controller
+        try:
+            AK, BK, CK, DK = controller
+        except (TypeError, ValueError):
+            raise TypeError("controller must be a DynamicController, an output-feedback "
+                            f"SynthesisResult or an (AK, BK, CK, DK) tuple, got "
+                            f"{type(controller).__name__}") from None
         return cls(AK, BK, CK, DK, **kw)
 
     @staticmethod

@@ -51,6 +51,7 @@ from scipy.optimize import lsq_linear
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native.rnea import cached_tree_kernel
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
+from sobolev_drake.validation import index_tuple
 
 __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
 
@@ -71,8 +72,14 @@ class Partition:
     uncontrolled: tuple = ()
 
     def __post_init__(self):
+        seen = {}
         for name in ("controlled", "stabilized", "regulated", "uncontrolled"):
-            idx = tuple(int(i) for i in np.atleast_1d(getattr(self, name)))
+            idx = index_tuple(f"Partition.{name}", getattr(self, name), None)
+            for i in idx:
+                if i in seen:
+                    raise ValueError(f"Partition: DOF {i} is in both {seen[i]} and {name}; "
+                                     "each DOF belongs to exactly one group")
+                seen[i] = name
             object.__setattr__(self, name, idx)
         if not self.controlled:
             raise ValueError("partition.controlled must name at least one DOF")
