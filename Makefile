@@ -9,13 +9,27 @@ OUT ?= out
 export OPENBLAS_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test bench reproduce install clean
+# Exact versions of everything installed into .venv (pyproject.toml keeps the compatible ranges
+# for library users); `make lock` refreshes it.
+LOCK := constraints.txt
 
-$(STAMP): pyproject.toml setup.py $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
+.PHONY: demo test bench reproduce install lock clean
+
+$(STAMP): pyproject.toml setup.py $(LOCK) $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -c $(LOCK) --upgrade pip
+	$(PY) -m pip install --quiet -c $(LOCK) -e '.[test]'
 	touch $(STAMP)
+
+# Resolve the newest versions the pyproject ranges allow in a scratch venv and pin them all.
+lock:
+	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/pip install --quiet --upgrade pip
+	.venv-lock/bin/pip install --quiet -e '.[test]'
+	{ sed -n '/^#/p' $(LOCK); .venv-lock/bin/pip freeze --all --exclude-editable \
+	    | grep -v -E '^(setuptools|wheel)=='; } > $(LOCK).new
+	mv $(LOCK).new $(LOCK) && rm -rf .venv-lock
+	@echo "$(LOCK) refreshed; run 'make clean test' to install and test exactly these versions"
 
 install: $(STAMP)
 
@@ -32,4 +46,4 @@ reproduce: $(STAMP)
 	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT)
 
 clean:
-	rm -rf $(VENV) $(OUT) build *.egg-info sobolev_drake/native/*.so
+	rm -rf $(VENV) .venv-lock $(OUT) build *.egg-info sobolev_drake/native/*.so
