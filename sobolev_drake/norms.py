@@ -33,6 +33,8 @@ from typing import Sequence
 
 import numpy as np
 
+from sobolev_drake.validation import real_array, real_scalar
+
 __all__ = [
     "check_time",
     "finite_difference",
@@ -65,7 +67,7 @@ def check_time(t) -> np.ndarray:
 
 def _signal(name: str, z, n: int) -> tuple[np.ndarray, bool]:
     """Return (z as (N, p) float array, was_1d) after checking its length against t."""
-    z = np.asarray(z, dtype=float)
+    z = real_array(name, z)
     was_1d = z.ndim == 1
     if was_1d:
         z = z[:, None]
@@ -76,6 +78,8 @@ def _signal(name: str, z, n: int) -> tuple[np.ndarray, bool]:
             raise ValueError(f"{name} has shape {z.shape} but t has {n} samples; "
                              f"signals are (N, p) with time along axis 0 (transpose Drake's log data)")
         raise ValueError(f"{name} has {z.shape[0]} samples but t has {n}")
+    if z.shape[1] == 0:
+        raise ValueError(f"{name} must have at least one channel, got shape {z.shape}")
     if not np.all(np.isfinite(z)):
         raise ValueError(f"{name} must be finite")
     return z, was_1d
@@ -96,7 +100,7 @@ def finite_difference(t, z, order: int = 1) -> np.ndarray:
     accuracy near discontinuities; prefer derivatives from the model.
     """
     t = check_time(t)
-    if int(order) != order or order < 0:
+    if isinstance(order, (bool, np.bool_)) or int(order) != order or order < 0:
         raise ValueError(f"order must be a non-negative integer, got {order!r}")
     z2, was_1d = _signal("z", z, t.size)
     if order > 0 and t.size < 3:
@@ -222,7 +226,8 @@ def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | N
     ‖z‖²_W ≤ γ²‖w‖² + 2V(x0).  Raises ``ValueError`` if ‖w‖ = 0 (gain undefined).
     """
     t = check_time(t)
-    nz2 = sobolev_norm(t, z, sigmas, derivatives, squared=True) - float(initial_term)
+    initial_term = real_scalar("initial_term", initial_term, low=0.0)
+    nz2 = sobolev_norm(t, z, sigmas, derivatives, squared=True) - initial_term
     nw = l2_norm(t, w, w_sigma)
     if nw <= 0.0:
         raise ValueError("w has zero L2 norm: the empirical gain is undefined")

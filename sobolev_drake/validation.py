@@ -15,7 +15,7 @@ import operator
 
 import numpy as np
 
-__all__ = ["real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
+__all__ = ["real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
            "bounds_pair", "one_of", "describe"]
 
 
@@ -27,7 +27,7 @@ def describe(value, limit: int = 60) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def _real_array(name, value):
+def real_array(name, value):
     """``value`` as a float array; refuses strings, objects, booleans used as numbers and
     complex values (whose imaginary part would otherwise be dropped silently)."""
     if isinstance(value, (str, bytes)):
@@ -58,7 +58,7 @@ def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> n
     ``shape``: expected (rows, cols), ``None`` entries meaning any size.  Empty matrices are
     refused unless ``allow_empty`` (a 0 x 0 plant has nothing to control).
     """
-    arr = _real_array(name, value)
+    arr = real_array(name, value)
     if arr.ndim > 2:
         raise ValueError(f"{name} must be a matrix (2-D), got an array of shape {arr.shape}")
     arr = np.atleast_2d(arr)
@@ -76,7 +76,7 @@ def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> n
 
 def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool = False) -> np.ndarray:
     """``value`` as a finite real 1-D float array (a scalar becomes length 1); ``size``: expected length."""
-    arr = _real_array(name, value)
+    arr = real_array(name, value)
     if arr.ndim > 1:
         raise ValueError(f"{name} must be a vector (1-D), got an array of shape {arr.shape}")
     arr = np.atleast_1d(arr)
@@ -158,7 +158,7 @@ def index_tuple(name: str, value, size: int | None, *, names=None) -> tuple[int,
 
 def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
     """(lo, hi) as float vectors of one length with lo <= hi entrywise (infinite ends allowed)."""
-    lo_arr, hi_arr = _real_array(lo_name, lo), _real_array(hi_name, hi)
+    lo_arr, hi_arr = real_array(lo_name, lo), real_array(hi_name, hi)
     lo_arr, hi_arr = np.atleast_1d(lo_arr), np.atleast_1d(hi_arr)
     if size is not None:
         lo_arr = np.broadcast_to(lo_arr, (size,)) if lo_arr.size == 1 else lo_arr

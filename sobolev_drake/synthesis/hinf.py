@@ -120,12 +120,16 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     whose transient from the given states is small.  ``result.transient_bound`` reports the
     bound (gamma^2 normalization of P).
     """
+    check_options(plant, delta=delta, rtol=rtol, margin=margin, regularize=regularize,
+                  region=region, backend=backend, solver_options=solver_options,
+                  input_weight=input_weight)
     plants = [plant] + list(vertices or [])
+    if not all(isinstance(v, GeneralizedPlant) for v in plants):
+        raise TypeError("vertices must be a list of GeneralizedPlant objects")
     if any(tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in plant.as_tuple())
            for p in plants):
         raise ValueError("all vertex plants must have the same dimensions")
     fb = max(np.linalg.norm(p.D11, 2) if p.D11.size else 0.0 for p in plants)  # SF: D_cl = D11
-    check_options(delta=delta, rtol=rtol, margin=margin)
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()

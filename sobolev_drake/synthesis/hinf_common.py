@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .certificates import (Certificate, as_matrix, brl_residual, certify_closed_loop,
+from .certificates import (Certificate, as_matrix, brl_residual, certify_closed_loop, check_weight,
                            require_detectable, require_stabilizable)
 from ..validation import real_scalar
 from .lmi import BACKENDS, InfeasibleLMIError, SynthesisError
@@ -176,12 +176,30 @@ def transient_bound(res, X0):
     return float(np.sum(X0 * (res.P[:n, :n] @ X0)))
 
 
-def check_options(*, delta, rtol, margin=None):
-    """Validate the numeric keywords shared by the syntheses (clear errors, not solver noise)."""
+def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=None,
+                  backend=None, solver_options=None, input_weight=None):
+    """Validate the keywords shared by the syntheses, so that a bad value is named here instead
+    of surfacing as solver noise (a NaN in the LMI data, an infeasible program)."""
+    if not isinstance(plant, GeneralizedPlant):
+        raise TypeError("plant must be a GeneralizedPlant (GeneralizedPlant.make, winf_plant, "
+                        f"hinf_plant), got {type(plant).__name__}")
     real_scalar("delta", delta, low=0.0, low_open=True)
     real_scalar("rtol", rtol, low=0.0, low_open=True)
     if margin is not None:
         real_scalar("margin", margin, low=0.0)
+    if not (isinstance(regularize, bool) or regularize == "auto"):
+        raise ValueError(f"regularize must be 'auto', True or False, got {regularize!r}")
+    if region is not None and not isinstance(region, LMIRegion):
+        raise TypeError(f"region must be an LMIRegion (regions.disk(...), half_plane(...), ...) "
+                        f"or None, got {region!r}")
+    if not (backend is None or isinstance(backend, str) or
+            (isinstance(backend, (list, tuple)) and all(isinstance(b, str) for b in backend))):
+        raise TypeError(f"backend must be None, a name in lmi.BACKENDS {BACKENDS} or a sequence "
+                        f"of names, got {backend!r}")
+    if solver_options is not None and not isinstance(solver_options, dict):
+        raise TypeError(f"solver_options must be a dict of solver settings, got {solver_options!r}")
+    if input_weight is not None:
+        check_weight("input_weight", input_weight, plant.nw, definite=False)
 
 
 def _check_gamma_request(gamma, bound, what="gamma"):

@@ -158,11 +158,15 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     """
     if not (np.isfinite(transient_gain_weight) and transient_gain_weight >= 0):
         raise ValueError(f"transient_gain_weight must be a finite number >= 0, got {transient_gain_weight!r}")
+    if not isinstance(strictly_proper, (bool, np.bool_)) and strictly_proper is not None:
+        raise TypeError(f"strictly_proper must be True or False, got {strictly_proper!r}")
     p = plant
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
         fb = np.linalg.norm(p.D11, 2)
-    check_options(delta=delta, rtol=rtol, margin=margin)
+    check_options(plant, delta=delta, rtol=rtol, margin=margin, regularize=regularize,
+                  region=region, backend=backend, solver_options=solver_options,
+                  input_weight=input_weight)
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()

@@ -40,6 +40,8 @@ class LMIRegion:
         object.__setattr__(self, "M", M)
 
     def __and__(self, other):
+        if not isinstance(other, LMIRegion):
+            return NotImplemented
         return LMIRegion(sla.block_diag(self.L, other.L), sla.block_diag(self.M, other.M),
                          f"{self.label} & {other.label}")
 
