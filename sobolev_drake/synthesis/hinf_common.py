@@ -192,8 +192,7 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
     if region is not None and not isinstance(region, LMIRegion):
         raise TypeError(f"region must be an LMIRegion (regions.disk(...), half_plane(...), ...) "
                         f"or None, got {region!r}")
-    if not (backend is None or isinstance(backend, str) or
-            (isinstance(backend, (list, tuple)) and all(isinstance(b, str) for b in backend))):
+    if not (backend is None or isinstance(backend, (str, list, tuple))):  # names: see _solve
         raise TypeError(f"backend must be None, a name in lmi.BACKENDS {BACKENDS} or a sequence "
                         f"of names, got {backend!r}")
     if solver_options is not None and not isinstance(solver_options, dict):

@@ -20,7 +20,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..validation import real_scalar
+
 from .certificates import as_matrix
+
+#: largest frequency grid of :func:`input_delay_margin` (one eigenvalue problem per point)
+MAX_POINTS = 100_000
 
 
 def _controller(K, ny, nu):
@@ -64,6 +69,8 @@ def input_gain_margins(A, B, K, C=None, *, k_max=1e3, rtol=1e-6):
     closed-loop eigenvalues (the first crossing on each side of 1; a loop can regain stability
     further out, which is not reported).  Raises ValueError if the nominal loop is unstable.
     """
+    real_scalar("k_max", k_max, low=1.0, low_open=True)
+    real_scalar("rtol", rtol, low=0.0, low_open=True)
     A, B, C = _plant(A, B, C)
     ctrl = _controller(K, C.shape[0], B.shape[1])
     if not _stable(_closed_loop(A, B, C, ctrl)):
@@ -99,6 +106,12 @@ def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
     ``inf`` when |λ| never crosses 1 (no delay destabilizes).  Raises ValueError if the
     nominal loop is unstable.
     """
+    w_min = real_scalar("w_min", w_min, low=0.0, low_open=True)
+    if w_max is not None:
+        w_max = real_scalar("w_max", w_max, low=w_min, low_open=True)
+    if isinstance(points, (bool, np.bool_)) or not isinstance(points, (int, np.integer)) \
+            or not 2 <= points <= MAX_POINTS:
+        raise ValueError(f"points must be an integer in [2, {MAX_POINTS}], got {points!r}")
     A, B, C = _plant(A, B, C)
     ctrl = _controller(K, C.shape[0], B.shape[1])
     AK, BK, CK, DK = ctrl

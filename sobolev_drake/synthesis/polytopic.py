@@ -13,9 +13,14 @@ import itertools
 
 import numpy as np
 
+from ..validation import bounds_pair, real_scalar
 from .certificates import as_matrix
 from .hinf import state_feedback
 from .sobolev import hinf_plant, winf_plant
+
+
+#: most interval parameters :func:`interval_vertices` accepts (2^k vertices)
+MAX_UNCERTAIN = 12
 
 
 def interval_vertices(fn, nominal, spread):
@@ -30,18 +35,20 @@ def interval_vertices(fn, nominal, spread):
     unknown = set(spread) - set(nominal)
     if unknown:
         raise ValueError(f"spread names parameters absent from nominal: {sorted(unknown)}")
+    if len(spread) > MAX_UNCERTAIN:
+        raise ValueError(f"{len(spread)} uncertain parameters give 2^{len(spread)} vertices; at most "
+                         f"{MAX_UNCERTAIN} are supported (2^{MAX_UNCERTAIN} LMI blocks per vertex set)")
     bounds = {}
     for k, s in spread.items():
         if np.isscalar(s):
-            if s < 0:
-                raise ValueError(f"relative spread for {k!r} must be >= 0, got {s}")
-            v = nominal[k]
+            s = real_scalar(f"spread[{k!r}]", s, low=0.0)
+            v = real_scalar(f"nominal[{k!r}]", nominal[k])
             bounds[k] = (v * (1 - s), v * (1 + s))
         else:
-            lo, hi = s
-            if hi < lo:
-                raise ValueError(f"bounds for {k!r} must satisfy lo <= hi, got {s}")
-            bounds[k] = (lo, hi)
+            lo, hi = bounds_pair(f"spread[{k!r}] lower bound", s[0], f"spread[{k!r}] upper bound", s[1], 1)
+            if not np.all(np.isfinite([lo[0], hi[0]])):
+                raise ValueError(f"bounds for {k!r} must be finite, got {s}")
+            bounds[k] = (float(lo[0]), float(hi[0]))
     out = []
     names = list(bounds)
     for corner in itertools.product(*[bounds[k] for k in names]):
@@ -88,6 +95,9 @@ def robust_hinf_state_feedback(vertices, Q, R, *, region=None, **kw):
 
 def random_interior_points(vertices, count, rng=None):
     """Random convex combinations (Dirichlet weights) of vertex tuples (A, B, D)."""
+    if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)) or count < 0:
+        raise ValueError(f"count must be an integer >= 0, got {count!r}")
+    vertices = _vertex_triples(vertices)
     rng = np.random.default_rng(rng)
     pts = []
     for _ in range(count):

@@ -51,7 +51,7 @@ from scipy.optimize import lsq_linear
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native.rnea import cached_tree_kernel
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
-from sobolev_drake.validation import index_tuple
+from sobolev_drake.validation import bounds_pair, index_tuple
 
 __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
 
@@ -115,8 +115,13 @@ class SobolevLaw:
     stabilized: SobolevGains | None = None
 
     def __post_init__(self):
+        if self.controlled is None:
+            raise TypeError("SobolevLaw.controlled is required: SobolevGains from controlled_gains(...)")
         for name, grp in (("controlled", self.controlled), ("regulated", self.regulated),
                           ("stabilized", self.stabilized)):
+            if grp is not None and not isinstance(grp, SobolevGains):
+                raise TypeError(f"SobolevLaw.{name} must be SobolevGains ({name}_gains(...)), "
+                                f"got {type(grp).__name__}")
             if grp is not None and grp.group != name:
                 raise ValueError(f"SobolevLaw.{name} must be {name} gains, got {grp.group!r}")
 
@@ -130,6 +135,11 @@ class HinfLaw:
     """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action)."""
 
     gains: HinfMechanicalGains
+
+    def __post_init__(self):
+        if not isinstance(self.gains, HinfMechanicalGains):
+            raise TypeError("HinfLaw.gains must be HinfMechanicalGains (hinf_mechanical_gains(...)), "
+                            f"got {type(self.gains).__name__}")
 
     @property
     def name(self) -> str:
@@ -151,11 +161,17 @@ class MechanicalLaw:
 
     def __init__(self, model, partition: Partition, law, *, allocation: Callable | None = None,
                  lower=None, upper=None):
+        if not all(hasattr(model, k) for k in ("n", "M", "Cqdot", "g")):
+            raise TypeError("model must be a MechanicalModel (M(q), C(q,q̇)q̇, g(q) of a plant), "
+                            f"got {type(model).__name__}")
         if not isinstance(partition, Partition):
-            raise TypeError("partition must be a Partition")
+            raise TypeError(f"partition must be a Partition, got {type(partition).__name__}")
         partition.check(model.n)
         if not isinstance(law, (SobolevLaw, HinfLaw)):
-            raise TypeError("law must be a SobolevLaw or an HinfLaw")
+            raise TypeError(f"law must be a SobolevLaw or an HinfLaw, got {type(law).__name__}")
+        if allocation is not None and not callable(allocation):
+            raise TypeError("allocation must be None or a callable(u_star, q, qdot) -> tau, "
+                            f"got {allocation!r}")
         self.model, self.partition, self.law = model, partition, law
         self.n = model.n
         self.allocation = allocation
@@ -191,6 +207,8 @@ class MechanicalLaw:
                              f" {self.num_inputs} inputs, {self.nc} controlled DOF")
         self.lower = None if lower is None else check_vector("lower", lower, self.num_inputs)
         self.upper = None if upper is None else check_vector("upper", upper, self.num_inputs)
+        if self.lower is not None and self.upper is not None:
+            bounds_pair("lower", self.lower, "upper", self.upper, self.num_inputs)
 
     @staticmethod
     def _check_group(name, gains, size):
