@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from ..validation import real_array
+
 __all__ = [
     "SobolevGains", "controlled_gains", "regulated_gains", "stabilized_gains", "sobolev_gains",
     "controlled_closed_form", "regulated_closed_form", "stabilized_closed_form",
@@ -47,7 +49,7 @@ def _weight(name: str, value, n: int | None, *, definite: bool) -> np.ndarray:
 
     ``definite=True`` demands positive definiteness, otherwise positive semidefiniteness.
     """
-    arr = np.asarray(value, dtype=float)
+    arr = real_array(name, value)
     if arr.ndim == 0:
         arr = arr.reshape(1, 1) if n is None else arr * np.eye(n)
     elif arr.ndim == 1:

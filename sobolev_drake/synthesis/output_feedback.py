@@ -156,6 +156,9 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     unbounded optimal set; a small w makes the optimum attained (w = 1e-3: k costs a thousandth
     of what a uniform Y = k I would).
     """
+    check_options(plant, delta=delta, rtol=rtol, margin=margin, regularize=regularize,
+                  region=region, backend=backend, solver_options=solver_options,
+                  input_weight=input_weight)
     if not (np.isfinite(transient_gain_weight) and transient_gain_weight >= 0):
         raise ValueError(f"transient_gain_weight must be a finite number >= 0, got {transient_gain_weight!r}")
     if not isinstance(strictly_proper, (bool, np.bool_)) and strictly_proper is not None:
@@ -164,9 +167,6 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
         fb = np.linalg.norm(p.D11, 2)
-    check_options(plant, delta=delta, rtol=rtol, margin=margin, regularize=regularize,
-                  region=region, backend=backend, solver_options=solver_options,
-                  input_weight=input_weight)
     _check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()

@@ -73,7 +73,7 @@ class LinearStateFeedback(_ClippedOutput, LeafSystem):
     def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None,
                  S=None):
         super().__init__()
-        self.K = _mat("K", K)
+        self.K = real_matrix("K", K)
         nu, nx = self.K.shape
         self.S, nin = _selection(S, nx)
         self.u_r = np.zeros(nu) if u_r is None else _mat("u_r", u_r, (1, nu)).ravel()

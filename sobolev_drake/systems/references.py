@@ -24,6 +24,8 @@ from typing import Callable, Sequence
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from sobolev_drake.validation import real_scalar, real_vector
+
 __all__ = [
     "Coordinate", "const", "sine", "poly", "PiecewiseTrajectory", "TrajectoryReference",
 ]
@@ -61,13 +63,14 @@ class Coordinate:
 
 def const(c: float) -> Coordinate:
     """f(t) = c."""
-    c = float(c)
+    c = real_scalar("c", c)
     return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0))
 
 
 def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
     """f(t) = offset + A sin(ω (t − t0) + phase)  (use phase = π/2 for a cosine)."""
-    A, w, ph, c, s = map(float, (amplitude, omega, phase, offset, t0))
+    A, w, ph, c, s = (real_scalar(n, v) for n, v in (("amplitude", amplitude), ("omega", omega),
+                                                   ("phase", phase), ("offset", offset), ("t0", t0)))
 
     def fn(t):
         arg = w * (t - s) + ph
@@ -83,12 +86,10 @@ def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 
 
 def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
     """f(t) = Σ_k c_k (t − t0)^k with ascending coefficients c_0, c_1, …"""
-    c = np.asarray(coefficients, dtype=float)
-    if c.ndim != 1 or c.size == 0:
-        raise ValueError("coefficients must be a non-empty 1-D sequence (ascending powers)")
+    c = real_vector("coefficients (ascending powers c_0, c_1, ...)", coefficients)
     P = np.polynomial.Polynomial(c)
     dP, ddP = P.deriv(1), P.deriv(2)
-    s = float(t0)
+    s = real_scalar("t0", t0)
     # Horner on plain floats, highest power first, as numpy's polyval
     cs = [P.coef.tolist()[::-1], dP.coef.tolist()[::-1], ddP.coef.tolist()[::-1]]
 
