@@ -58,6 +58,10 @@ def _jsonable(x):
 
 
 def markdown_table(columns: Sequence[str], rows: Sequence[Sequence]) -> str:
+    for i, r in enumerate(rows):
+        if len(r) != len(columns):
+            raise ValueError(f"markdown_table: row {i} has {len(r)} cells, expected {len(columns)} "
+                             f"(columns {list(columns)})")
     head = "| " + " | ".join(fmt(c) for c in columns) + " |"
     sep = "|" + "|".join("---" for _ in columns) + "|"
     body = ["| " + " | ".join(fmt(c) for c in r) + " |" for r in rows]
@@ -116,6 +120,8 @@ def _rel(p, base: Path) -> str:
 def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments") -> Path:
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
     claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs."""
+    for i, r in enumerate(results):
+        _require_result(f"results[{i}]", r)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     base = path.parent
@@ -149,9 +155,17 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
     return path
 
 
+def _require_result(name, value):
+    from sobolev_drake.experiments import ExperimentResult
+
+    if not isinstance(value, ExperimentResult):
+        raise TypeError(f"{name} must be an ExperimentResult, got {type(value).__name__}")
+
+
 def save_result(result, out_dir) -> Path:
     """Write ``<out_dir>/result.json`` (paths relative to ``out_dir``) so that reports can be
     rebuilt later without rerunning (``sobolev-drake report``)."""
+    _require_result("result", result)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     data = {"name": result.name,

@@ -11,7 +11,7 @@ import pytest
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
-from sobolev_drake import norms, validation
+from sobolev_drake import norms, report, validation
 from sobolev_drake.simulation import SimulationTimeout, simulate
 from sobolev_drake.synthesis import margins, regions
 from sobolev_drake.synthesis.hinf import GeneralizedPlant, output_feedback, state_feedback
@@ -19,6 +19,10 @@ from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.synthesis.polytopic import (interval_vertices, random_interior_points,
                                                robust_hinf_state_feedback, robust_winf_state_feedback)
 from sobolev_drake.synthesis.sobolev import winf_output_feedback, winf_plant, winf_state_feedback
+from sobolev_drake.systems.allocation import ControlAllocator
+from sobolev_drake.systems.bounded_ls import bounded_least_squares
+from sobolev_drake.systems.disturbances import TimeProfiledForce, pulses_from_mission
+from sobolev_drake.systems.wind import GustProfile
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 from sobolev_drake.systems.mechanical_controller import HinfLaw, Partition, SobolevLaw
 from sobolev_drake.systems.references import const, poly, sine
@@ -194,6 +198,25 @@ CASES = [
     ("finite_difference bool", lambda: norms.finite_difference(T, T, order=True), ValueError, "order must be a non-negative integer"),
     ("empirical initial nan", lambda: norms.empirical_gain(T, T, T + 1, initial_term=float("nan")), ValueError, "initial_term must be a finite number"),
     ("empirical initial neg", lambda: norms.empirical_gain(T, T, T + 1, initial_term=-1.0), ValueError, "initial_term must be >= 0"),
+    # --- disturbances, wind, allocation, report
+    ("pulse bool index", lambda: TimeProfiledForce(2, [{"index": True, "value": 1.0}]), ValueError, r"pulses\[0\]\['index'\] must be an integer"),
+    ("pulse nan", lambda: TimeProfiledForce(2, [{"index": 0, "value": float("nan")}]), ValueError, "must be finite"),
+    ("mission pulse order", lambda: pulses_from_mission([{"axis": "x", "value": 1.0, "from": 5.0, "to": 1.0}], ["x"]),
+     ValueError, "needs from < to"),
+    ("mission pulse nan", lambda: pulses_from_mission([{"axis": "x", "value": float("nan"), "from": 0.0, "to": 1.0}], ["x"]),
+     ValueError, "must be finite"),
+    ("mission pulse axis", lambda: pulses_from_mission([{"axis": "w", "value": 1.0, "from": 0.0, "to": 1.0}], ["x"]),
+     ValueError, "is not a coordinate"),
+    ("gust nan", lambda: GustProfile([{"axis": "x", "value": float("nan"), "from": 0.0, "to": 1.0}]), ValueError, "must be a finite wind speed"),
+    ("gust axis", lambda: GustProfile([{"axis": "q", "value": 1.0, "from": 0.0, "to": 1.0}]), ValueError, "must be one of 'x', 'y', 'z'"),
+    ("BLS complex", lambda: bounded_least_squares(np.array([[1 + 1j, 0.0], [0.0, 1.0]]), np.ones(2), -1.0, 1.0), TypeError, "B must be real"),
+    ("BLS swapped", lambda: bounded_least_squares(np.eye(2), np.ones(2), 1.0, -1.0), ValueError, "need lo <= hi"),
+    ("allocator method", lambda: ControlAllocator(2, 2, bounds=([0.0, 0.0], [1.0, 1.0]), method="bogus"), ValueError, "method must be one of"),
+    ("allocator regularization", lambda: ControlAllocator(2, 2, bounds=([0.0, 0.0], [1.0, 1.0]), regularization=-1.0),
+     ValueError, "regularization must be >= 0"),
+    ("report row length", lambda: report.markdown_table(["a"], [[1, 2]]), ValueError, "row 0 has 2 cells, expected 1"),
+    ("report results", lambda: report.write_reproduction([None], "unused.md"), TypeError, r"results\[0\] must be an ExperimentResult"),
+    ("report save", lambda: report.save_result(None, "unused"), TypeError, "result must be an ExperimentResult"),
     # --- the validation helpers themselves
     ("index_tuple range", lambda: validation.index_tuple("joints", [3], 2), ValueError, r"joints: index 3 is out of range\(2\)"),
     ("index_tuple names", lambda: validation.index_tuple("joints", ["wrist"], 2, names=["q1", "q2"]), ValueError, "known names"),

@@ -29,6 +29,7 @@ from sobolev_drake.data import load
 from sobolev_drake.native import kernel
 from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
 from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
+from sobolev_drake.validation import bounds_pair, one_of, real_scalar
 
 # --------------------------------------------------------------------------------------------
 # tilt-rotor bounds (7.85)–(7.89)
@@ -101,9 +102,11 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
 
 
 def _parse_limits(lim):
-    f_lo, f_hi = lim["thrust_N"]
-    t_lo, t_hi = lim["servo_torque_Nm"]
-    d_lo, d_hi = lim["surface_deflection_rad"]
+    pairs = []
+    for key in ("thrust_N", "servo_torque_Nm", "surface_deflection_rad"):
+        lo, hi = bounds_pair(f"limits[{key!r}] lower", lim[key][0], f"limits[{key!r}] upper", lim[key][1], 1)
+        pairs.append((lo[0], hi[0]))
+    (f_lo, f_hi), (t_lo, t_hi), (d_lo, d_hi) = pairs
     return tuple(float(x) for x in (lim["sigmoid_s"], lim["sigmoid_c_m_s"], f_lo, f_hi, t_lo, t_hi,
                                     d_lo, d_hi))
 
@@ -132,6 +135,8 @@ class ControlAllocator(LeafSystem):
     def __init__(self, n: int = 8, m: int = 8, bounds=tiltrotor_bounds, *, airspeed_size: int = 1,
                  regularization: float = 1e-12, method: str = "pdas"):
         super().__init__()
+        one_of("method", method, ("pdas", "osqp"))
+        real_scalar("regularization", regularization, low=0.0)
         self._method, self._last_active = method, None
         for name, val in (("n", n), ("m", m), ("airspeed_size", airspeed_size)):
             if not isinstance(val, (int, np.integer)) or val < 1:

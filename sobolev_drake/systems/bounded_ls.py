@@ -27,17 +27,18 @@ import numpy as np
 from scipy.linalg import lapack as _lapack
 from scipy.optimize import lsq_linear
 
+from sobolev_drake.validation import real_array
+
 from sobolev_drake.native import kernel
 
 __all__ = ["bounded_least_squares"]
 
 
 def _check_problem(B, u, lo, hi):
-    B = np.asarray(B, dtype=float)
+    B, u = real_array("B", B), real_array("u", u)
     if B.ndim != 2 or B.shape[0] == 0 or B.shape[1] == 0:
         raise ValueError(f"B must be a non-empty 2-D matrix (n × m), got shape {B.shape}")
     n, m = B.shape
-    u = np.asarray(u, dtype=float)
     if u.shape != (n,):
         raise ValueError(f"u must be a vector of length n = {n} (rows of B), got shape {u.shape}")
     lo = np.broadcast_to(np.asarray(lo, dtype=float), (m,)) if np.ndim(lo) == 0 else np.asarray(lo, dtype=float)

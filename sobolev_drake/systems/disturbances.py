@@ -36,7 +36,7 @@ def normalize_pulse(pulse, n: int, k: int = 0) -> dict:
     if "index" not in pulse or "value" not in pulse:
         raise ValueError(f"pulses[{k}] needs 'index' and 'value', got {sorted(pulse)}")
     idx = pulse["index"]
-    if not isinstance(idx, (int, np.integer)) or not 0 <= idx < n:
+    if isinstance(idx, (bool, np.bool_)) or not isinstance(idx, (int, np.integer)) or not 0 <= idx < n:
         raise ValueError(f"pulses[{k}]['index'] must be an integer in [0, {n}), got {idx!r}")
     value = pulse["value"]
     if not callable(value):
@@ -106,8 +106,8 @@ def pulses_from_mission(entries: Sequence[dict], dof_names: Sequence[str]) -> li
         axis = e.get("axis")
         if axis not in names:
             raise ValueError(f"force_disturbances[{k}]['axis'] = {axis!r} is not a coordinate; known: {names}")
-        out.append({"index": names.index(axis), "value": float(e["value"]), "from": float(e["from"]),
-                    "to": float(e["to"])})
+        pulse = {"index": names.index(axis), "value": e["value"], "from": e["from"], "to": e["to"]}
+        out.append(normalize_pulse(pulse, len(names), k))
     return out
 
 

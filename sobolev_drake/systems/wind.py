@@ -320,6 +320,8 @@ class GustProfile(LeafSystem):
                 raise ValueError(f"gusts[{i}] must be a mapping with keys axis, value, from, to; got {g!r}") from exc
             if axis not in AXES:
                 raise ValueError(f"gusts[{i}]['axis'] must be one of 'x', 'y', 'z', got {axis!r}")
+            if not np.isfinite(value):
+                raise ValueError(f"gusts[{i}]['value'] must be a finite wind speed (m/s), got {value!r}")
             if not t0 < t1:
                 raise ValueError(f"gusts[{i}] needs from < to, got [{t0}, {t1}]")
             if rise_time > t1 - t0:
