@@ -14,7 +14,7 @@ import sys
 import time
 
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-from pydrake.systems.framework import EventStatus
+from pydrake.systems.framework import Context_, EventStatus
 
 from .validation import one_of, positive_scalar
 
@@ -118,6 +118,13 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
     max_step = positive_scalar("max_step", max_step)
     if wall_time_limit is not None:
         wall_time_limit = positive_scalar("wall_time_limit", wall_time_limit)
+    if simulator is not None and not isinstance(simulator, Simulator):
+        raise TypeError(f"simulator must be a pydrake Simulator or None, got {type(simulator).__name__}")
+    if simulator is None and not isinstance(context, Context_[float]):
+        raise TypeError("context must be the root Context of diagram (diagram.CreateDefaultContext()), "
+                        f"got {type(context).__name__}; or pass simulator=")
+    if not isinstance(label, str):
+        raise TypeError(f"label must be a string, got {label!r}")
     if simulator is None:
         simulator = Simulator(diagram, context)
     else:  # reuse: the simulator's own context is advanced (``context`` may be None)

@@ -12,6 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
 from sobolev_drake import norms, report, validation
+from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 from sobolev_drake.simulation import SimulationTimeout, simulate
 from sobolev_drake.synthesis import margins, regions
 from sobolev_drake.synthesis.hinf import GeneralizedPlant, output_feedback, state_feedback
@@ -83,6 +84,14 @@ CASES = [
     ("simulate integrator", lambda: sim(1.0, integrator="rk4"), ValueError, "integrator must be one of"),
     ("simulate accuracy", lambda: sim(1.0, accuracy=0.0), ValueError, "accuracy must be > 0"),
     ("simulate max_step nan", lambda: sim(1.0, max_step=float("nan")), ValueError, "max_step must be a finite"),
+    ("simulate context None", lambda: simulate(diagram()[0], None, 1.0), TypeError, "context must be the root Context"),
+    ("simulate simulator str", lambda: simulate(diagram()[0], None, 1.0, simulator="sim"), TypeError, "simulator must be a pydrake Simulator"),
+    ("simulate label", lambda: sim(1.0, label=None), TypeError, "label must be a string"),
+    ("tiltrotor mass", lambda: TiltrotorParams(m1=-7.0), ValueError, "TiltrotorParams.m1 must be > 0"),
+    ("tiltrotor rho nan", lambda: TiltrotorParams(rho=float("nan")), ValueError, "TiltrotorParams.rho must be a finite"),
+    ("tiltrotor beta nan", lambda: TiltrotorParams(beta=float("nan")), ValueError, "TiltrotorParams.beta must be a finite"),
+    ("tiltrotor vector nan", lambda: TiltrotorParams(d_B_F=np.array([np.nan, 0.0, 0.0])), ValueError, "TiltrotorParams.d_B_F must be finite"),
+    ("tiltrotor crossflow", lambda: TiltrotorParams(crossflow="none"), ValueError, "crossflow must be one of"),
     ("simulate wall limit", lambda: sim(1.0, wall_time_limit=-1), ValueError, "wall_time_limit must be > 0"),
     # --- generalized plant and synthesis
     ("complex A", lambda: GeneralizedPlant.make(A2 + 1j, D2, B2, np.eye(2)), TypeError, "A must be real, got complex"),
