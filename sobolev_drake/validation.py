@@ -52,6 +52,14 @@ def real_array(name, value):
     return arr.astype(float)
 
 
+def _nonempty_finite(name, arr, value, allow_empty):
+    if arr.size == 0 and not allow_empty:
+        raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got non-finite entries ({describe(value)})")
+    return arr
+
+
 def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> np.ndarray:
     """``value`` as a finite real 2-D float array (scalars and vectors are promoted to 2-D).
 
@@ -67,11 +75,7 @@ def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> n
             if want is not None and got != want:
                 expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
                 raise ValueError(f"{name} must have shape {expected}, got {arr.shape}")
-    if arr.size == 0 and not allow_empty:
-        raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got non-finite entries ({describe(value)})")
-    return arr
+    return _nonempty_finite(name, arr, value, allow_empty)
 
 
 def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool = False) -> np.ndarray:
@@ -82,11 +86,7 @@ def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool 
     arr = np.atleast_1d(arr)
     if size is not None and arr.size != size:
         raise ValueError(f"{name} must have {size} entries, got {arr.size}")
-    if arr.size == 0 and not allow_empty:
-        raise ValueError(f"{name} must not be empty")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {describe(value)}")
-    return arr
+    return _nonempty_finite(name, arr, value, allow_empty)
 
 
 def real_scalar(name: str, value, *, low=None, high=None, low_open: bool = False,
