@@ -27,6 +27,9 @@ _FIXED_STEP = ("runge_kutta2", "explicit_euler", "semi_explicit_euler")
 #: Relative slack added to ``max_step`` (see :func:`simulate`); 1e-6 covers the rounding of
 #: event times up to t ≈ 1e7 s and changes no step size by a measurable amount.
 MAX_STEP_SLACK = 1e-6
+#: most steps (duration / max_step) :func:`simulate` accepts without a ``wall_time_limit``: at
+#: 10 µs per step of a minimal diagram that is already about three hours
+MAX_STEPS_UNBOUNDED = 1e9
 
 
 class ProgressMonitor:
@@ -133,6 +136,10 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
     integ = simulator.get_mutable_integrator()
     if integrator not in _FIXED_STEP:  # fixed-step schemes use max_step as their step
         integ.set_target_accuracy(float(accuracy))
+    if wall_time_limit is None and duration / max_step > MAX_STEPS_UNBOUNDED:
+        raise ValueError(f"duration={duration:g} s with max_step={max_step:g} s means more than "
+                         f"{MAX_STEPS_UNBOUNDED:.0e} integrator steps (hours to days of wall time); "
+                         "pass wall_time_limit=... to run it anyway, or shorten it")
     t0 = context.get_time()
     t_end = t0 + duration
     if not math.isfinite(t_end) or t_end == t0:

@@ -68,6 +68,8 @@ def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
     """A Drake Meshcat server.  ``port=0`` asks the OS for a free ephemeral port, so parallel
     runs (CI with pytest-xdist, several experiments) never collide; ``host='localhost'`` keeps it
     off the network.  The URL is ``meshcat.web_url()``."""
+    if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not (port == 0 or 1024 <= port <= 65535):
+        raise ValueError(f"port must be 0 (any free port) or an integer in [1024, 65535], got {port!r}")
     return Meshcat(MeshcatParams(host=host, port=int(port), show_stats_plot=False))
 
 

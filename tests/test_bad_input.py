@@ -12,7 +12,12 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
 from sobolev_drake import norms, report, validation
+from sobolev_drake import viz
+from sobolev_drake.models.base import check_vector
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+from sobolev_drake.synthesis.galerkin_basis import Box, PolynomialBasis, gauss_legendre, midpoint
+from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, hinf_mechanical_gains
+from sobolev_drake.systems.references import PiecewiseTrajectory
 from sobolev_drake.simulation import SimulationTimeout, simulate
 from sobolev_drake.synthesis import margins, regions
 from sobolev_drake.synthesis.hinf import GeneralizedPlant, output_feedback, state_feedback
@@ -58,6 +63,13 @@ def sim_from(t0, duration):
     d, ctx = diagram()
     ctx.SetTime(t0)
     return simulate(d, ctx, duration, progress=False)
+
+
+def _force_at_arm():
+    from sobolev_drake.models.arm import add_arm
+    from sobolev_drake.systems.disturbances import CartesianForceAtBody
+    arm = add_arm(DiagramBuilder())
+    return CartesianForceAtBody(arm.model, "link2")
 
 
 SF_RESULT = None
@@ -226,6 +238,23 @@ CASES = [
     ("report row length", lambda: report.markdown_table(["a"], [[1, 2]]), ValueError, "row 0 has 2 cells, expected 1"),
     ("report results", lambda: report.write_reproduction([None], "unused.md"), TypeError, r"results\[0\] must be an ExperimentResult"),
     ("report save", lambda: report.save_result(None, "unused"), TypeError, "result must be an ExperimentResult"),
+    # --- more construction checks (each of these used to crash, hang or pass silently)
+    ("force at body nan q", lambda: _force_at_arm().generalized_force([0.1, np.nan], [1.0, 0.0, 0.0]), ValueError, "q must be finite"),
+    ("meshcat port", lambda: viz.start_meshcat(port=-5), ValueError, "port must be 0"),
+    ("trajectory names str", lambda: PiecewiseTrajectory("xy", [[const(0.0), const(1.0)]]), TypeError, "names must be a sequence"),
+    ("trajectory breakpoints nan", lambda: PiecewiseTrajectory(["x"], [[const(0.0)], [const(1.0)]], [np.nan]), ValueError, "breakpoints must be finite"),
+    ("complex q", lambda: check_vector("q", np.array([0.1 + 1j, 0.0]), 2), TypeError, "q must be real"),
+    ("feedthrough str", lambda: LinearDynamicOutputFeedback([[-1.0]], [[1.0]], [[1.0]], [[1.0]], feedthrough="no"), TypeError, "feedthrough must be None, True or False"),
+    ("simulate huge", lambda: sim(1e12), ValueError, "more than 1e\\+09 integrator steps"),
+    ("simulate tiny step", lambda: sim(1.0, max_step=1e-12), ValueError, "pass wall_time_limit"),
+    ("Hinf gains gamma <= omega_u", lambda: HinfMechanicalGains(1.0, 1.0, 1.0, 2.0, 1.0), ValueError, "need gamma > omega_u"),
+    ("Hinf gains bool", lambda: hinf_mechanical_gains(True, 1, 1, 1, 2), TypeError, "omega1 must be a real number"),
+    ("basis float degree", lambda: PolynomialBasis(1, 2.7), TypeError, "degree must be an integer"),
+    ("basis huge", lambda: PolynomialBasis(12, 40), ValueError, "terms, more than"),
+    ("gauss float nodes", lambda: gauss_legendre(Box.symmetric([1.0]), 2.5), TypeError, "nodes_per_dim must be integers"),
+    ("gauss huge", lambda: gauss_legendre(Box.symmetric([1.0] * 6), 200), ValueError, "tensor rule would have"),
+    ("midpoint huge", lambda: midpoint(Box.symmetric([1.0, 1.0, 1.0]), 1e-4), ValueError, "tensor rule would have"),
+    ("midpoint nan", lambda: midpoint(Box.symmetric([1.0]), float("nan")), ValueError, "width must be a finite"),
     # --- the validation helpers themselves
     ("index_tuple range", lambda: validation.index_tuple("joints", [3], 2), ValueError, r"joints: index 3 is out of range\(2\)"),
     ("index_tuple names", lambda: validation.index_tuple("joints", ["wrist"], 2, names=["q1", "q2"]), ValueError, "known names"),

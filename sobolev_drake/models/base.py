@@ -25,6 +25,8 @@ def check_vector(name: str, value, size: int) -> np.ndarray:
     Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument.  Called at every
     integrator stage by the controllers: the common case is one shape test and one reduction.
     """
+    if getattr(value, "dtype", None) is not None and value.dtype.kind == "c":
+        raise TypeError(f"{name} must be real, got complex entries")  # astype would drop .imag
     arr = np.asarray(value, dtype=float)
     if arr.shape == (size,) and np.isfinite(arr).all():
         return arr

@@ -19,11 +19,14 @@ Every basis evaluates on a batch of points ``X`` of shape ``(Q, n)`` and returns
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
 from typing import Callable
 
 import numpy as np
+
+from ..validation import real_scalar
 
 __all__ = ["Box", "QuadratureRule", "gauss_legendre", "midpoint", "PolynomialBasis",
            "FunctionBasis", "check_points"]
@@ -113,13 +116,29 @@ def _tensor_rule(box: Box, nodes_1d, weights_1d, name) -> QuadratureRule:
     return QuadratureRule(points, weights, name)
 
 
+#: most quadrature nodes a tensor rule may have (each node holds the basis and its gradient)
+MAX_QUADRATURE_NODES = 10_000_000
+
+
+def _check_grid_size(per_axis):
+    total = float(np.prod(np.asarray(per_axis, dtype=float)))
+    if total > MAX_QUADRATURE_NODES:
+        raise ValueError(f"the tensor rule would have {total:.3g} nodes ({' x '.join(str(int(v)) for v in per_axis)}), "
+                         f"more than {MAX_QUADRATURE_NODES:.0e}: use fewer nodes per axis or wider cells")
+
+
 def gauss_legendre(box: Box, nodes_per_dim) -> QuadratureRule:
     """Tensor Gauss–Legendre rule with ``nodes_per_dim`` nodes per axis (int or per-axis list)."""
     if not isinstance(box, Box):
         raise TypeError(f"box must be a Box, got {type(box).__name__}")
-    p = np.broadcast_to(np.asarray(nodes_per_dim), (box.n,)).astype(int)
-    if np.any(p < 1):
-        raise ValueError(f"nodes_per_dim must be >= 1, got {nodes_per_dim}")
+    counts = [nodes_per_dim] * box.n if np.ndim(nodes_per_dim) == 0 else list(nodes_per_dim)
+    if len(counts) != box.n:
+        raise ValueError(f"nodes_per_dim must be one integer or {box.n} (one per axis), got {nodes_per_dim!r}")
+    for c in counts:
+        if isinstance(c, (bool, np.bool_)) or not isinstance(c, (int, np.integer)) or c < 1:
+            raise TypeError(f"nodes_per_dim must be integers >= 1, got {nodes_per_dim!r}")
+    p = np.array(counts, dtype=int)
+    _check_grid_size(p)
     nodes, weights = [], []
     for i in range(box.n):
         t, w = np.polynomial.legendre.leggauss(int(p[i]))
@@ -133,9 +152,8 @@ def midpoint(box: Box, width=0.1) -> QuadratureRule:
     """Composite midpoint rule on cells of width ≈ ``width`` (the thesis' (4.32), Δ = 0.1)."""
     if not isinstance(box, Box):
         raise TypeError(f"box must be a Box, got {type(box).__name__}")
-    width = float(width)
-    if not width > 0:
-        raise ValueError(f"midpoint cell width must be positive, got {width}")
+    width = real_scalar("width", width, low=0.0, low_open=True)
+    _check_grid_size([max(1, int(round((box.upper[i] - box.lower[i]) / width))) for i in range(box.n)])
     nodes, weights = [], []
     for i in range(box.n):
         L = box.upper[i] - box.lower[i]
@@ -144,6 +162,10 @@ def midpoint(box: Box, width=0.1) -> QuadratureRule:
         nodes.append(box.lower[i] + h * (np.arange(cells) + 0.5))
         weights.append(np.full(cells, h))
     return _tensor_rule(box, nodes, weights, f"midpoint Δ≈{width}")
+
+
+#: most terms of a complete monomial basis (the Galerkin matrices are terms x terms)
+MAX_BASIS_TERMS = 20_000
 
 
 class PolynomialBasis:
@@ -160,7 +182,14 @@ class PolynomialBasis:
     """
 
     def __init__(self, n: int, degree: int, *, min_degree: int = 1, scale=None, names=None):
+        for name, v in (("n", n), ("degree", degree), ("min_degree", min_degree)):
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+                raise TypeError(f"{name} must be an integer, got {v!r}")
         n, degree, min_degree = int(n), int(degree), int(min_degree)
+        terms = math.comb(n + degree, degree)
+        if terms > MAX_BASIS_TERMS:
+            raise ValueError(f"PolynomialBasis({n}, {degree}) would have about {terms:.3g} terms, more "
+                             f"than {MAX_BASIS_TERMS}: lower the degree")
         if n < 1:
             raise ValueError(f"n must be >= 1, got {n}")
         if degree < 1 or min_degree < 0 or min_degree > degree:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from ..validation import real_array
+from ..validation import real_array, real_scalar
 
 __all__ = [
     "SobolevGains", "controlled_gains", "regulated_gains", "stabilized_gains", "sobolev_gains",
@@ -338,6 +338,12 @@ class HinfMechanicalGains:
     s: float = field(init=False)
 
     def __post_init__(self):
+        for name in ("omega1", "omega3", "omega_u", "gamma"):
+            setattr(self, name, real_scalar(name, getattr(self, name), low=0.0, low_open=True))
+        self.omega2 = real_scalar("omega2", self.omega2, low=0.0)
+        if not self.gamma > self.omega_u:
+            raise ValueError(f"H∞ design infeasible: need gamma > omega_u (R⁻¹ − γ⁻² I > 0), "
+                             f"got gamma = {self.gamma}, omega_u = {self.omega_u}")
         self.c = self.gamma * self.omega_u / np.sqrt(self.gamma ** 2 - self.omega_u ** 2)
         self.s = np.sqrt(self.omega2 ** 2 + 2 * self.omega1 * self.omega3)
 
@@ -393,16 +399,4 @@ def hinf_mechanical_gains(omega1: float, omega2: float, omega3: float, omega_u: 
     All weights are positive scalars (the classic design weighs all DOF equally); ω2 may be 0.
     Feasibility requires γ > ωu (R⁻¹ − γ⁻²I > 0).
     """
-    vals = {"omega1": omega1, "omega2": omega2, "omega3": omega3, "omega_u": omega_u, "gamma": gamma}
-    for name, v in vals.items():
-        if not np.isscalar(v) or not np.isfinite(v):
-            raise ValueError(f"{name} must be a finite scalar, got {v!r}")
-    for name in ("omega1", "omega3", "omega_u", "gamma"):
-        if not vals[name] > 0:
-            raise ValueError(f"{name} must be > 0, got {vals[name]}")
-    if omega2 < 0:
-        raise ValueError(f"omega2 must be >= 0, got {omega2}")
-    if not gamma > omega_u:
-        raise ValueError(f"H∞ design infeasible: need gamma > omega_u (R⁻¹ − γ⁻² I > 0), "
-                         f"got gamma = {gamma}, omega_u = {omega_u}")
-    return HinfMechanicalGains(float(omega1), float(omega2), float(omega3), float(omega_u), float(gamma))
+    return HinfMechanicalGains(omega1, omega2, omega3, omega_u, gamma)   # checked there

@@ -23,6 +23,8 @@ import numpy as np
 from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from sobolev_drake.models.base import check_vector
+
 __all__ = ["TimeProfiledForce", "CartesianForceAtBody", "pulses_from_mission", "normalize_pulse"]
 
 
@@ -155,7 +157,7 @@ class CartesianForceAtBody(LeafSystem):
 
     def jacobian(self, q, *, thesis: bool = True) -> np.ndarray:
         """6×n Jacobian [W_D; J_P] (angular rows first) at configuration q (thesis or Drake order)."""
-        q = np.asarray(q, dtype=float)
+        q = check_vector("q", q, self.n)   # a NaN position aborts Drake's process, not just the call
         self.plant.SetPositions(self._ctx, self.model.to_drake(q) if thesis else q)
         world = self.plant.world_frame()
         J = self.plant.CalcJacobianSpatialVelocity(self._ctx, JacobianWrtVariable.kV, self.frame,

@@ -133,6 +133,8 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
         self.u_op = np.zeros(nu) if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
         x0 = np.zeros(nk) if x0 is None else _mat("x0", x0, (1, nk)).ravel()
         self._bounds = _bounds(nu, u_min, u_max)
+        if feedthrough is not None and not isinstance(feedthrough, (bool, np.bool_)):
+            raise TypeError(f"feedthrough must be None, True or False, got {feedthrough!r}")
         self.feedthrough = bool(np.any(self.DK != 0)) if feedthrough is None else bool(feedthrough)
         if not self.feedthrough and np.any(self.DK != 0):
             raise ValueError("DK must be zero when feedthrough=False (u would depend on y directly)")

@@ -120,7 +120,9 @@ class PiecewiseTrajectory:
 
     def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
                  breakpoints: Sequence[float] = (), description: str = ""):
-        self.names = [str(n) for n in names]
+        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise TypeError(f"names must be a sequence of coordinate-name strings, got {names!r}")
+        self.names = list(names)
         self.m = len(self.names)
         if self.m == 0:
             raise ValueError("names must list at least one coordinate")
@@ -135,7 +137,7 @@ class PiecewiseTrajectory:
             for j, c in enumerate(p):
                 if not isinstance(c, Coordinate):
                     raise TypeError(f"pieces[{k}][{j}] must be a Coordinate, got {type(c).__name__}")
-        self.breakpoints = np.asarray(breakpoints, dtype=float).reshape(-1)
+        self.breakpoints = real_vector("breakpoints", breakpoints, allow_empty=True)
         if self.breakpoints.size != len(self.pieces) - 1:
             raise ValueError(f"breakpoints must have {len(self.pieces) - 1} entries (one fewer than pieces), "
                              f"got {self.breakpoints.size}")
