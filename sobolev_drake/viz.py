@@ -53,6 +53,8 @@ if os.environ.get("MPLBACKEND") is None:  # headless default; users may still ch
     matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from sobolev_drake.validation import index_tuple, real_scalar, real_vector  # noqa: E402
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Rgba  # noqa: E402
 from pydrake.math import RigidTransform  # noqa: E402
 
@@ -82,8 +84,7 @@ def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_peri
     """
     if scene_graph is None:
         raise ValueError("scene_graph is None: build the plant with a DiagramBuilder to get geometry")
-    if not publish_period > 0:
-        raise ValueError(f"publish_period must be positive, got {publish_period}")
+    publish_period = real_scalar("publish_period", publish_period, low=0.0, low_open=True)
     params = MeshcatVisualizerParams()
     params.publish_period = float(publish_period)
     vis = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
@@ -138,9 +139,11 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
         raise ValueError("points must be finite")
     if P.shape[1] < 2:
         raise ValueError("points needs at least 2 points")
-    if len(rgba) != 4:
-        raise ValueError(f"rgba must have 4 entries, got {rgba!r}")
-    meshcat.SetLine(f"/paths/{name}", P, line_width, Rgba(*map(float, rgba)))
+    color = real_vector("rgba", rgba, 4)
+    if np.any((color < 0) | (color > 1)):
+        raise ValueError(f"rgba entries must be in [0, 1], got {tuple(rgba)}")
+    line_width = real_scalar("line_width", line_width, low=0.0, low_open=True)
+    meshcat.SetLine(f"/paths/{name}", P, line_width, Rgba(*color.tolist()))
 
 
 def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
@@ -345,7 +348,7 @@ def trajectory_from_log(log, *, indices=None, plant=None, body=None) -> tuple[np
     if (indices is None) == (plant is None):
         raise ValueError("give either indices=(ix, iy, iz) or plant= and body=")
     if indices is not None:
-        idx = [int(i) for i in indices]
+        idx = list(index_tuple("indices", indices, data.shape[0]))
         if len(idx) != 3 or min(idx) < -data.shape[0] or max(idx) >= data.shape[0]:
             raise ValueError(f"indices must be 3 rows of the {data.shape[0]}-row log, got {indices!r}")
         return t, data[idx].T.copy()

@@ -255,6 +255,10 @@ CASES = [
     ("gauss huge", lambda: gauss_legendre(Box.symmetric([1.0] * 6), 200), ValueError, "tensor rule would have"),
     ("midpoint huge", lambda: midpoint(Box.symmetric([1.0, 1.0, 1.0]), 1e-4), ValueError, "tensor rule would have"),
     ("midpoint nan", lambda: midpoint(Box.symmetric([1.0]), float("nan")), ValueError, "width must be a finite"),
+    ("trajectory float indices", lambda: viz.trajectory_from_log((T, np.zeros((4, T.size))), indices=(0.5, 1.5, 2.5)),
+     TypeError, "indices must contain integer indices"),
+    ("draw_path rgba", lambda: viz.draw_path(None, "p", [[0, 0, 0], [1, 1, 1]], rgba=(2, 0, 0, 1)), ValueError, r"rgba entries must be in \[0, 1\]"),
+    ("draw_path width", lambda: viz.draw_path(None, "p", [[0, 0, 0], [1, 1, 1]], line_width=float("nan")), ValueError, "line_width must be a finite"),
     # --- the validation helpers themselves
     ("index_tuple range", lambda: validation.index_tuple("joints", [3], 2), ValueError, r"joints: index 3 is out of range\(2\)"),
     ("index_tuple names", lambda: validation.index_tuple("joints", ["wrist"], 2, names=["q1", "q2"]), ValueError, "known names"),

@@ -22,6 +22,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, Output
 
 from sobolev_drake.models._adapter import ThesisForceAdapter
 from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.validation import index_tuple
 
 
 @dataclass
@@ -79,8 +80,8 @@ def add_state_selector(builder: DiagramBuilder, state: OutputPort, index, name: 
     """
     from pydrake.systems.primitives import Selector, SelectorParams
 
-    index = [int(i) for i in np.asarray(index).ravel()]
     n = state.size()
+    index = list(index_tuple(f"index (a permutation of range({n}))", index, n))
     if sorted(index) != list(range(n)):
         raise ValueError(f"index must be a permutation of range({n}) (the size of {state.get_name()!r}), "
                          f"got {index}")
