@@ -178,6 +178,12 @@ def save_result(result, out_dir) -> Path:
     return path
 
 
+def _json_bool(value, path, i):
+    if not isinstance(value, bool):   # bool("false") is True: never coerce
+        raise ValueError(f"{path}: claims[{i}].held must be a JSON boolean, got {value!r}")
+    return value
+
+
 def load_result(path):
     """Inverse of :func:`save_result` (output paths made relative to the current directory)."""
     from sobolev_drake.experiments import Claim, ExperimentResult
@@ -189,7 +195,8 @@ def load_result(path):
             name=data["name"],
             outputs={k: path.parent / v for k, v in data.get("outputs", {}).items()},
             metrics=data.get("metrics", {}),
-            claims=[Claim(c["text"], bool(c["held"]), c.get("detail", "")) for c in data.get("claims", [])],
+            claims=[Claim(c["text"], _json_bool(c["held"], path, i), c.get("detail", ""))
+                    for i, c in enumerate(data.get("claims", []))],
             table_markdown=data.get("table_markdown", ""))
     except (KeyError, TypeError) as err:
         raise ValueError(f"{path} is not a result.json written by save_result: {err}") from None

@@ -25,7 +25,7 @@ from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.synthesis.polytopic import (interval_vertices, random_interior_points,
                                                robust_hinf_state_feedback, robust_winf_state_feedback)
 from sobolev_drake.synthesis.sobolev import winf_output_feedback, winf_plant, winf_state_feedback
-from sobolev_drake.systems.allocation import ControlAllocator
+from sobolev_drake.systems.allocation import ControlAllocator, propeller_speed_for_thrust
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.disturbances import TimeProfiledForce, pulses_from_mission
 from sobolev_drake.systems.wind import GustProfile
@@ -70,6 +70,15 @@ def _force_at_arm():
     from sobolev_drake.systems.disturbances import CartesianForceAtBody
     arm = add_arm(DiagramBuilder())
     return CartesianForceAtBody(arm.model, "link2")
+
+
+def _result_file(data):
+    import json
+    import tempfile
+    from pathlib import Path
+    path = Path(tempfile.mkdtemp()) / "result.json"
+    path.write_text(json.dumps(data))
+    return path
 
 
 SF_RESULT = None
@@ -259,6 +268,9 @@ CASES = [
      TypeError, "indices must contain integer indices"),
     ("draw_path rgba", lambda: viz.draw_path(None, "p", [[0, 0, 0], [1, 1, 1]], rgba=(2, 0, 0, 1)), ValueError, r"rgba entries must be in \[0, 1\]"),
     ("draw_path width", lambda: viz.draw_path(None, "p", [[0, 0, 0], [1, 1, 1]], line_width=float("nan")), ValueError, "line_width must be a finite"),
+    ("load_result held string", lambda: report.load_result(_result_file({"name": "x", "claims": [
+        {"text": "t", "held": "false"}]})), ValueError, r"claims\[0\].held must be a JSON boolean, got 'false'"),
+    ("propeller tol nan", lambda: propeller_speed_for_thrust(10.0, tol=float("nan")), ValueError, "tol must be a finite"),
     # --- the validation helpers themselves
     ("index_tuple range", lambda: validation.index_tuple("joints", [3], 2), ValueError, r"joints: index 3 is out of range\(2\)"),
     ("index_tuple names", lambda: validation.index_tuple("joints", ["wrist"], 2, names=["q1", "q2"]), ValueError, "known names"),

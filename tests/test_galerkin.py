@@ -405,3 +405,16 @@ def test_winf_law_satisfies_the_dissipation_inequality():
     assert np.all(J <= dV + 1e-3 * np.abs(res.value(x0)))
     J, dV = run(worst=True)
     assert np.allclose(J, dV, rtol=2e-3, atol=1e-6)
+
+
+@pytest.mark.parametrize("kw, pattern", [
+    (dict(tol=float("nan")), "tol must be a finite number"),
+    (dict(max_iter=0), "max_iter must be an integer >= 1"),
+    (dict(max_iter=2.5), "max_iter must be an integer >= 1"),
+    (dict(divergence_factor=float("nan")), "divergence_factor must be a finite number"),
+    (dict(divergence_factor=0.5), "divergence_factor must be > 1"),
+])
+def test_solve_options_are_checked(kw, pattern):
+    K0 = stabilizing_gains()[0]
+    with pytest.raises(ValueError, match=pattern):
+        sgaa_w2(f_lin, g_lin, h_lin, dh_lin, S0, S1, lambda X: X @ K0.T, QUAD2, BOX3, quadrature=3, **kw)

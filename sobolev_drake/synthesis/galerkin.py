@@ -45,6 +45,7 @@ from typing import Callable
 
 import numpy as np
 
+from sobolev_drake.validation import real_scalar
 from sobolev_drake.synthesis.galerkin_basis import Box, QuadratureRule, gauss_legendre, check_points
 from sobolev_drake.synthesis.galerkin_problem import (
     AdmissibilityError, AffineGalerkinSystem, GalerkinConvergenceError, GalerkinDivergenceError,
@@ -317,7 +318,13 @@ class GalerkinProblem:
             raise ValueError("disturbance_update must be 'best_response' or 'saddle'")
         if check_u0 not in ("simulate", "linearization", "none"):
             raise ValueError("check_u0 must be 'simulate', 'linearization' or 'none'")
-        self.divergence_factor = float(divergence_factor)
+        real_scalar("tol", tol, low=0.0)
+        real_scalar("atol", atol, low=0.0)
+        if inner_tol is not None:
+            real_scalar("inner_tol", inner_tol, low=0.0)
+        if isinstance(max_iter, (bool, np.bool_)) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+            raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+        self.divergence_factor = real_scalar("divergence_factor", divergence_factor, low=1.0, low_open=True)
         inner_tol = tol if inner_tol is None else inner_tol
         t0 = time.perf_counter()
         diag = {"quadrature": self.quadrature.name, "nodes": self.quadrature.size,

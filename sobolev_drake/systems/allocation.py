@@ -238,6 +238,7 @@ def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, 
     """
     from sobolev_drake.systems.propulsion import PropellerCoefficients
 
+    real_scalar("tol", tol, low=0.0, low_open=True)
     coef = coefficients if coefficients is not None else PropellerCoefficients()
     if on_unreachable not in ("raise", "clip"):
         raise ValueError(f"on_unreachable must be 'raise' or 'clip', got {on_unreachable!r}")
