@@ -142,6 +142,11 @@ def _cmd_run(args) -> int:
                          f"{exp.default_duration:g} s)" if exp.max_duration_override is None else
                          f"--duration {args.duration:g} s is longer than experiment {exp.name!r} "
                          f"can use (at most {limit:g} s)")
+    low = exp.min_duration
+    if args.duration is not None and low is not None and args.duration < low:
+        raise UsageError(f"--duration {args.duration:g} s is too short for experiment {exp.name!r} "
+                         f"(at least {low:g} s, {exps.MIN_DURATION_FACTOR:g}x its default "
+                         f"{exp.default_duration:g} s; --smoke gives the short version)")
     out_dir = _writable_dir(Path(args.out) / exp.name)
     try:
         result = _run(exp, Path(args.out), duration=args.duration, record=not args.no_record,

@@ -33,6 +33,8 @@ def test_unknown_experiment_exit_2(capsys):
     (["run", "models-tour", "--duration", "nan"], "finite number of seconds > 0, got 'nan'"),
     (["run", "manipulator", "--duration", "1e6"], "longer than experiment 'manipulator' can use (at most 400 s"),
     (["run", "linear-simple", "--duration", "1e12"], "longer than experiment 'linear-simple' can use"),
+    (["run", "manipulator", "--duration", "1e-300"], "too short for experiment 'manipulator' (at least 0.4 s"),
+    (["run", "linear-simple", "--duration", "1e-9"], "too short for experiment 'linear-simple'"),
     (["run", "models-tour", "--smoke", "--out", "/proc/x"], "--out: cannot write to"),
     (["run", "models-tour", "--bogus"], "unrecognized arguments: --bogus"),
     (["report", "--out", "/no/such/dir"], "no */result.json under"),
@@ -55,6 +57,16 @@ def test_out_is_a_file(tmp_path, capsys):
 def test_every_experiment_bounds_its_duration():
     for exp in exps.discover().values():
         assert exp.max_duration is not None and exp.max_duration >= exp.default_duration
+        assert 0 < exp.min_duration < exp.default_duration
+
+
+@pytest.mark.parametrize("kw, pattern", [(dict(name=""), "name must be a non-empty string"),
+                                         (dict(name="x", default_duration=-5.0), "default_duration must be"),
+                                         (dict(name="x", max_duration=float("inf")), "max_duration must be")])
+def test_register_checks_its_arguments(kw, pattern):
+    name = kw.pop("name")
+    with pytest.raises(ValueError, match=pattern):
+        exps.register(name, "summary", **kw)
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@ An experiment's ``run`` callable has the signature::
 from __future__ import annotations
 
 import importlib
+import math
 import pkgutil
 import warnings
 from dataclasses import dataclass, field
@@ -64,8 +65,17 @@ class Experiment:
         return MAX_DURATION_FACTOR * self.default_duration
 
 
+    @property
+    def min_duration(self) -> float | None:
+        """Shortest simulated time that still gives the experiment's indices some samples
+        (shorter runs divide by empty logs): MIN_DURATION_FACTOR x its default duration."""
+        return None if self.default_duration is None else MIN_DURATION_FACTOR * self.default_duration
+
+
 #: default bound on ``--duration``: this many times the experiment's default duration
 MAX_DURATION_FACTOR = 10.0
+#: lower bound on ``--duration``: this fraction of the experiment's default duration
+MIN_DURATION_FACTOR = 0.01
 
 
 REGISTRY: dict[str, Experiment] = {}
@@ -80,6 +90,13 @@ def register(name: str, summary: str, *, default_duration=None, flagship=0, thes
              max_duration=None):
     """Decorator registering ``run`` as experiment ``name`` (``max_duration``: see
     :attr:`Experiment.max_duration`)."""
+
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"experiment name must be a non-empty string, got {name!r}")
+    for label, value in (("default_duration", default_duration), ("max_duration", max_duration)):
+        if value is not None and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                      and math.isfinite(value) and value > 0):
+            raise ValueError(f"{label} must be a finite number of seconds > 0 or None, got {value!r}")
 
     def wrap(run):
         if name in REGISTRY and REGISTRY[name].run is not run:
