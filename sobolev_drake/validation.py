@@ -15,7 +15,7 @@ import operator
 
 import numpy as np
 
-__all__ = ["real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
+__all__ = ["check_parameter_fields", "real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
            "bounds_pair", "one_of", "describe"]
 
 
@@ -185,3 +185,29 @@ def one_of(name: str, value, options):
     if value not in tuple(options):
         raise ValueError(f"{name} must be one of {tuple(options)}, got {describe(value)}")
     return value
+
+
+def check_parameter_fields(params, positive=(), nonnegative=()) -> None:
+    """Check a dataclass of physical parameters: every numeric field finite (arrays entrywise),
+    the fields named in ``positive`` > 0 and those in ``nonnegative`` >= 0; strings are skipped.
+    Errors name ``<Class>.<field>``."""
+    from dataclasses import fields
+
+    cls = type(params).__name__
+    for f in fields(params):
+        if not f.init:
+            continue
+        value = getattr(params, f.name)
+        label = f"{cls}.{f.name}"
+        if f.name in positive:
+            real_scalar(label, value, low=0.0, low_open=True)
+        elif f.name in nonnegative:
+            real_scalar(label, value, low=0.0)
+        elif isinstance(value, str):   # option fields (e.g. model variants) are checked by their class
+            continue
+        elif np.ndim(value) == 0:
+            real_scalar(label, value)
+        else:
+            arr = real_array(label, value)
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{label} must be finite, got {describe(value)}")

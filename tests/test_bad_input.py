@@ -13,7 +13,10 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
 from sobolev_drake import norms, report, validation
 from sobolev_drake import viz
+from sobolev_drake.models.arm import ArmParams
 from sobolev_drake.models.base import check_vector
+from sobolev_drake.models.quadrotor import QuadrotorParams
+from sobolev_drake.models.two_wheeled import TwoWheeledParams
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 from sobolev_drake.synthesis.galerkin_basis import Box, PolynomialBasis, gauss_legendre, midpoint
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, hinf_mechanical_gains
@@ -271,6 +274,12 @@ CASES = [
     ("load_result held string", lambda: report.load_result(_result_file({"name": "x", "claims": [
         {"text": "t", "held": "false"}]})), ValueError, r"claims\[0\].held must be a JSON boolean, got 'false'"),
     ("propeller tol nan", lambda: propeller_speed_for_thrust(10.0, tol=float("nan")), ValueError, "tol must be a finite"),
+    ("arm mass nan", lambda: ArmParams(m1=float("nan")), ValueError, "ArmParams.m1 must be a finite number"),
+    ("arm gravity nan", lambda: ArmParams(g=float("nan")), ValueError, "ArmParams.g must be a finite number"),
+    ("arm length str", lambda: ArmParams(l1="1"), TypeError, "ArmParams.l1 must be a real number"),
+    ("two-wheeled gravity inf", lambda: TwoWheeledParams(g=float("inf")), ValueError, "TwoWheeledParams.g must be a finite"),
+    ("two-wheeled friction", lambda: TwoWheeledParams(k=-1.0), ValueError, "TwoWheeledParams.k must be >= 0"),
+    ("quadrotor mass inf", lambda: QuadrotorParams(m=float("inf")), ValueError, "QuadrotorParams.m must be a finite"),
     # --- the validation helpers themselves
     ("index_tuple range", lambda: validation.index_tuple("joints", [3], 2), ValueError, r"joints: index 3 is out of range\(2\)"),
     ("index_tuple names", lambda: validation.index_tuple("joints", ["wrist"], 2, names=["q1", "q2"]), ValueError, "known names"),

@@ -134,7 +134,7 @@ def test_arm_christoffel(arm_model):
 
 def test_arm_bad_inputs(arm_model):
     check_bad_inputs(arm_model)
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match=r"ArmParams.m1 must be > 0"):
         arm.make_arm_model(arm.ArmParams(m1=-1.0))
 
 
@@ -215,9 +215,9 @@ def test_two_wheeled_christoffel(tw_model):
 
 def test_two_wheeled_bad_inputs(tw_model):
     check_bad_inputs(tw_model)
-    with pytest.raises(ValueError, match="parameter r must be positive"):
+    with pytest.raises(ValueError, match=r"TwoWheeledParams.r must be > 0"):
         two_wheeled.make_two_wheeled_model(two_wheeled.TwoWheeledParams(r=0.0))
-    with pytest.raises(ValueError, match="friction k"):
+    with pytest.raises(ValueError, match=r"TwoWheeledParams.k must be >= 0"):
         two_wheeled.TwoWheeledParams(k=-1.0).validate()
 
 

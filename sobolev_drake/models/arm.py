@@ -27,6 +27,7 @@ from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
                                           coordinate_map, urdf_text,
                                           verify_against_closed_forms)
+from sobolev_drake.validation import check_parameter_fields
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,9 @@ class ArmParams:
     I1: float = 1.0
     I2: float = 1.0
     g: float = 9.8
+
+    def __post_init__(self):
+        check_parameter_fields(self, positive=("m1", "m2", "l1", "l2", "I1", "I2", "g"))
 
     @property
     def lc1(self) -> float:

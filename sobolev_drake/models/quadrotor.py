@@ -47,6 +47,7 @@ from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
                                           coordinate_map, urdf_text,
                                           verify_against_closed_forms)
+from sobolev_drake.validation import check_parameter_fields
 
 THESIS_ORDER = ("phi", "theta", "psi", "x", "y", "z")
 ROTOR_DIRECTIONS = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0], [0, -1.0, 0]])
@@ -73,10 +74,11 @@ class QuadrotorParams:
         """Centres of the ±10 % uncertainty boxes of section 6.5.3 (m = 2.24, Ixx = Iyy = 0.0384)."""
         return cls(Ixx=0.0384, Iyy=0.0384, Izz=0.0615, m=2.24)
 
+    def __post_init__(self):
+        self.validate()
+
     def validate(self) -> "QuadrotorParams":
-        for name in ("Ixx", "Iyy", "Izz", "m", "l", "g", "b", "d"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"quadrotor parameter {name} must be positive, got {getattr(self, name)}")
+        check_parameter_fields(self, positive=("Ixx", "Iyy", "Izz", "m", "l", "g", "b", "d"))
         if not abs(self.alpha) < np.pi / 2:
             raise ValueError(f"quadrotor tilt alpha must be in (-pi/2, pi/2) rad, got {self.alpha}")
         I = (self.Ixx, self.Iyy, self.Izz)

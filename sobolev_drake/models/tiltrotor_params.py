@@ -15,11 +15,11 @@ obtained from the Jacobians of the thesis in closed form:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sobolev_drake.validation import real_array, real_scalar
+from sobolev_drake.validation import check_parameter_fields
 
 #: thesis order of the generalized coordinates
 DOF_NAMES = ("alpha_R", "alpha_L", "phi", "theta", "psi", "x", "y", "z")
@@ -92,18 +92,7 @@ class TiltrotorParams:
     reverse_flow: str = "clipped"
 
     def __post_init__(self):
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.name in _POSITIVE:
-                real_scalar(f"TiltrotorParams.{f.name}", value, low=0.0, low_open=True)
-            elif isinstance(value, str):
-                continue
-            elif np.ndim(value) == 0:
-                real_scalar(f"TiltrotorParams.{f.name}", value)
-            else:
-                arr = real_array(f"TiltrotorParams.{f.name}", value)
-                if not np.all(np.isfinite(arr)):
-                    raise ValueError(f"TiltrotorParams.{f.name} must be finite, got {value!r}")
+        check_parameter_fields(self, positive=_POSITIVE)
         if self.crossflow not in CROSSFLOW_MODELS:
             raise ValueError(f"crossflow must be one of {CROSSFLOW_MODELS}, got {self.crossflow!r}")
         if self.reverse_flow not in REVERSE_FLOW_MODELS:

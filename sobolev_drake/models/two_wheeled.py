@@ -31,6 +31,7 @@ from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
                                           coordinate_map, urdf_text,
                                           verify_against_closed_forms)
+from sobolev_drake.validation import check_parameter_fields
 
 
 @dataclass(frozen=True)
@@ -46,12 +47,11 @@ class TwoWheeledParams:
     r: float = 0.25      # wheel radius, m
     g: float = 9.8       # gravity, m/s²
 
+    def __post_init__(self):
+        self.validate()
+
     def validate(self) -> "TwoWheeledParams":
-        for name in ("Ir", "Ip", "m", "M", "l", "r", "g"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"two-wheeled parameter {name} must be positive, got {getattr(self, name)}")
-        if not self.k >= 0:
-            raise ValueError(f"two-wheeled friction k must be non-negative, got {self.k}")
+        check_parameter_fields(self, positive=("Ir", "Ip", "m", "M", "l", "r", "g"), nonnegative=("k",))
         return self
 
 
