@@ -76,9 +76,9 @@ def _weight(name: str, value, n: int | None, *, definite: bool) -> np.ndarray:
 
 def _size(weights) -> int:
     for w in weights:
-        a = np.asarray(w, dtype=float)
-        if a.ndim >= 1:
-            return a.shape[0]
+        shape = np.shape(w)   # only the size here; _weight checks the values
+        if len(shape) >= 1:
+            return shape[0]
     return 1
 
 
