@@ -301,7 +301,7 @@ def test_auto_backend_falls_back_and_says_so():
     r = output_feedback(p, backend="auto")
     assert r.backend == "clarabel" and "ipm" in r.fallback and "after fallback" in r.status
     assert r.certificate.ok
-    ref = output_feedback(p)
+    ref = output_feedback(p, method="lmi")
     assert r.gamma_opt == pytest.approx(ref.gamma_opt, rel=1e-9) and ref.fallback == ""
     # a well-posed plant: the IPM result is kept (no fallback) and agrees with Clarabel
     rng = np.random.default_rng(106)
@@ -338,7 +338,10 @@ def test_strict_check_rejects_a_wrong_lyapunov_matrix():
 def test_reported_P_satisfies_gamma2_form_brl(backend):
     """SynthesisResult.P is the closed-loop Lyapunov matrix in the gamma^2 form:
     [[A'P + PA + C'C, PB + C'D], [., D'D - gamma^2 I]] <= 0, for state and output feedback;
-    state feedback: P = X^-1; output feedback: P = [[Y, N], [N', *]], P^-1 = [[X, M], [M', *]]."""
+    state feedback: P = X^-1; output feedback: P = [[Y, N], [N', *]], P^-1 = [[X, M], [M', *]].
+    backend=None takes the Riccati path for output feedback (no region): P is then the
+    stabilizing bounded-real Riccati solution of the closed loop, which must satisfy the same
+    inequality."""
     from sobolev_drake.synthesis.certificates import brl_residual
     rng = np.random.default_rng(104)
     sf_plant, of_plant = random_plant(rng, 6)
@@ -368,9 +371,16 @@ def test_singular_output_feedback_problem_is_flagged():
     ps = GeneralizedPlant.make(p.A, p.B1, p.B2, p.C1, None, p.D12, p.C2, np.zeros((1, 1)))
     assert singular_problem(ps) == "rank D21 = 0 < 1"
     with pytest.warns(UserWarning, match="singular problem"):
-        rs = output_feedback(ps)
-    assert not rs.well_posed and not rs.regularized
-    rr = output_feedback(ps, regularize=True)
+        rs = output_feedback(ps, regularize=False)  # the LMI optimum's controller, flagged
+    assert not rs.well_posed and not rs.regularized and rs.method == "lmi"
+    with pytest.warns(UserWarning, match="singular problem.*regularized"):
+        rr = output_feedback(ps)  # default: bounded gains at (1 + delta) x the estimate
+    assert rr.regularized and rr.method == "riccati" and rr.certificate.ok
+    # the estimate is an upper bound of the infimum, so it may not exceed the LMI optimum by
+    # more than the LMI's own inaccuracy on this unattained infimum (measured 1e-5 relative)
+    assert rr.gamma_opt <= rs.gamma_opt * (1 + 1e-3)
+    assert rr.gamma <= (1 + 1e-2) * rr.gamma_opt * (1 + 1e-6) * (1 + 1e-9)  # level + margin
+    rr = output_feedback(ps, regularize=True, method="lmi")  # LMI least-gain controller
     assert rr.regularized and rr.certificate.ok
     assert rr.gamma == pytest.approx(1.01 * rr.gamma_opt, rel=1e-9)
 

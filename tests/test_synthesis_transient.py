@@ -36,7 +36,7 @@ def exact_cost(res, plant, X0):
 
 def test_state_feedback_transient_objective_bounds_and_beats_least_gain():
     p = winf_plant(A, B, B, G0, G1)
-    least = state_feedback(p)
+    least = state_feedback(p, method="lmi")  # the LMI path's least-gain regularization
     r = state_feedback(p, initial_states=X0)
     assert r.regularized and r.certificate.ok
     assert np.isclose(r.gamma, least.gamma)  # same certified gamma, different controller
@@ -45,6 +45,19 @@ def test_state_feedback_transient_objective_bounds_and_beats_least_gain():
     assert cost <= r.transient_bound * (1 + 1e-6)  # the bound holds
     assert r.transient_bound <= cost * 1.05  # and is nearly tight (H-inf constraint inactive)
     assert cost < 0.6 * cost_least  # measured 232.5 vs 460.0
+
+
+def test_riccati_state_feedback_is_transient_optimal_at_its_gamma():
+    """The stabilizing solution of the H-infinity Riccati equation is the smallest P of the
+    bounded-real inequality, so the Riccati gain at a level gamma minimizes x0'P x0 for every
+    x0 at once: the default (Riccati) controller's transient cost equals the optimum of the
+    LMI's transient objective at the same gamma.  Tolerance: the LMI optimum is accurate to
+    Clarabel's relative gap (~1e-8) and P to the ARE residual; 1e-4 is far above both."""
+    p = winf_plant(A, B, B, G0, G1)
+    ric = state_feedback(p)  # optimum on the feedthrough bound: regularized at (1+delta)
+    assert ric.method == "riccati" and ric.regularized
+    lmi = state_feedback(p, method="lmi", gamma=ric.gamma, initial_states=X0)
+    assert exact_cost(ric, p, X0) == pytest.approx(exact_cost(lmi, p, X0), rel=1e-4)
 
 
 def test_state_feedback_transient_bound_approaches_lqr_cost_when_gamma_is_loose():

@@ -27,13 +27,14 @@ import time
 import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
-                          SynthesisResult, SynthesisWarning, _check_gamma_request, _finish, check_options,
+                          SynthesisResult, SynthesisWarning, _check_gamma_request, certify_result, check_options,
                           check_initial_states, transient_bound,
-                          _first_attempt, _ladder, _publish, _solve, _strict_check, _validate,
+                          _first_attempt, _ladder, publish_result, _solve, _strict_check, validate_plants,
                           compress_performance)
 from .lmi import LMIProgram, SynthesisError, bmat
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
 from .regions import region_lmi
+from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 from .scaling import balance_scaling, resolve_scaling, scale_plant, unscale_gain  # noqa: F401
 
 __all__ = ["GeneralizedPlant", "DynamicController", "SynthesisResult", "SynthesisWarning",
@@ -90,15 +91,54 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, 
 
 
 
-def state_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
-                   regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                   vertices=None, margin=EPS, scaling=True, initial_states=None):
-    """H-infinity state feedback u = K x minimizing gamma (or feasibility at a given gamma).
+def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
+                   backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
+                   rtol=1e-4, verify=True, input_weight=None, vertices=None, margin=EPS,
+                   scaling=True, initial_states=None):
+    """H-infinity state feedback u = K x, certified (sign convention: u = +K x).
 
+    Parameters
+    ----------
+    plant : GeneralizedPlant
+        x' = A x + B1 w + B2 u, z = C1 x + D11 w + D12 u (C2, D21 unused).
+    method : {"auto", "riccati", "lmi"}
+        Which characterization computes the controller (``strategy.py``): "auto" uses the
+        Riccati equation with gamma bisection when the problem allows it and the LMI otherwise
+        (pole regions, vertices, input weights, initial states, a named backend).
+    time_limit : float or None
+        Budget in seconds for the whole call (default 30); None: no limit.
+    region, vertices, input_weight, initial_states, backend, solver_options, margin
+        LMI-only options, described below.
+    gamma : float, optional
+        Level to reach instead of the optimum.
+    regularize : {"auto", True, False}
+        Relax gamma to (1 + delta) gamma_opt for bounded gains: "auto" when the optimum sits on
+        the feedthrough bound, the problem is singular or the optimum's controller fails its
+        certificate; True always; False never.
+    delta, rtol : float
+        Relaxation of a regularized gamma; relative tolerance of the certificate.
+    verify : bool
+        Raise :class:`SynthesisError` if the final certificate fails (default True).
+    scaling : bool or tuple
+        Exact balancing of the plant before solving (below).
+
+    Returns
+    -------
+    SynthesisResult
+        ``K`` (u = K x), certified ``gamma``, ``gamma_opt``, ``certificate``, ``method``,
+        ``warnings``, ``attempts``.
+
+    Notes
+    -----
+    Riccati path (``riccati.py``): gamma bisection to 1e-6 relative, the gain at
+    (1 + 2e-5) x the bisection's upper end (singular problems, D12 rank deficient: see
+    ``hinf_riccati.py``).
+
+    LMI path (thesis (6.5)/(6.7) in the symmetric gamma form):
     ``vertices``: optional list of extra plants sharing one Lyapunov matrix (polytopic,
-    Corollary 1). ``input_weight``: replaces I in the -gamma I block of w (i.e. -gamma^2 I in (6.5)) (used by the thesis'
-    disturbance-model LMI (6.31)). ``regularize``: "auto" re-solves with a gain bound when the
-    optimum sits on the feedthrough bound or the certificate fails; True always; False never.
+    Corollary 1). ``input_weight``: replaces I in the -gamma I block of w (i.e. -gamma^2 I in
+    (6.5)) (used by the thesis' disturbance-model LMI (6.31)).  Regularizing re-solves minimize
+    a gain bound at (1 + delta) gamma_opt.
     ``scaling``: True (default) solves the LMI in balanced coordinates (``balance_scaling``:
     exact diagonal state similarity and input scaling, gamma unchanged) and maps K, X, P back;
     a tuple (T, Su) gives the scalings; False solves in the given coordinates.  The
@@ -123,6 +163,29 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     check_options(plant, delta=delta, rtol=rtol, margin=margin, regularize=regularize,
                   region=region, backend=backend, solver_options=solver_options,
                   input_weight=input_weight)
+    check_method(method, time_limit)
+    features = lmi_only_options(region=region, vertices=vertices, input_weight=input_weight,
+                                initial_states=initial_states, backend=backend,
+                                solver_options=solver_options, margin=margin)
+    if not features:
+        _check_gamma_request(gamma, np.linalg.norm(plant.D11, 2) if plant.D11.size else 0.0)
+
+    def lmi(regularize, verify, deadline):
+        return _lmi_state_feedback(plant, region=region, backend=backend,
+                                   solver_options=solver_options, gamma=gamma,
+                                   regularize=regularize, delta=delta, rtol=rtol, verify=verify,
+                                   input_weight=input_weight, vertices=vertices, margin=margin,
+                                   scaling=scaling, initial_states=initial_states,
+                                   deadline=deadline)
+    return synthesize(plant, "state_feedback", lmi, method=method, time_limit=time_limit,
+                      lmi_features=features, gamma=gamma, delta=delta, rtol=rtol, verify=verify,
+                      scaling=scaling, regularize=regularize)
+
+
+def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regularize, delta,
+                        rtol, verify, input_weight, vertices, margin, scaling, initial_states,
+                        deadline):
+    """The LMI path of :func:`state_feedback` (options checked by the caller)."""
     plants = [plant] + list(vertices or [])
     if not all(isinstance(v, GeneralizedPlant) for v in plants):
         raise TypeError("vertices must be a list of GeneralizedPlant objects")
@@ -137,7 +200,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
     X0 = check_initial_states(initial_states, plant.n)
     sx0 = None if X0 is None else X0 / T[:, None]  # x = T x~
     splants = [scale_plant(p, T, Su) for p in plants]
-    _validate(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
+    validate_plants(splants, False)  # stabilizability is invariant; its rank test is not: test balanced
     prog, X, W, gv = _sf_program(splants, region=region, gamma=gamma, input_weight=input_weight,
                                  gain_bound=gamma is not None, margin=margin, x0=sx0)
     gval = (lambda o: float(max(gv.value(o.x)[0, 0], 0.0))) if gamma is None else (lambda o: float(gamma))
@@ -164,7 +227,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
                                status=out.status, timings=timings, region=region,
                                fallback=out.extra.get("fallback", ""))
 
-    out = _solve(prog, backend, solver_options, timings, "lmi", check)
+    out = _solve(prog, backend, solver_options, timings, "lmi", check, deadline)
     g_opt = lam = gval(out)
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
                                          regularize, warns, delta)
@@ -177,8 +240,9 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
 
             def check2(o):
                 return _strict_check(build(o, g), plants, region, rtol, o.status)
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2), g)
-            return _finish(r, plants, region, rtol, False, r.status)
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2,
+                             deadline), g)
+            return certify_result(r, plants, region, rtol, False, r.status)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = "the transient bound from initial_states" if X0 is not None else "a bound on the gain"
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
@@ -187,7 +251,7 @@ def state_feedback(plant, *, region=None, backend=None, solver_options=None, gam
         res.transient_bound = transient_bound(res, X0)
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
-    return _publish(res, warns, t0, plants, region, rtol, verify)
+    return publish_result(res, warns, t0, plants, region, rtol, verify)
 
 
 # --------------------------------------------------------------------------- functional API

@@ -142,6 +142,9 @@ class SynthesisResult:
     #: sum_i x0_i' P x0_i for the ``initial_states`` of the synthesis (None without them)
     transient_bound: float | None = None
     fallback: str = ""  # automatic backend chain: why earlier backends were not used ("" = none)
+    method: str = "lmi"  # "riccati" | "lmi": which characterization produced the controller
+    #: what the call tried before this result, in order: "<what>: <seconds> s, <outcome>"
+    attempts: list = field(default_factory=list)
 
     @property
     def well_posed(self):
@@ -213,7 +216,7 @@ FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend
 AUTO_CHAIN = ("ipm", "clarabel", *FALLBACKS)  # backend="auto"
 
 
-def _solve(prog, backend, options, timings, label, check=None):
+def _solve(prog, backend, options, timings, label, check=None, deadline=None):
     """Solve the LMI program with ``backend``; None and "auto" are chains of backends.
 
     ``None`` (default): direct Clarabel, then on solver failure Drake/Clarabel, then CSDP.
@@ -224,6 +227,9 @@ def _solve(prog, backend, options, timings, label, check=None):
     (the result built from it, with :func:`_strict_check`) passes; otherwise the default chain
     runs.  ``solver_options`` apply to an explicitly named backend only.  A fallback is recorded
     in ``out.status`` ("after fallback: ...") and ``out.extra["fallback"]``.
+
+    ``deadline`` (``time.perf_counter()`` value): no backend is started after it, and Clarabel
+    gets the remaining time as its ``time_limit``.
     """
     if backend is None:
         chain = [None, *FALLBACKS]
@@ -241,8 +247,16 @@ def _solve(prog, backend, options, timings, label, check=None):
     explicit = len(chain) == 1
     errors = []
     for b in chain:
+        opts = options if explicit else None
+        if deadline is not None:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                errors.append(f"time budget exhausted before backend {b or 'clarabel'}")
+                break
+            if (b or "clarabel").lower() == "clarabel":
+                opts = {"time_limit": left, **(opts or {})}
         try:
-            out = prog.solve(b, options if explicit else None)
+            out = prog.solve(b, opts)
         except InfeasibleLMIError as e:
             errors.append(str(e))
             continue
@@ -280,7 +294,7 @@ def _strict_check(res, plants, region, rtol, status):
     gamma^2-form bounded-real inequality of every closed loop (``brl_residual`` <= BRL_TOL).
     Used to accept a result of the automatic chain's first (own IPM) backend: its norm can
     pass while P, on degenerate problems (uncontrollable disturbance-model states), does not."""
-    _finish(res, plants, region, rtol, False, status)
+    certify_result(res, plants, region, rtol, False, status)
     if res.P is not None and res.certificate.ok:
         for p in plants:
             r = brl_residual(*res.closed_loop(p), res.P, res.gamma)
@@ -331,7 +345,7 @@ def compress_performance(p):
     return GeneralizedPlant(p.A, p.B1, p.B2, U.T @ p.C1, U.T @ p.D11, U.T @ p.D12, p.C2, p.D21)
 
 
-def _finish(res, plants, region, rtol, verify, status):
+def certify_result(res, plants, region, rtol, verify, status):
     certs = []
     for p in plants:
         certs.append(certify_closed_loop(*res.closed_loop(p), res.gamma, region=region, rtol=rtol, solver_status=status))
@@ -366,7 +380,7 @@ def _raise_to_achieved(res, g_opt, delta, plants, region, rtol, status):
     res.gamma = float(c.achieved) * (1 + 1e-6)
     res.status = (f"{res.status}; gamma raised to the certified norm {res.gamma:.6g} (the LMI "
                   f"optimum {g_opt:.6g} was below it by {c.achieved / g_opt - 1:.1e})")
-    return _finish(res, plants, region, rtol, False, status)
+    return certify_result(res, plants, region, rtol, False, status)
 
 
 def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns,
@@ -383,7 +397,7 @@ def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regula
     first_error = None
     try:
         res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
-        _finish(res, plants, region, rtol, False, out.status)
+        certify_result(res, plants, region, rtol, False, out.status)
         if gamma is None and not res.certificate.ok:
             res = _raise_to_achieved(res, g_opt, delta, plants, region, rtol, out.status)
     except SynthesisError as e:
@@ -399,16 +413,16 @@ def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regula
     return res, on_bound, need
 
 
-def _publish(res, warns, t0, plants, region, rtol, verify):
+def publish_result(res, warns, t0, plants, region, rtol, verify):
     """Attach and emit the warnings, total time, and run the final certificate check."""
     res.warnings = warns
     res.timings["total"] = time.perf_counter() - t0
     for w in warns:
         warnings.warn(w, SynthesisWarning, stacklevel=3)  # at the caller of the public function
-    return _finish(res, plants, region, rtol, verify, res.status)
+    return certify_result(res, plants, region, rtol, verify, res.status)
 
 
-def _validate(plants, need_detectable):
+def validate_plants(plants, need_detectable):
     p0 = plants[0]
     for p in plants:
         if tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in p0.as_tuple()):

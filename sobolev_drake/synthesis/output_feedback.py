@@ -16,12 +16,13 @@ import numpy as np
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
-                          _check_gamma_request, _finish, check_options, _first_attempt, _ladder, _publish,
-                          _solve, _strict_check, _validate, check_initial_states,
+                          _check_gamma_request, certify_result, check_options, _first_attempt, _ladder, publish_result,
+                          _solve, _strict_check, validate_plants, check_initial_states,
                           compress_performance, transient_bound)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
+from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 
 
 # --------------------------------------------------------------------------- output feedback
@@ -135,13 +136,44 @@ def singular_problem(plant, tol=1e-9):
     return ", ".join(msgs)
 
 
-def output_feedback(plant, *, region=None, backend=None, solver_options=None, gamma=None,
-                    regularize="auto", delta=1e-2, rtol=1e-4, verify=True, input_weight=None,
-                    strictly_proper=False, margin=EPS, scaling=True, initial_states=None,
-                    transient_gain_weight=0.0):
-    """Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
+def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
+                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
+                    rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
+                    scaling=True, initial_states=None, transient_gain_weight=0.0):
+    """Full-order dynamic output-feedback H-infinity synthesis, certified.
 
-    Keywords as :func:`~sobolev_drake.synthesis.hinf.state_feedback`. ``scaling``: True
+    The controller x_K' = AK x_K + BK y, u = CK x_K + DK y (sign convention: u = +(...), no
+    minus sign) in ``result.controller``.
+
+    Parameters
+    ----------
+    plant : GeneralizedPlant
+        x' = A x + B1 w + B2 u, z = C1 x + D11 w + D12 u, y = C2 x + D21 w.
+    method : {"auto", "riccati", "lmi"}
+        As for :func:`~sobolev_drake.synthesis.hinf.state_feedback`.  "auto": the
+        two-Riccati (Glover-Doyle) characterization with gamma bisection and the central
+        controller on regular problems (D12 full column rank, D21 full row rank); on singular
+        ones the LMI optimum, then a bounded-gain Riccati controller of a slightly perturbed
+        plant at (1 + delta) gamma_opt (``hinf_riccati.py``); the LMI path for LMI-only
+        options.
+    time_limit : float or None
+        Budget in seconds for the whole call (default 30); None: no limit.
+    region, backend, solver_options, input_weight, strictly_proper, margin, initial_states
+        LMI-only options (below and in ``state_feedback``).
+    transient_gain_weight : float
+        LMI path with ``initial_states`` (below).
+    gamma, regularize, delta, rtol, verify, scaling
+        As for :func:`~sobolev_drake.synthesis.hinf.state_feedback`.
+
+    Returns
+    -------
+    SynthesisResult
+        ``controller`` (AK, BK, CK, DK), certified ``gamma``, ``gamma_opt``,
+        ``certificate``, ``method``, ``warnings``, ``attempts``.
+
+    Notes
+    -----
+    LMI path: ``scaling``: True
     (default) solves the LMI for the plant in coordinates x = T x~, u = Su u~, y = Sy y~
     (``scaling.balance_scaling`` with outputs; powers of two, gamma and poles unchanged), a
     tuple (T, Su, Sy) gives them, False solves in the given coordinates.  The controller is
@@ -163,6 +195,31 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
         raise ValueError(f"transient_gain_weight must be a finite number >= 0, got {transient_gain_weight!r}")
     if not isinstance(strictly_proper, (bool, np.bool_)) and strictly_proper is not None:
         raise TypeError(f"strictly_proper must be True or False, got {strictly_proper!r}")
+    check_method(method, time_limit)
+    features = lmi_only_options(region=region, input_weight=input_weight,
+                                initial_states=initial_states, backend=backend,
+                                solver_options=solver_options, margin=margin,
+                                strictly_proper=strictly_proper,
+                                transient_gain_weight=transient_gain_weight)
+    if not features:
+        _check_gamma_request(gamma, parrott_bound(plant.D11, plant.D12, plant.D21))
+
+    def lmi(regularize, verify, deadline):
+        return _lmi_output_feedback(plant, region=region, backend=backend,
+                                    solver_options=solver_options, gamma=gamma,
+                                    regularize=regularize, delta=delta, rtol=rtol, verify=verify,
+                                    input_weight=input_weight, strictly_proper=strictly_proper,
+                                    margin=margin, scaling=scaling, initial_states=initial_states,
+                                    transient_gain_weight=transient_gain_weight, deadline=deadline)
+    return synthesize(plant, "output_feedback", lmi, method=method, time_limit=time_limit,
+                      lmi_features=features, gamma=gamma, delta=delta, rtol=rtol, verify=verify,
+                      scaling=scaling, regularize=regularize)
+
+
+def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regularize, delta,
+                         rtol, verify, input_weight, strictly_proper, margin, scaling,
+                         initial_states, transient_gain_weight, deadline):
+    """The LMI path of :func:`output_feedback` (options checked by the caller)."""
     p = plant
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
@@ -175,7 +232,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     if transient_gain_weight > 0 and X0 is None:
         raise ValueError("transient_gain_weight > 0 needs initial_states (it weights the transient objective)")
     sp_ = scale_plant(p, T, Su, Sy)
-    _validate([sp_], True)  # stabilizability/detectability are invariant; test the balanced plant
+    validate_plants([sp_], True)  # stabilizability/detectability are invariant; test the balanced plant
     x0s = None if X0 is None else X0 / T[:, None]
     kw = dict(region=region, input_weight=input_weight, strictly_proper=strictly_proper, margin=margin,
               x0=x0s, gain_weight=0.0 if x0s is None else transient_gain_weight * float(np.sum(x0s**2)))
@@ -207,7 +264,7 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
                                timings=timings, region=region,
                                fallback=out.extra.get("fallback", ""))
 
-    out = _solve(prog, backend, solver_options, timings, "lmi", check)
+    out = _solve(prog, backend, solver_options, timings, "lmi", check, deadline)
     g_opt = gval(out)
     lam[0] = g_opt
     res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
@@ -220,8 +277,9 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
 
             def check2(o):
                 return _strict_check(build(o, g), [p], region, rtol, o.status)
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2), g)
-            return _finish(r, [p], region, rtol, False, r.status)
+            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2,
+                             deadline), g)
+            return certify_result(r, [p], region, rtol, False, r.status)
         V = list(V)
         res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = ("the transient bound from initial_states" if X0 is not None
@@ -239,4 +297,4 @@ def output_feedback(plant, *, region=None, backend=None, solver_options=None, ga
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")
-    return _publish(res, warns, t0, [p], region, rtol, verify)
+    return publish_result(res, warns, t0, [p], region, rtol, verify)

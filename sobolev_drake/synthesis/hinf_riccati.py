@@ -1,0 +1,281 @@
+"""H-infinity synthesis by Riccati equations and gamma bisection (``riccati.py``), certified.
+
+Regular problems (D12 full column rank; for output feedback also D21 full row rank): bisection
+on gamma to a relative width of ``BISECTION_RTOL``, then the Riccati controller at
+``(1 + OPTIMUM_GAP) gamma_hi`` -- the state-feedback gain F2 or the central controller.
+
+Singular problems (rank-deficient D12 or D21: an input reaching z without cost, a measurement
+without noise -- every W-infinity output feedback with y = C x): the infimum is generally not
+attained and controllers near it have unbounded gains.  The plant is perturbed by a small cost
+eps |u|^2 and/or a measurement noise eps v (:func:`perturbed_plant`); both only add channels, so
+the original closed-loop norm is at most the perturbed one.  For a target level gamma_t the
+largest eps of a decade ladder at which gamma_t is reachable gives the controller with the
+smallest gains.  The target is (1 + delta) x a reference optimum: the LMI optimum when the
+caller has it, else the Riccati optimum of the smallest perturbation tried.
+
+Every controller is certified on the original plant (``hinf_common.certify_result``) before it
+is returned; the Lyapunov matrix P reported is the stabilizing solution of the closed loop's
+bounded-real Riccati equation at the certified gamma.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as sla
+
+from .certificates import brl_residual, parrott_bound
+from .hinf_common import (BRL_TOL, GeneralizedPlant, SynthesisResult, certify_result,
+                          validate_plants)
+from .lmi import SynthesisError
+from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_controller,
+                      normalize, output_feedback_test, rank_deficiency, state_feedback_test)
+from .scaling import resolve_scaling, scale_plant, unscale_controller, unscale_gain
+
+BISECTION_RTOL = 1e-6
+#: the controller is built at (1 + OPTIMUM_GAP) gamma_hi: close enough for "within 1e-4 of the
+#: optimum", far enough from it that the Riccati solutions are not at their blow-up point
+OPTIMUM_GAP = 2e-5
+#: levels tried when the controller at the first level fails its certificate (numerically)
+BACKOFF = (1e-4, 1e-3, 1e-2)
+EPS_LADDER = tuple(10.0 ** -k for k in range(1, 9))
+
+
+def perturbed_plant(p, eps_u, eps_y):
+    """``p`` with z extended by eps_u u (if eps_u > 0) and w by a noise v entering y as
+    eps_y v (if eps_y > 0).  Any controller's closed-loop norm of ``p`` is at most that of the
+    perturbed plant (the perturbed channel contains the original one)."""
+    A, B1, B2, C1, D11, D12, C2, D21 = p.as_tuple()
+    if eps_u > 0:
+        C1 = np.vstack([C1, np.zeros((p.nu, p.n))])
+        D11 = np.vstack([D11, np.zeros((p.nu, D11.shape[1]))])
+        D12 = np.vstack([D12, eps_u * np.eye(p.nu)])
+    if eps_y > 0:
+        B1 = np.hstack([B1, np.zeros((p.n, p.ny))])
+        D11 = np.hstack([D11, np.zeros((D11.shape[0], p.ny))])
+        D21 = np.hstack([D21, eps_y * np.eye(p.ny)])
+    return GeneralizedPlant(A, B1, B2, C1, D11, D12, C2, D21)
+
+
+class _Problem:
+    """One synthesis problem in balanced coordinates: the level test and controller builder."""
+
+    def __init__(self, plant, output_feedback, scaling):
+        self.plant = plant
+        self.of = output_feedback
+        if output_feedback:
+            self.T, self.Su, self.Sy = resolve_scaling(scaling, [plant], outputs=True)
+            self.scaled = scale_plant(plant, self.T, self.Su, self.Sy)
+            self.bound = parrott_bound(plant.D11, plant.D12, plant.D21)
+        else:
+            self.T, self.Su = resolve_scaling(scaling, [plant])
+            self.scaled = scale_plant(plant, self.T, self.Su)
+            self.bound = np.linalg.norm(plant.D11, 2) if plant.D11.size else 0.0
+        validate_plants([self.scaled], output_feedback)  # PBH tests on the balanced plant
+        self.deficiency = rank_deficiency(self.scaled, output_feedback)
+        s = self.scaled
+        self.z_scale = np.linalg.norm(np.hstack([s.C1, s.D11, s.D12]), 2)
+        self.y_scale = np.linalg.norm(np.vstack([s.B1, s.D11, s.D21]), 2)
+
+    def variant(self, eps):
+        """(scaled plant, level test) for the perturbation ``eps`` (0: the plant itself)."""
+        s = self.scaled
+        if eps > 0:
+            need_u = "D12" in self.deficiency
+            need_y = self.of and "D21" in self.deficiency
+            s = perturbed_plant(s, eps * self.z_scale if need_u else 0.0,
+                                eps * self.y_scale if need_y else 0.0)
+        if not self.of:
+            return s, (lambda g: state_feedback_test(s, g)), None
+        nrm = normalize(s)
+        return s, (lambda g: output_feedback_test(nrm.plant, g)), nrm
+
+    def controller(self, eps, gamma):
+        """Controller of the original plant reaching ``gamma`` on the eps-perturbed plant."""
+        _, test, nrm = self.variant(eps)
+        data = test(gamma)
+        if not self.of:
+            return unscale_gain(data[0], self.T, self.Su)
+        ctrl = nrm.controller(central_controller(nrm.plant, data))
+        return unscale_controller(ctrl, self.Su, self.Sy)
+
+    def optimum(self, eps, deadline):
+        _, test, _ = self.variant(eps)
+        return bisect_gamma(test, self.bound, rtol=BISECTION_RTOL, deadline=deadline)
+
+
+def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level):
+    """Lyapunov matrix P of the closed loop for the bounded-real inequality at ``gamma`` (gamma^2
+    form, see ``SynthesisResult``), or None when none is found.
+
+    Candidates: the stabilizing solutions of the closed loop's bounded-real Riccati equation at
+    ``level`` (the controller's design level, just below ``gamma``), with and without scipy's
+    balancing; the one with the smallest ``brl_residual`` is kept if it is positive
+    semidefinite and its residual is at most ``BRL_TOL`` (the LMI path's acceptance test)."""
+    best, best_r = None, np.inf
+    for balanced in (True, False):
+        try:
+            P = sla.solve_continuous_are(Acl, Bcl, Ccl.T @ Ccl,
+                                         Dcl.T @ Dcl - level ** 2 * np.eye(Bcl.shape[1]),
+                                         s=Ccl.T @ Dcl, balanced=balanced)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        if not np.all(np.isfinite(P)):
+            continue
+        P = 0.5 * (P + P.T)
+        r = brl_residual(Acl, Bcl, Ccl, Dcl, P, gamma)
+        if r < best_r and np.linalg.eigvalsh(P).min() >= -1e-12 * np.abs(P).max():
+            best, best_r = P, r
+    return best if best_r <= BRL_TOL else None
+
+
+def _result(problem, gain, level, gamma_opt, status, timings, rtol):
+    """Certified result of a controller designed at ``level``.  The reported gamma is
+    level (1 + 1e-6): the central controller's norm can equal its level to rounding
+    (measured 3e-10 below it), and the margin keeps the bounded-real inequality of the
+    reported P strict in the disturbance block."""
+    p = problem.plant
+    kind = "output_feedback" if problem.of else "state_feedback"
+    res = SynthesisResult(kind, float(level) * (1 + 1e-6), gamma_opt=float(gamma_opt),
+                          feedthrough_bound=float(problem.bound), solver="scipy CARE",
+                          backend="riccati", status=status, timings=timings, method="riccati")
+    if problem.of:
+        res.controller = gain
+    else:
+        res.K = gain
+    certify_result(res, [p], None, rtol, False, status)
+    if res.certificate.ok:
+        P = _closed_loop_lyapunov(*res.closed_loop(p), res.gamma, level)
+        if P is not None:
+            res.P = P
+            try:  # P^-1 where P is positive definite (Cholesky: independent of the scaling)
+                Pi = sla.cho_solve(sla.cho_factor(P), np.eye(P.shape[0]))
+            except np.linalg.LinAlgError:
+                Pi = None
+            if problem.of:
+                res.Y = P[:p.n, :p.n]
+                res.X = None if Pi is None else Pi[:p.n, :p.n]
+            else:
+                res.X = Pi
+    return res
+
+
+def _certified_at(problem, eps, levels, gamma_opt, status, timings, rtol):
+    """First certified controller over the increasing ``levels`` (None if none certifies)."""
+    last = None
+    for g in levels:
+        try:
+            gain = problem.controller(eps, g)
+        except (RiccatiInfeasible, np.linalg.LinAlgError, ValueError) as e:
+            last = f"gamma {g:.6g}: {e}"
+            continue
+        res = _result(problem, gain, g, gamma_opt, status, timings, rtol)
+        if res.certificate.ok:
+            return res, None
+        last = f"gamma {g:.6g}: " + "; ".join(res.certificate.failures)
+    return None, last
+
+
+def riccati_synthesis(plant, output_feedback, *, gamma=None, delta=1e-2, rtol=1e-4,
+                      scaling=True, regularize="auto", reference=None, deadline=None):
+    """Certified Riccati controller for ``plant`` (not yet published: no warnings emitted).
+
+    Returns (result, warnings).  ``reference``: a known optimum (e.g. an LMI's) used as the
+    target's base on singular problems instead of the Riccati estimate.  Raises SynthesisError (with the reason) when no
+    certified controller is found, BudgetExceeded past ``deadline``.
+    """
+    t0 = time.perf_counter()
+    problem = _Problem(plant, output_feedback, scaling)
+    timings, warns = {}, []
+    if not problem.deficiency:
+        return _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadline)
+    return _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadline)
+
+
+def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadline):
+    if gamma is not None:
+        res, why = _certified_at(problem, 0.0, [gamma], np.nan, f"Riccati at gamma {gamma:.6g}",
+                                 timings, rtol)
+        if res is None:
+            raise SynthesisError(f"gamma={gamma:.6g} is not reachable by the Riccati "
+                                 f"characterization ({why})")
+        timings["riccati"] = time.perf_counter() - t0
+        return res, warns
+    lo, hi, _, count = problem.optimum(0.0, deadline)
+    timings["riccati_bisection"] = time.perf_counter() - t0
+    status = (f"Riccati bisection: {count} levels, optimum in [{lo:.7g}, {hi:.7g}]")
+    on_bound = problem.bound > 0 and hi <= problem.bound * (1 + 1e-3)
+    if on_bound or regularize is True:
+        levels = [(1 + delta) * hi, (1 + 5 * delta) * hi]
+        if on_bound:
+            warns.append(f"optimal gamma {hi:.6g} sits on the feedthrough bound "
+                         f"{problem.bound:.6g}: the infimum needs unbounded gains")
+    else:
+        levels = [(1 + OPTIMUM_GAP) * hi] + [(1 + b) * hi for b in BACKOFF]
+    res, why = _certified_at(problem, 0.0, levels, hi, status, timings, rtol)
+    if res is None:
+        raise SynthesisError(f"Riccati controllers near the optimum {hi:.6g} fail their "
+                             f"certificates ({why})")
+    if on_bound or regularize is True:
+        res.regularized = True
+        warns.append(f"regularized: gamma relaxed to {res.gamma / hi:.4g} x {hi:.6g} = "
+                     f"{res.gamma:.6g} (Riccati controller away from the optimum)")
+    elif res.gamma > (1 + 1e-4) * hi:
+        warns.append(f"the Riccati controller at (1+{OPTIMUM_GAP:g}) x the optimum {hi:.6g} "
+                     f"failed its certificate; certified at {res.gamma:.6g} instead")
+    timings["riccati"] = time.perf_counter() - t0
+    return res, warns
+
+
+def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadline):
+    what = problem.deficiency
+    estimated = converged = False
+    if gamma is not None:
+        target, base = gamma, np.nan
+    elif reference is not None and np.isfinite(reference):
+        base = reference
+        target = (1 + delta) * base
+    else:  # optimum of shrinking perturbations until it settles (upper bounds, decreasing)
+        estimated = True
+        prev = hi = None
+        for eps in EPS_LADDER[1:]:
+            try:
+                _, g, _, _ = bisect_gamma(problem.variant(eps)[1], problem.bound,
+                                          rtol=0.01 * delta, start=hi, deadline=deadline)
+            except RiccatiInfeasible:
+                continue
+            prev, hi = hi, g
+            if prev is not None and hi >= prev * (1 - 0.1 * delta):
+                break
+        if hi is None:
+            raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder "
+                                 "has a Riccati solution")
+        converged = prev is not None and hi >= prev * (1 - 0.1 * delta)
+        if not converged:
+            warns.append(f"singular problem ({what}): the Riccati optimum was still decreasing "
+                         f"at the smallest perturbation ({EPS_LADDER[-1]:g}): the infimum may "
+                         f"be well below {hi:.6g}")
+        base = hi if prev is None else min(prev, hi)
+        target = (1 + delta) * base
+    status = f"singular problem ({what}): Riccati on the perturbed plant at gamma {target:.6g}"
+    last = None
+    for eps in EPS_LADDER:  # largest perturbation first: smallest gains
+        if deadline is not None and time.perf_counter() > deadline:
+            raise BudgetExceeded("time budget exhausted in the perturbation ladder")
+        res, why = _certified_at(problem, eps, [target], base, f"{status}, eps {eps:g}",
+                                 timings, rtol)
+        if res is not None:
+            res.regularized = True
+            ref = ("the estimated optimum" if estimated else
+                   "the requested gamma" if gamma is not None else "the LMI optimum")
+            warns.append(f"singular problem ({what}): regularized by a perturbation of relative "
+                         f"size {eps:g} (cost on u / noise on y); certified gamma {res.gamma:.6g}"
+                         + ("" if gamma is not None else f" = (1+{delta:g}) x {ref} {base:.6g}")
+                         + (" (an upper bound of the infimum: decreasing the perturbation "
+                            f"further changed it by < {0.1 * delta:g})" if converged else ""))
+            timings["riccati"] = time.perf_counter() - t0
+            return res, warns
+        last = why
+    raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder reaches "
+                         f"gamma {target:.6g} with a certified controller ({last})")

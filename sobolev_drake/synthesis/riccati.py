@@ -1,0 +1,279 @@
+"""Riccati (Glover-Doyle) characterization of the H-infinity problem, for regular plants.
+
+For the generalized plant of ``hinf_common.GeneralizedPlant`` (D22 = 0) write
+B = [B1 B2], C = [C1; C2], D1. = [D11 D12], D.1 = [D11; D21] and, at a level gamma,
+
+    R  = D1.' D1. - diag(gamma^2 I_nw, 0_nu),      Rt = D.1 D.1' - diag(gamma^2 I_nz, 0_ny).
+
+* X solves A'X + XA + C1'C1 - (XB + C1'D1.) R^-1 (B'X + D1.'C1) = 0 (the game Riccati equation
+  of the full-information problem, D11 allowed), F = -R^-1 (D1.'C1 + B'X) = [F1; F2];
+* Y solves the dual equation for (A', C', B1 B1', Rt, B1 D.1'), L = -(B1 D.1' + Y C') Rt^-1.
+
+**State feedback** (D12 full column rank).  u = K x can reach gamma iff gamma > |D11| (the
+closed loop keeps D11) and X is stabilizing (A + B F Hurwitz) with X >= 0.  Then the saddle
+point of the quadratic game in (u, w) -- convex in u because D12 has full column rank, concave
+in w because gamma > |D11| -- is [w; u] = F x, so K = F2 (the u rows of F) achieves it.
+
+**Output feedback** (D12 full column rank, D21 full row rank, Glover & Doyle 1988; Zhou, Doyle
+& Glover 1996, ch. 17).  After the normalization D12 = [0; I], D21 = [0 I] (:func:`normalize`,
+orthogonal changes of z and w, invertible changes of u and y) a controller reaching gamma
+exists iff gamma exceeds the Parrott bound, X and Y are stabilizing and positive semidefinite,
+and rho(X Y) < gamma^2.  :func:`central_controller` builds the central controller.
+
+The imaginary-axis rank conditions of the standard problem are not tested separately: when
+they fail the Hamiltonians have imaginary-axis eigenvalues at every gamma, the gamma search
+finds no feasible level and the caller falls back to the LMI synthesis.  Nothing here is
+trusted on its own: the callers certify every controller on the original plant
+(``certificates.py``), whichever path produced it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from .certificates import parrott_bound
+from .hinf_common import DynamicController, GeneralizedPlant
+
+#: relative ARE residual above which a Riccati solution is not trusted.  scipy's solver is
+#: backward stable (residuals ~1e-13 relative on well-posed levels); near the optimal gamma the
+#: solution grows without bound and the residual with it, so the level is declared infeasible
+#: there -- conservative, costs only a slightly larger gamma.
+ARE_RESIDUAL_TOL = 1e-7
+
+
+class RiccatiInfeasible(Exception):
+    """The level gamma is not reachable according to the Riccati tests (reason attached)."""
+
+
+def rank_deficiency(plant, output_feedback, tol=1e-9):
+    """"" when the problem is regular, else which rank condition fails.
+
+    Regular: D12 full column rank, and for output feedback D21 full row rank."""
+    checks = [("D12", plant.D12, plant.nu, 1)]
+    if output_feedback:
+        checks.append(("D21", plant.D21, plant.ny, 0))
+    msgs = []
+    for name, M, full, _ in checks:
+        s = np.linalg.svd(M, compute_uv=False) if M.size else np.zeros(0)
+        r = int(np.sum(s > tol * max(1.0, s.max() if s.size else 0.0)))
+        if r < full:
+            msgs.append(f"rank {name} = {r} < {full}")
+    return ", ".join(msgs)
+
+
+def _stabilizing_solution(A, B, Q, R, S):
+    """Stabilizing solution X of A'X + XA + Q - (XB + S) R^-1 (B'X + S') = 0 and the gain
+    F = -R^-1 (B'X + S'), R symmetric nonsingular and possibly indefinite."""
+    try:
+        X = sla.solve_continuous_are(A, B, Q, R, s=S)
+    except (np.linalg.LinAlgError, ValueError) as e:
+        raise RiccatiInfeasible(f"no stabilizing Riccati solution ({e})") from None
+    if not np.all(np.isfinite(X)):
+        raise RiccatiInfeasible("Riccati solution not finite")
+    X = 0.5 * (X + X.T)
+    G = B.T @ X + S.T
+    F = -np.linalg.solve(R, G)
+    res = A.T @ X + X @ A + Q + G.T @ F
+    scale = (2 * np.linalg.norm(A.T @ X) + np.linalg.norm(Q) + np.linalg.norm(G.T @ F) + 1e-300)
+    if np.linalg.norm(res) > ARE_RESIDUAL_TOL * scale:
+        raise RiccatiInfeasible(f"Riccati residual {np.linalg.norm(res) / scale:.1e} (relative)")
+    if np.linalg.eigvals(A + B @ F).real.max() >= 0:
+        raise RiccatiInfeasible("Riccati solution not stabilizing")
+    return X, F
+
+
+def _require_psd(X, name):
+    ev = np.linalg.eigvalsh(X)
+    if ev.min() < -1e-9 * max(1.0, np.abs(ev).max()):
+        raise RiccatiInfeasible(f"{name} not positive semidefinite (eigenvalue {ev.min():.3g})")
+
+
+def _x_riccati(p, gamma):
+    D1 = np.hstack([p.D11, p.D12])
+    R = D1.T @ D1
+    R[:p.nw, :p.nw] -= gamma ** 2 * np.eye(p.nw)
+    X, F = _stabilizing_solution(p.A, np.hstack([p.B1, p.B2]), p.C1.T @ p.C1, R, p.C1.T @ D1)
+    _require_psd(X, "X")
+    return X, F
+
+
+def _y_riccati(p, gamma):
+    Dc = np.vstack([p.D11, p.D21])
+    Rt = Dc @ Dc.T
+    Rt[:p.nz, :p.nz] -= gamma ** 2 * np.eye(p.nz)
+    Y, Lt = _stabilizing_solution(p.A.T, np.vstack([p.C1, p.C2]).T, p.B1 @ p.B1.T, Rt,
+                                  p.B1 @ Dc.T)
+    _require_psd(Y, "Y")
+    return Y, Lt.T
+
+
+# --------------------------------------------------------------------------- state feedback
+def state_feedback_test(p, gamma):
+    """Gain K = F2 reaching ``gamma`` (see the module docstring), or RiccatiInfeasible."""
+    d11 = np.linalg.norm(p.D11, 2) if p.D11.size else 0.0
+    if gamma <= d11:
+        raise RiccatiInfeasible(f"gamma {gamma:.6g} not above |D11| = {d11:.6g}")
+    X, F = _x_riccati(p, gamma)
+    return F[p.nw:], X
+
+
+# --------------------------------------------------------------------------- output feedback
+@dataclass
+class Normalization:
+    """Coordinates of :func:`normalize`: u = Tu u_n, y = Ty y_n (z, w rotated orthogonally)."""
+
+    plant: GeneralizedPlant
+    Tu: np.ndarray
+    Ty: np.ndarray
+
+    def controller(self, ctrl):
+        """Controller from y_n to u_n -> controller from y to u (same state)."""
+        AK, BK, CK, DK = ctrl
+        Tyi = np.linalg.inv(self.Ty)
+        return DynamicController(AK, BK @ Tyi, self.Tu @ CK, self.Tu @ DK @ Tyi)
+
+
+def _complement(Q):
+    """Orthonormal basis of the orthogonal complement of the orthonormal columns Q."""
+    full, _ = np.linalg.qr(Q, mode="complete")
+    return full[:, Q.shape[1]:]
+
+
+def normalize(p):
+    """Equivalent plant with D12 = [0; I] and D21 = [0 I] (regular problems only).
+
+    u = Tu u_n with Tu = (D12'D12)^-1/2, y = Ty y_n with Ty = (D21 D21')^1/2; z and w are
+    rotated by orthogonal matrices, which changes no closed-loop norm."""
+    Tu = sla.fractional_matrix_power(p.D12.T @ p.D12, -0.5).real
+    Ty = sla.sqrtm(p.D21 @ p.D21.T).real
+    D12n = p.D12 @ Tu
+    D21n = np.linalg.solve(Ty, p.D21)
+    U = np.hstack([_complement(D12n), D12n])  # U' D12n = [0; I]
+    V = np.hstack([_complement(D21n.T), D21n.T])  # D21n V = [0 I]
+    pn = GeneralizedPlant(p.A, p.B1 @ V, p.B2 @ Tu, U.T @ p.C1, U.T @ p.D11 @ V, U.T @ D12n,
+                          np.linalg.solve(Ty, p.C2), D21n @ V)
+    return Normalization(pn, Tu, Ty)
+
+
+@dataclass
+class OutputFeedbackLevel:
+    """Riccati data of a reachable level gamma (normalized plant)."""
+
+    gamma: float
+    X: np.ndarray
+    Y: np.ndarray
+    F: np.ndarray
+    L: np.ndarray
+
+
+def output_feedback_test(pn, gamma):
+    """Riccati data at ``gamma`` for the normalized plant ``pn``, or RiccatiInfeasible."""
+    fb = parrott_bound(pn.D11, pn.D12, pn.D21)
+    if gamma <= fb:
+        raise RiccatiInfeasible(f"gamma {gamma:.6g} not above the Parrott bound {fb:.6g}")
+    X, F = _x_riccati(pn, gamma)
+    Y, L = _y_riccati(pn, gamma)
+    rho = np.abs(np.linalg.eigvals(X @ Y)).max()
+    if rho >= gamma ** 2 * (1 - 1e-12):
+        raise RiccatiInfeasible(f"coupling condition fails: rho(XY) = {rho:.6g} >= gamma^2 "
+                                f"= {gamma ** 2:.6g}")
+    return OutputFeedbackLevel(gamma, X, Y, F, L)
+
+
+def central_controller(pn, lev):
+    """Central controller of the normalized plant at a reachable level (Glover & Doyle 1988;
+    Zhou, Doyle & Glover 1996, Theorem 17.?: the parametrization with Q = 0), D11 allowed."""
+    g2 = lev.gamma ** 2
+    nw, nu, nz, ny = pn.nw, pn.nu, pn.nz, pn.ny
+    m1, p1 = nw - ny, nz - nu  # w-only inputs, z-only outputs
+    D = pn.D11
+    D1111, D1112, D1121, D1122 = D[:p1, :m1], D[:p1, m1:], D[p1:, :m1], D[p1:, m1:]
+    Gl = g2 * np.eye(p1) - D1111 @ D1111.T
+    Gr = g2 * np.eye(m1) - D1111.T @ D1111
+    Dh11 = -D1121 @ D1111.T @ np.linalg.solve(Gl, D1112) - D1122
+    Dh12 = np.linalg.cholesky(np.eye(nu) - D1121 @ np.linalg.solve(Gr, D1121.T))
+    Dh21 = np.linalg.cholesky(np.eye(ny) - D1112.T @ np.linalg.solve(Gl, D1112)).T
+    F1, F2 = lev.F[:nw], lev.F[nw:]
+    F12 = F1[m1:]
+    L1, L2 = lev.L[:, :nz], lev.L[:, nz:]
+    L12 = L1[:, p1:]
+    Z = np.linalg.inv(np.eye(pn.n) - lev.Y @ lev.X / g2)
+    Bh2 = Z @ (pn.B2 + L12) @ Dh12
+    Ch2 = -Dh21 @ (pn.C2 + F12)
+    Bh1 = -Z @ L2 + Bh2 @ np.linalg.solve(Dh12, Dh11)
+    Ch1 = F2 + Dh11 @ np.linalg.solve(Dh21, Ch2)
+    Ah = pn.A + pn.B1 @ F1 + pn.B2 @ F2 + Bh1 @ np.linalg.solve(Dh21, Ch2)
+    return DynamicController(Ah, Bh1, Ch1, Dh11)
+
+
+# --------------------------------------------------------------------------- gamma search
+class BudgetExceeded(Exception):
+    """The deadline passed during the gamma search."""
+
+
+def bisect_gamma(test, lower, *, rtol=1e-6, start=None, deadline=None, max_decades=16):
+    """Smallest reachable gamma by bisection on the monotone predicate ``test`` (returns data
+    at a reachable level, raises RiccatiInfeasible otherwise).
+
+    ``lower`` is a level known to be unreachable (a feedthrough bound, possibly 0).  Returns
+    (gamma_lo, gamma_hi, data at gamma_hi, number of tests); gamma_hi / gamma_lo <= 1 + rtol
+    unless gamma_hi is within rtol of ``lower``.  Raises RiccatiInfeasible when no level up to
+    10^max_decades times the start is reachable.
+    """
+    count = [0]
+
+    def attempt(g):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise BudgetExceeded(f"time budget exhausted in the gamma search (at gamma {g:.6g})")
+        count[0] += 1
+        try:
+            return test(g)
+        except RiccatiInfeasible:
+            return None
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+
+    g = start if start is not None else (2.0 * lower if lower > 0 else 1.0)
+    lo, hi, data = lower, None, None
+    d = attempt(g)
+    if d is None:  # search upwards by decades
+        lo = g
+        for _ in range(max_decades):
+            g *= 10.0
+            d = attempt(g)
+            if d is not None:
+                hi, data = g, d
+                break
+            lo = g
+        if hi is None:
+            raise RiccatiInfeasible(f"no reachable level up to gamma = {g:.3g}")
+    else:  # search downwards by decades (stop at the lower bound)
+        hi, data = g, d
+        while True:
+            g = hi / 10.0
+            if g <= lower:
+                break
+            d = attempt(g)
+            if d is None:
+                lo = g
+                break
+            hi, data = g, d
+            if count[0] > max_decades + 2:
+                lo = 0.0
+                break
+    while hi > lo * (1 + rtol):
+        m = np.sqrt(lo * hi) if lo > 0 else 0.5 * hi
+        if lo > 0 and not lo < m < hi:
+            break
+        d = attempt(m)
+        if d is None:
+            lo = m
+        else:
+            hi, data = m, d
+        if lower > 0 and hi <= lower * (1 + rtol):
+            break
+    return lo, hi, data, count[0]

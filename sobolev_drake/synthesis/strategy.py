@@ -1,0 +1,119 @@
+"""Which characterization solves a synthesis call, in what order, within what time.
+
+``method="auto"`` (default of :func:`~sobolev_drake.synthesis.hinf.state_feedback` and
+:func:`~sobolev_drake.synthesis.hinf.output_feedback`):
+
+* options only the LMIs express (a pole region, polytope vertices, an input weight, initial
+  states, strictly proper controllers, a named LMI backend or solver options): the LMI path;
+* regular problems: the Riccati path (``hinf_riccati.py``), the LMI path if it fails;
+* singular problems: the Riccati path on slightly perturbed plants estimates the infimum
+  (from above) and returns a controller with bounded gains at (1 + delta) x that estimate;
+  the LMI path if it fails.  ``regularize=False`` returns the LMI optimum's controller
+  instead (gains that depend on where the solver stops).
+
+``method="riccati"`` / ``"lmi"`` force one path.  Every path certifies its controller on the
+original plant; a call that finds none raises :class:`SynthesisError` listing every attempt
+with its time and outcome.  ``time_limit`` bounds the whole call: no solver is started after it
+and the LMI solver gets the remaining time as its own limit.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..validation import one_of, real_scalar
+from .hinf_common import publish_result
+from .hinf_riccati import BudgetExceeded, riccati_synthesis
+from .lmi import SynthesisError
+from .riccati import rank_deficiency
+
+METHODS = ("auto", "riccati", "lmi")
+DEFAULT_TIME_LIMIT = 30.0
+
+
+def check_method(method, time_limit):
+    one_of("method", method, METHODS)
+    if time_limit is not None:
+        real_scalar("time_limit", time_limit, low=0.0, low_open=True)
+
+
+def lmi_only_options(*, margin=None, **options):
+    """Names of the given options that only the LMI path supports: any value other than None,
+    False or 0 counts (an empty vertex list does not; a bad value then gets the LMI path's
+    error), and ``margin`` when it differs from the default."""
+    from .hinf_common import EPS
+
+    def given(name, v):
+        if v is None or v is False:
+            return False
+        if name == "vertices" and isinstance(v, (list, tuple)):
+            return len(v) > 0
+        if isinstance(v, (int, float, np.number)):
+            return v != 0
+        return True
+    names = [k for k, v in options.items() if given(k, v)]
+    if margin is not None and margin != EPS:
+        names.append("margin")
+    return names
+
+
+def _deadline(t0, time_limit):
+    return None if time_limit is None or not np.isfinite(time_limit) else t0 + time_limit
+
+
+class _Log:
+    def __init__(self):
+        self.entries = []
+
+    def add(self, what, t, outcome):
+        self.entries.append(f"{what}: {time.perf_counter() - t:.3g} s, {outcome}")
+
+    def fail(self, kind, deadline):
+        late = deadline is not None and time.perf_counter() > deadline
+        raise SynthesisError(f"no certified {kind.replace('_', ' ')} controller"
+                             + (" within the time budget" if late else "") + "; tried: "
+                             + " | ".join(self.entries))
+
+
+def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, delta, rtol,
+               verify, scaling, regularize):
+    """Dispatch one synthesis call (see the module docstring).
+
+    ``lmi(regularize=..., verify=..., deadline=...)`` runs the LMI path with the caller's other
+    options; ``lmi_features`` names the options given that only the LMI path supports.
+    """
+    t0 = time.perf_counter()
+    deadline = _deadline(t0, time_limit)
+    of = kind == "output_feedback"
+    if method == "riccati" and lmi_features:
+        raise ValueError(f"method='riccati' does not support {', '.join(lmi_features)}; use "
+                         "method='lmi' or 'auto'")
+    if method == "lmi" or (method == "auto" and lmi_features):
+        return lmi(regularize=regularize, verify=verify, deadline=deadline)
+    singular = rank_deficiency(plant, of)
+    if method == "auto" and singular and regularize is False:
+        return lmi(regularize=False, verify=verify, deadline=deadline)
+    log = _Log()
+    t = time.perf_counter()
+    try:
+        res, warns = riccati_synthesis(plant, of, gamma=gamma, delta=delta, rtol=rtol,
+                                       scaling=scaling, regularize=regularize, deadline=deadline)
+        log.add("Riccati", t, f"certified gamma {res.gamma:.6g}")
+        res.attempts = log.entries
+        return publish_result(res, warns, t0, [plant], None, rtol, verify)
+    except (SynthesisError, BudgetExceeded) as e:
+        log.add("Riccati", t, str(e))
+    if method == "riccati" or (deadline is not None and time.perf_counter() > deadline):
+        log.fail(kind, deadline)
+    t = time.perf_counter()
+    try:
+        res = lmi(regularize=regularize, verify=verify, deadline=deadline)
+    except SynthesisError as e:
+        log.add("LMI", t, str(e))
+        log.fail(kind, deadline)
+    res.attempts = log.entries + [f"LMI: {time.perf_counter() - t:.3g} s, certified gamma "
+                                  f"{res.gamma:.6g}"]
+    res.fallback = "; ".join(x for x in (res.fallback, "the Riccati path failed") if x)
+    return res
