@@ -352,12 +352,16 @@ def certify_result(res, plants, region, rtol, verify, status):
     res.certificates = certs
     res.certificate = max(certs, key=lambda c: c.achieved) if certs else None
     if verify:
-        for i, c in enumerate(certs):
-            if not c.ok:
-                where = f" (vertex {i})" if len(certs) > 1 else ""
-                raise SynthesisError(f"{res.kind} result from {res.backend}/{res.solver} rejected{where}: "
-                                     + "; ".join(c.failures) + f" [solver status: {status}]")
+        _raise_failed(res, status)
     return res
+
+
+def _raise_failed(res, status):
+    for i, c in enumerate(res.certificates):
+        if not c.ok:
+            where = f" (vertex {i})" if len(res.certificates) > 1 else ""
+            raise SynthesisError(f"{res.kind} result from {res.backend}/{res.solver} rejected{where}: "
+                                 + "; ".join(c.failures) + f" [solver status: {status}]")
 
 
 def _raise_to_achieved(res, g_opt, delta, plants, region, rtol, status):
@@ -413,13 +417,18 @@ def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regula
     return res, on_bound, need
 
 
-def publish_result(res, warns, t0, plants, region, rtol, verify):
-    """Attach and emit the warnings, total time, and run the final certificate check."""
+def publish_result(res, warns, t0, plants, region, rtol, verify, recertify=True):
+    """Attach and emit the warnings, total time, and run the final certificate check
+    (``recertify=False``: keep the certificates already computed for this gamma)."""
     res.warnings = warns
-    res.timings["total"] = time.perf_counter() - t0
     for w in warns:
         warnings.warn(w, SynthesisWarning, stacklevel=3)  # at the caller of the public function
-    return certify_result(res, plants, region, rtol, verify, res.status)
+    if recertify or not res.certificates:
+        certify_result(res, plants, region, rtol, verify, res.status)
+    elif verify:
+        _raise_failed(res, res.status)
+    res.timings["total"] = time.perf_counter() - t0
+    return res
 
 
 def validate_plants(plants, need_detectable):

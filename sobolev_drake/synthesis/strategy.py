@@ -102,7 +102,7 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
                                        scaling=scaling, regularize=regularize, deadline=deadline)
         log.add("Riccati", t, f"certified gamma {res.gamma:.6g}")
         res.attempts = log.entries
-        return publish_result(res, warns, t0, [plant], None, rtol, verify)
+        return publish_result(res, warns, t0, [plant], None, rtol, verify, recertify=False)
     except (SynthesisError, BudgetExceeded) as e:
         log.add("Riccati", t, str(e))
     if method == "riccati" or (deadline is not None and time.perf_counter() > deadline):

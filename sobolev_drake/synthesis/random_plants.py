@@ -1,0 +1,98 @@
+"""Random generalized plants in families that stress a synthesis (tests and benchmarks).
+
+Families (``FAMILIES``):
+
+* ``"stable"``: Hurwitz A with a spread of time constants;
+* ``"unstable"``: one to three open-loop eigenvalues in the right half plane;
+* ``"lightly_damped"``: a chain of mechanical modes with damping ratios 0.001-0.01;
+* ``"ill_conditioned"``: an unstable plant in coordinates scaled by 10^-3 ... 10^3 per state;
+* ``"feedthrough"``: D11 != 0 of the size of the rest of the channel;
+* ``"singular"``: D21 = 0 (noise-free measurements) -- no Riccati solution exists.
+
+Every plant except the singular family is regular: D12 has full column rank and D21 full row
+rank; (A, B2) is stabilizable and (A, C2) detectable generically.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..validation import one_of
+from .hinf_common import GeneralizedPlant
+
+FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough",
+            "singular")
+
+
+@dataclass
+class PlantCase:
+    """One generated plant with what generated it."""
+
+    family: str
+    seed: int
+    plant: GeneralizedPlant
+
+    @property
+    def regular(self):
+        return self.family != "singular"
+
+    def __str__(self):
+        p = self.plant
+        return f"{self.family}[seed {self.seed}] n={p.n} nw={p.nw} nu={p.nu} nz={p.nz} ny={p.ny}"
+
+
+def _state_matrix(rng, n, family):
+    if family == "lightly_damped":
+        k = n // 2
+        A = np.zeros((n, n))
+        w = rng.uniform(0.5, 20.0, k)
+        zeta = rng.uniform(1e-3, 1e-2, k)
+        for i in range(k):  # modal blocks, then a random similarity couples them
+            A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[0.0, 1.0], [-w[i] ** 2, -2 * zeta[i] * w[i]]]
+        if n % 2:
+            A[-1, -1] = -rng.uniform(0.1, 5.0)
+        Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+        S = Q * rng.uniform(0.5, 2.0, n)
+        return S @ A @ np.linalg.inv(S)
+    M = rng.normal(size=(n, n)) / np.sqrt(n)
+    ev = np.linalg.eigvals(M).real
+    A = M - (ev.max() + rng.uniform(0.1, 1.0)) * np.eye(n)  # Hurwitz
+    if family in ("unstable", "ill_conditioned"):
+        k = int(rng.integers(1, 4))
+        V = rng.normal(size=(n, k))
+        A = A + V @ np.diag(rng.uniform(1.0, 3.0, k)) @ np.linalg.pinv(V)  # lift k modes
+    return A
+
+
+def random_plant(rng, n, family="stable", *, nw=None, nu=None, nz=None, ny=None, seed=-1):
+    """One :class:`PlantCase` of ``family`` with ``n`` states (channel sizes random if None)."""
+    one_of("family", family, FAMILIES)
+    nu = int(rng.integers(1, 4)) if nu is None else nu
+    ny = int(rng.integers(1, 4)) if ny is None else ny
+    nw = ny + int(rng.integers(1, 3)) if nw is None else nw
+    nz = nu + int(rng.integers(1, 4)) if nz is None else nz
+    A = _state_matrix(rng, n, family)
+    B1, B2 = rng.normal(size=(n, nw)), rng.normal(size=(n, nu))
+    C1, C2 = rng.normal(size=(nz, n)) / np.sqrt(n), rng.normal(size=(ny, n))
+    D12 = rng.normal(size=(nz, nu))
+    D21 = np.zeros((ny, nw)) if family == "singular" else rng.normal(size=(ny, nw))
+    D11 = rng.normal(size=(nz, nw)) if family == "feedthrough" else np.zeros((nz, nw))
+    if family == "ill_conditioned":
+        t = 10.0 ** rng.uniform(-3, 3, n)  # x_new = diag(1/t) x: entries spread over 1e12
+        A, B1, B2 = A * t[None, :] / t[:, None], B1 / t[:, None], B2 / t[:, None]
+        C1, C2 = C1 * t, C2 * t
+    return PlantCase(family, seed, GeneralizedPlant.make(A, B1, B2, C1, D11, D12, C2, D21))
+
+
+def plant_family(count, sizes=(10, 40), *, seed=0, families=FAMILIES):
+    """``count`` plants cycling through ``families`` with sizes spread over ``sizes`` (inclusive);
+    plant i uses the generator seeded (seed, i), so any case is reproducible on its own."""
+    lo, hi = sizes
+    out = []
+    for i in range(count):
+        rng = np.random.default_rng([seed, i])
+        n = lo + (i * 7) % (hi - lo + 1)
+        out.append(random_plant(rng, n, families[i % len(families)], seed=i))
+    return out
