@@ -1,120 +1,196 @@
-"""Solve times of the linear W-infinity LMIs per backend (state feedback + disk, output feedback).
+"""H-infinity synthesis on generated plant families: ours vs python-control vs cvxpy + Clarabel.
 
-Plants: 2 and 3 states (thesis examples' size), 12 states, and a 20-state plant shaped like the
-tilt-rotor design (8 DOF -> 16 states + 4 integral states, 4 inputs, 3 disturbances).
-Prints wall and process CPU times (LMI build + solve + certificate; the CPU time is the
-steadier number on a shared machine) and ratios against the fastest backend of the same run.
-Backends: ``clarabel`` (direct, default of the library), ``auto`` (own IPM, certified, with
-fallback to Clarabel), ``ipm`` (own Schur-complement IPM alone), ``cvxpy``, ``drake`` (see
-``synthesis/lmi.py``).  "backend" is the one that produced the result (after any fallback).
-Measured (this machine, 2 cores shared, CPU seconds, 2026-11-21): 20 states SF+disk: clarabel
-5.1-5.6, auto/ipm 0.58-0.61, cvxpy 5.0, drake 32; 20 states OF: clarabel 12.5-13.0, auto/ipm
-4.7-5.3, cvxpy 12.6, drake 74.  The IPM stalls on the 3-state OF plant (infimum needs
-|Y| -> infinity): auto falls back to Clarabel there.  Usage::
+Plants: ``random_plants.plant_family`` (stable, unstable, lightly damped, ill-conditioned,
+D11 != 0, singular; 10-40 states), each synthesized as state feedback (SF) and output feedback
+(OF), same run, same plants:
 
-    python benchmarks/synthesis.py [--backends clarabel,auto,ipm,cvxpy,drake] [--sizes 2,3,12,20]
-                                   [--no-of] [--of-max 20]
+* ``ours``: the library's default call (``state_feedback`` / ``output_feedback``);
+* ``python-control``: ``control.hinfsyn`` (slycot SB10AD; OF only, as python-control has no
+  state-feedback H-infinity);
+* ``cvxpy+clarabel``: the library's LMI path through cvxpy (``method="lmi", backend="cvxpy"``),
+  up to ``--lmi-max`` states (its time grows ~n^6);
+* ``ours+disk``: the default call with a pole region (LMI path), every ``--region-every``-th
+  plant up to ``--region-max`` states.
+
+Every controller returned is judged by quantities computed here, independently of the method:
+closed-loop stability (eigenvalues) and the closed-loop H-infinity norm (Hamiltonian iteration).
+"success" = a stabilizing controller was returned; "honest" = its claimed gamma is not below the
+computed norm (1e-6 relative); "gap" = norm / best norm any method reached on that plant - 1
+(regular plants: D12, D21 full rank, optimum off the feedthrough bound).  Time ratios are
+method time / ours, same plant, same run.  Usage::
+
+    python benchmarks/synthesis.py [--plants 200] [--sizes 10,40] [--lmi-max 20]
+                                   [--region-every 5] [--region-max 20] [--pc-timeout 60]
+                                   [--json FILE]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 import warnings
 
 import numpy as np
 
+from sobolev_drake.synthesis.certificates import hinf_norm
 from sobolev_drake.synthesis.hinf import output_feedback, state_feedback
+from sobolev_drake.synthesis.hinf_common import DynamicController
+from sobolev_drake.synthesis.random_plants import plant_family
 from sobolev_drake.synthesis.regions import disk
-from sobolev_drake.synthesis.sobolev import winf_plant
 
 
-def mechanical_plant(n_dof, n_int, n_u, n_w, rng, damping=0.5):
-    """Linearized mechanical plant [q; qdot] (+ integral states of the first n_int q's).
-
-    M, stiffness K > 0, viscous damping; each input acts mainly on one DOF (plus random
-    coupling), so the plant is underactuated but well conditioned, like a linearized vehicle.
-    (Purely random M^-1 K with few inputs gave LMIs on which every solver failed.)
-    """
-    Mh = np.eye(n_dof) + 0.1 * rng.normal(size=(n_dof, n_dof))
-    M = Mh @ Mh.T
-    L = rng.normal(size=(n_dof, n_dof))
-    Kst = 0.5 * (L @ L.T) / n_dof + 0.5 * np.eye(n_dof)
-    Bq = np.zeros((n_dof, n_u))
-    Bq[:n_u, :n_u] = np.eye(n_u)
-    Bq += 0.3 * rng.normal(size=(n_dof, n_u))
-    Dq = rng.normal(size=(n_dof, n_w))
-    Mi = np.linalg.inv(M)
-    n = 2 * n_dof + n_int
-    A = np.zeros((n, n))
-    A[:n_dof, n_dof:2 * n_dof] = np.eye(n_dof)
-    A[n_dof:2 * n_dof, :n_dof] = -Mi @ Kst
-    A[n_dof:2 * n_dof, n_dof:2 * n_dof] = -damping * Mi
-    A[2 * n_dof:, :n_int] = np.eye(n_int)
-    B = np.zeros((n, n_u))
-    B[n_dof:2 * n_dof] = Mi @ Bq
-    D = np.zeros((n, n_w))
-    D[n_dof:2 * n_dof] = Mi @ Dq
-    return A, B, D
+def _hinfsyn_worker(matrices, ny, nu):
+    import control
+    A, B, C, D = matrices
+    t = time.perf_counter()
+    K, _, gam, _ = control.hinfsyn(control.ss(A, B, C, D), ny, nu)  # u = +K y, as ours
+    return (K.A, K.B, K.C, K.D), float(gam), time.perf_counter() - t
 
 
-def plants(sizes, rng):
-    out = {}
-    for n in sizes:
-        ndof = 0
-        if n == 2:
-            A = np.array([[0, 50], [-50, -50.0]])
-            B = D = np.array([[0.0], [1]])
-        elif n == 3:
-            A = np.array([[0, 0, 1.0], [0, -0.5, 2], [30, 1, -0.5]])  # balance-like
-            B, D = np.array([[0.0], [2], [-3]]), np.array([[0.0, 0], [1, 0], [0, 1]])
-        elif n == 20:
-            ndof = 8
-            A, B, D = mechanical_plant(8, 4, 4, 3, rng)
-        else:
-            ndof = (n - 2) // 2
-            A, B, D = mechanical_plant(ndof, n - 2 * ndof, 2, 2, rng)
-        # measure positions and integral states (velocities unmeasured), as in the thesis' O.F.
-        keep = [i for i in range(A.shape[0]) if i < ndof or i >= 2 * ndof] if n > 3 else [0]
-        C = np.eye(A.shape[0])[keep]
-        out[n] = (A, B, D, C)
+class PythonControl:
+    """``control.hinfsyn`` in a worker process: SB10AD can run for many minutes on some plants
+    (measured: > 80 s on a 16-state plant with D11 != 0), so each call gets ``timeout``
+    seconds; the time reported is measured inside the worker (no process overhead)."""
+
+    def __init__(self, timeout):
+        self.timeout = timeout
+        self.pool = None
+
+    def __call__(self, p):
+        import multiprocessing as mp
+        if self.pool is None:
+            self.pool = mp.get_context("spawn").Pool(1)
+            self.pool.apply(_hinfsyn_worker, (_tiny(), 1, 1))  # import control once
+        B = np.hstack([p.B1, p.B2])
+        C = np.vstack([p.C1, p.C2])
+        D = np.block([[p.D11, p.D12], [p.D21, np.zeros((p.ny, p.nu))]])
+        job = self.pool.apply_async(_hinfsyn_worker, ((p.A, B, C, D), p.ny, p.nu))
+        try:
+            ctrl, gam, dt = job.get(self.timeout)
+        except mp.TimeoutError:
+            self.pool.terminate()
+            self.pool = None
+            raise TimeoutError(f"no answer within {self.timeout:g} s") from None
+        return DynamicController(*ctrl), gam, dt
+
+
+def _tiny():
+    return (np.array([[-1.0]]), np.array([[1.0, 1.0]]), np.array([[1.0], [1.0]]),
+            np.array([[0.0, 1.0], [1.0, 0.0]]))
+
+
+def ours(kind, **kw):
+    fn = state_feedback if kind == "SF" else output_feedback
+
+    def run(p):
+        r = fn(p, **kw)
+        return (r.K if kind == "SF" else r.controller), r.gamma
+    return run
+
+
+def judge(p, kind, method, call):
+    t = time.perf_counter()
+    try:
+        ctrl, claimed, *inner = call(p)
+    except Exception as e:  # report, keep going: a failure is a measurement here
+        return {"method": method, "time": time.perf_counter() - t, "success": False,
+                "error": f"{type(e).__name__}: {str(e)[:120]}"}
+    dt = inner[0] if inner else time.perf_counter() - t
+    cl = p.closed_loop(K=ctrl) if kind == "SF" else p.closed_loop(controller=ctrl)
+    stable = bool(np.linalg.eigvals(cl[0]).real.max() < 0)
+    norm = hinf_norm(*cl)[0] if stable else np.inf
+    return {"method": method, "time": dt, "success": stable, "claimed": claimed, "norm": norm,
+            "honest": bool(stable and claimed >= norm * (1 - 1e-6))}
+
+
+def run_case(i, case, kind, args, python_control):
+    p, n = case.plant, case.plant.n
+    methods = [("ours", ours(kind))]
+    if kind == "OF":
+        methods.append(("python-control", python_control))
+    if n <= args.lmi_max:
+        methods.append(("cvxpy+clarabel", ours(kind, method="lmi", backend="cvxpy")))
+    if i % args.region_every == 0 and n <= args.region_max:
+        radius = 10 * max(1.0, np.abs(np.linalg.eigvals(p.A)).max())
+        methods.append(("ours+disk", ours(kind, region=disk(radius))))
+    rows = [dict(judge(p, kind, m, call), plant=str(case), family=case.family, n=n, kind=kind,
+                 regular=case.regular) for m, call in methods]
+    best = min((r["norm"] for r in rows if r["success"] and r["method"] != "ours+disk"),
+               default=np.inf)
+    t_ours = rows[0]["time"]
+    for r in rows:
+        r["gap"] = r["norm"] / best - 1 if r["success"] and np.isfinite(best) else np.nan
+        r["time_ratio"] = r["time"] / t_ours
+    return rows
+
+
+def summarize(rows):
+    out = []
+    for kind in ("SF", "OF"):
+        for method in dict.fromkeys(r["method"] for r in rows if r["kind"] == kind):
+            sel = [r for r in rows if r["kind"] == kind and r["method"] == method]
+            reg = [r for r in sel if r["regular"] and r["success"] and r["family"] != "feedthrough"]
+            gaps = np.array([r["gap"] for r in reg])
+            ratios = {b: [r["time_ratio"] for r in sel if lo <= r["n"] <= hi and r["success"]]
+                      for b, (lo, hi) in {"10-19": (10, 19), "20-29": (20, 29),
+                                          "30-40": (30, 40)}.items()}
+            out.append({
+                "kind": kind, "method": method, "plants": len(sel),
+                "success": sum(r["success"] for r in sel),
+                "honest": sum(r.get("honest", False) for r in sel),
+                "median gap (regular)": float(np.median(gaps)) if gaps.size else np.nan,
+                "max gap (regular)": float(gaps.max()) if gaps.size else np.nan,
+                "median time [s]": float(np.median([r["time"] for r in sel])),
+                "max time [s]": float(max(r["time"] for r in sel)),
+                **{f"time / ours, n {b}": float(np.median(v)) if v else np.nan
+                   for b, v in ratios.items()}})
     return out
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--backends", default="clarabel,auto,ipm,cvxpy,drake")
-    ap.add_argument("--sizes", default="2,3,12,20")
-    ap.add_argument("--no-of", action="store_true")
-    ap.add_argument("--of-max", type=int, default=20, help="largest size for output feedback")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--plants", type=int, default=200)
+    ap.add_argument("--sizes", default="10,40")
+    ap.add_argument("--lmi-max", type=int, default=20)
+    ap.add_argument("--region-every", type=int, default=5)
+    ap.add_argument("--region-max", type=int, default=20)
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--pc-timeout", type=float, default=60.0,
+                    help="seconds allowed to one control.hinfsyn call")
+    ap.add_argument("--json", default=None, help="write all rows and the summary as JSON")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
-    rng = np.random.default_rng(0)
-    backends = args.backends.split(",")
-    rows = []
-    for n, (A, B, D, C) in plants([int(s) for s in args.sizes.split(",")], rng).items():
-        G0, G1 = np.eye(n), 0.1 * np.eye(n)
-        p = winf_plant(A, B, D, G0, G1, C)
-        region = disk(20.0 if n > 3 else 4 * max(1.0, np.abs(np.linalg.eigvals(A)).max()))
-        cases = [("SF+disk", lambda b: state_feedback(p, backend=b, region=region))]
-        if not args.no_of and n <= args.of_max:
-            cases.append(("OF", lambda b: output_feedback(p, backend=b)))
-        for name, fn in cases:
-            res = {}
-            for b in backends:
-                t, c = time.perf_counter(), time.process_time()
-                try:
-                    r = fn(b)
-                    res[b] = (time.perf_counter() - t, time.process_time() - c, r.gamma,
-                              f"{r.timings.get('lmi_solve', np.nan):.3f} by {r.backend}"
-                              + (" (fallback)" if r.fallback else "") + (" (regularized)" if r.regularized else ""))
-                except Exception as e:  # report, keep benchmarking the others
-                    res[b] = (np.nan, np.nan, np.nan, str(e)[:60])
-            best = min((v[0] for v in res.values() if np.isfinite(v[0])), default=np.nan)
-            for b, (tt, tc, g, ts) in res.items():
-                rows.append((n, name, b, tt, tt / best, g, ts))
-                print(f"n={n:3d} {name:8s} {b:10s} total {tt:8.3f} s (cpu {tc:7.3f} s)  x{tt / best:6.2f}  "
-                      f"gamma {g:.6g}  solve {ts}", flush=True)
+    lo, hi = (int(s) for s in args.sizes.split(","))
+    cases = plant_family(args.plants, (lo, hi), seed=args.seed)
+    rows, t0 = [], time.perf_counter()
+    pc = PythonControl(args.pc_timeout)
+    for i, case in enumerate(cases):
+        for kind in ("SF", "OF"):
+            rows += run_case(i, case, kind, args, pc)
+        done = i + 1
+        eta = (time.perf_counter() - t0) / done * (len(cases) - done)
+        print(f"\r[{done}/{len(cases)}] {case}  ETA {eta:5.0f} s   ", end="", flush=True)
+    print()
+    summary = summarize(rows)
+    keys = list(summary[0])
+    print("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
+    for s in summary:
+        print("| " + " | ".join(f"{v:.3g}" if isinstance(v, float) else str(v)
+                                for v in s.values()) + " |")
+    slow = [r for r in rows if r["method"] == "ours" and r["n"] <= 30 and r["time"] > 30]
+    failures = "; ".join(f"{r['kind']} {r['plant']}: {r.get('error', 'unstable')}"
+                         for r in rows if r["method"] == "ours" and not r["success"])
+    print(f"ours: {len(slow)} call(s) over 30 s at <= 30 states; failures: {failures or 'none'}")
+    for n_lo, n_hi in ((20, 20), (30, 30), (20, 30)):
+        v = [r["time_ratio"] for r in rows if r["method"] == "python-control" and r["regular"]
+             and n_lo <= r["n"] <= n_hi]
+        if v:
+            print(f"regular OF, n {n_lo}-{n_hi}: python-control time / ours median "
+                  f"{np.median(v):.1f}x (min {min(v):.1f}x, {len(v)} plants)")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"summary": summary, "rows": rows}, fh, indent=1, default=float)
 
 
 if __name__ == "__main__":
