@@ -28,7 +28,7 @@ import scipy.linalg as sla
 from .certificates import brl_residual, parrott_bound
 from .hinf_common import (BRL_TOL, GeneralizedPlant, SynthesisResult, certify_result,
                           validate_plants)
-from .lmi import SynthesisError
+from .lmi import InfeasibleLMIError, SynthesisError
 from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_controller,
                       normalize, output_feedback_test, rank_deficiency, state_feedback_test)
 from .scaling import resolve_scaling, scale_plant, unscale_controller, unscale_gain
@@ -40,6 +40,11 @@ OPTIMUM_GAP = 2e-5
 #: levels tried when the controller at the first level fails its certificate (numerically)
 BACKOFF = (5e-5, 1e-4, 1e-3, 1e-2)
 EPS_LADDER = tuple(10.0 ** -k for k in range(1, 9))
+
+
+class GammaNotReachable(InfeasibleLMIError):
+    """A requested gamma fails the Riccati conditions of a regular problem (below the optimum);
+    an ``InfeasibleLMIError`` like the LMI path's answer to the same request."""
 
 
 def perturbed_plant(p, eps_u, eps_y):
@@ -200,7 +205,15 @@ def riccati_synthesis(plant, output_feedback, *, gamma=None, delta=1e-2, rtol=1e
 
 def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadline):
     if gamma is not None:
-        res, why = _certified_at(problem, 0.0, [gamma], np.nan, f"Riccati at gamma {gamma:.6g}",
+        level = gamma / (1 + 1e-6)  # designed just below: the reported bound is then gamma
+        try:
+            problem.variant(0.0)[1](level)
+        except RiccatiInfeasible as e:  # the Riccati conditions are necessary and sufficient
+            raise GammaNotReachable(f"gamma={gamma:.6g} is not achievable: {e} (the Riccati "
+                                    "conditions fail, so no stabilizing controller reaches "
+                                    "it)") from None
+        res, why = _certified_at(problem, 0.0, [level], np.nan,
+                                 f"Riccati at gamma {gamma:.6g}",
                                  timings, rtol)
         if res is None:
             raise SynthesisError(f"gamma={gamma:.6g} is not reachable by the Riccati "
@@ -237,7 +250,7 @@ def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadli
     what = problem.deficiency
     estimated = converged = False
     if gamma is not None:
-        target, base = gamma, np.nan
+        target, base = gamma / (1 + 1e-6), np.nan
     elif reference is not None and np.isfinite(reference):
         base = reference
         target = (1 + delta) * base

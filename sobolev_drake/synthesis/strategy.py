@@ -25,7 +25,7 @@ import numpy as np
 
 from ..validation import one_of, real_scalar
 from .hinf_common import publish_result
-from .hinf_riccati import BudgetExceeded, riccati_synthesis
+from .hinf_riccati import BudgetExceeded, GammaNotReachable, riccati_synthesis
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
 
@@ -103,6 +103,8 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
         log.add("Riccati", t, f"certified gamma {res.gamma:.6g}")
         res.attempts = log.entries
         return publish_result(res, warns, t0, [plant], None, rtol, verify, recertify=False)
+    except GammaNotReachable:
+        raise  # a mathematical answer, not a numerical failure: no fallback
     except (SynthesisError, BudgetExceeded) as e:
         log.add("Riccati", t, str(e))
     if method == "riccati" or (deadline is not None and time.perf_counter() > deadline):
