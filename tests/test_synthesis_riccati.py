@@ -1,0 +1,100 @@
+"""The Riccati path (``riccati.py``, ``hinf_riccati.py``) and the dispatch (``strategy.py``)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sobolev_drake.synthesis import riccati, strategy
+from sobolev_drake.synthesis.certificates import hinf_norm
+from sobolev_drake.synthesis.hinf import GeneralizedPlant, output_feedback, state_feedback
+from sobolev_drake.synthesis.lmi import InfeasibleLMIError, SynthesisError
+from sobolev_drake.synthesis.random_plants import random_plant
+from sobolev_drake.synthesis.sobolev import winf_plant
+
+
+def scalar_plant(a, b1=1.0, b2=2.0, c=3.0, d=0.5):
+    """x' = a x + b1 w + b2 u, z = [c x; d u]."""
+    return GeneralizedPlant.make([[a]], [[b1]], [[b2]], [[c], [0.0]], None, [[0.0], [d]])
+
+
+@pytest.mark.parametrize("a", [-2.0, -0.3, 0.7, 3.0])
+def test_scalar_state_feedback_optimum_closed_form(a):
+    """Scalar full information: the Hamiltonian [[a, -k], [-c^2, -a]], k = b2^2/d^2 - b1^2/g^2,
+    has no imaginary eigenvalues iff a^2 + c^2 k > 0, and X = (a + sqrt(a^2 + c^2 k)) / k >= 0
+    needs k > 0 when a > 0.  Hence gamma_opt = b1 / sqrt(b2^2/d^2 + a^2/c^2) for a < 0 and
+    b1 d / b2 for a > 0.  The bisection stops at 1e-6 relative width; the controller is built
+    at (1 + 2e-5) gamma_opt, so its certified gamma lies within [1, 1 + 1e-4] x the closed form."""
+    b1, b2, c, d = 1.0, 2.0, 3.0, 0.5
+    exact = b1 / np.sqrt(b2 ** 2 / d ** 2 + a ** 2 / c ** 2) if a < 0 else b1 * d / b2
+    res = state_feedback(scalar_plant(a, b1, b2, c, d))
+    assert res.method == "riccati"
+    assert res.gamma_opt == pytest.approx(exact, rel=2e-6)
+    assert exact <= res.certificate.achieved * (1 + 2e-7) and res.gamma <= exact * (1 + 1e-4)
+
+
+def test_normalization_is_exact():
+    rng = np.random.default_rng(5)
+    p = random_plant(rng, 5, "feedthrough").plant
+    nrm = riccati.normalize(p)
+    pn = nrm.plant
+    assert np.allclose(pn.D12, np.vstack([np.zeros((p.nz - p.nu, p.nu)), np.eye(p.nu)]), atol=1e-12)
+    assert np.allclose(pn.D21, np.hstack([np.zeros((p.ny, p.nw - p.ny)), np.eye(p.ny)]), atol=1e-12)
+    # a controller of the normalized plant, mapped back, gives the same closed-loop norm
+    lev = riccati.output_feedback_test(pn, 10.0 * riccati.parrott_bound(p.D11, p.D12, p.D21) + 50)
+    k_n = riccati.central_controller(pn, lev)
+    n1 = hinf_norm(*pn.closed_loop(controller=k_n))[0]
+    n2 = hinf_norm(*p.closed_loop(controller=nrm.controller(k_n)))[0]
+    assert n1 == pytest.approx(n2, rel=1e-7)  # 2 Hamiltonian tolerances (1e-7 each)
+    assert n1 <= lev.gamma
+
+
+def test_requested_gamma_is_the_certified_bound_and_below_optimum_is_refused():
+    p = random_plant(np.random.default_rng(2), 6, "unstable").plant
+    opt = output_feedback(p)
+    r = output_feedback(p, gamma=1.3 * opt.gamma_opt)
+    assert r.method == "riccati" and r.gamma == pytest.approx(1.3 * opt.gamma_opt, rel=1e-12)
+    assert r.certificate.achieved <= r.gamma
+    with pytest.raises(InfeasibleLMIError, match="not achievable"):
+        output_feedback(p, gamma=0.99 * opt.gamma_opt)
+
+
+def test_time_budget_error_lists_what_was_tried():
+    p = random_plant(np.random.default_rng(3), 8, "stable").plant
+    with pytest.raises(SynthesisError, match=r"within the time budget; tried: Riccati: .* s, "
+                                             r"time budget exhausted"):
+        output_feedback(p, time_limit=1e-9)
+    with pytest.raises(SynthesisError, match="time budget exhausted before backend"):
+        state_feedback(p, method="lmi", time_limit=1e-9)
+
+
+def test_failed_riccati_path_falls_back_to_the_lmi_and_says_so(monkeypatch):
+    p = random_plant(np.random.default_rng(4), 5, "stable").plant
+
+    def broken(*args, **kwargs):
+        raise SynthesisError("injected failure")
+    monkeypatch.setattr(strategy, "riccati_synthesis", broken)
+    r = output_feedback(p)
+    assert r.method == "lmi" and r.certificate.ok
+    assert "Riccati path failed" in r.fallback
+    assert r.attempts[0].startswith("Riccati:") and "injected failure" in r.attempts[0]
+    assert r.attempts[1].startswith("LMI:")
+    with pytest.raises(SynthesisError, match="tried: Riccati: .*injected failure"):
+        output_feedback(p, method="riccati")
+
+
+def test_singular_state_feedback_is_regularized_with_bounded_gain():
+    """Gamma1 = 0 removes u from z (D12 = 0): the infimum needs unbounded gains.  The default
+    call perturbs the plant, certifies at (1 + delta) x its estimate, and says so; the LMI
+    path's optimum agrees with the estimate to the LMI's accuracy on this unattained infimum."""
+    A = np.array([[0.0, 1.0], [2.0, -0.5]])
+    B = np.array([[0.0], [1.0]])
+    p = winf_plant(A, B, np.array([[1.0], [0.0]]), np.eye(2), np.zeros((2, 2)))  # unmatched w
+    with pytest.warns(UserWarning, match=r"singular problem \(rank D12 = 0 < 1\)"):
+        r = state_feedback(p)
+    assert r.regularized and r.method == "riccati" and r.certificate.ok
+    assert np.isfinite(np.abs(r.K).max())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lmi = state_feedback(p, method="lmi", regularize=False, verify=False)
+    assert r.gamma_opt <= lmi.certificate.achieved * (1 + 1e-3)
