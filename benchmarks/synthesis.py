@@ -19,9 +19,9 @@ computed norm (1e-6 relative); "gap" = norm / best norm any method reached on th
 (regular plants: D12, D21 full rank, optimum off the feedthrough bound).  Time ratios are
 method time / ours, same plant, same run.  Usage::
 
-    python benchmarks/synthesis.py [--plants 200] [--sizes 10,40] [--lmi-max 20]
-                                   [--region-every 5] [--region-max 20] [--pc-timeout 60]
-                                   [--json FILE]
+    python benchmarks/synthesis.py [--plants 200] [--sizes 10,40] [--lmi-max 16]
+                                   [--region-every 5] [--region-max 20] [--pc-timeout 30]
+                                   [--json FILE] [--rows FILE.jsonl]
 """
 
 from __future__ import annotations
@@ -152,13 +152,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plants", type=int, default=200)
     ap.add_argument("--sizes", default="10,40")
-    ap.add_argument("--lmi-max", type=int, default=20)
+    ap.add_argument("--lmi-max", type=int, default=16)
     ap.add_argument("--region-every", type=int, default=5)
     ap.add_argument("--region-max", type=int, default=20)
     ap.add_argument("--seed", type=int, default=2026)
-    ap.add_argument("--pc-timeout", type=float, default=60.0,
+    ap.add_argument("--pc-timeout", type=float, default=30.0,
                     help="seconds allowed to one control.hinfsyn call")
     ap.add_argument("--json", default=None, help="write all rows and the summary as JSON")
+    ap.add_argument("--rows", default=None,
+                    help="append each plant's rows to this JSON-lines file as they are measured")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     lo, hi = (int(s) for s in args.sizes.split(","))
@@ -167,7 +169,11 @@ def main():
     pc = PythonControl(args.pc_timeout)
     for i, case in enumerate(cases):
         for kind in ("SF", "OF"):
-            rows += run_case(i, case, kind, args, pc)
+            new = run_case(i, case, kind, args, pc)
+            rows += new
+            if args.rows:
+                with open(args.rows, "a") as fh:
+                    fh.writelines(json.dumps(r, default=float) + "\n" for r in new)
         done = i + 1
         eta = (time.perf_counter() - t0) / done * (len(cases) - done)
         print(f"\r[{done}/{len(cases)}] {case}  ETA {eta:5.0f} s   ", end="", flush=True)
