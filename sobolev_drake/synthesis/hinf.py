@@ -1,6 +1,11 @@
-"""Bounded-real-lemma H-infinity synthesis for a continuous-time generalized plant.
+"""H-infinity synthesis for a continuous-time generalized plant.
 
     xdot = A x + B1 w + B2 u,   z = C1 x + D11 w + D12 u,   y = C2 x + D21 w   (D22 = 0)
+
+:func:`state_feedback` and :func:`output_feedback` choose between two characterizations
+(``strategy.py``): Riccati equations with gamma bisection (``riccati.py``,
+``hinf_riccati.py``), the default where nothing needs an LMI, and the bounded-real-lemma LMIs
+described below (pole regions, polytopes, weights, initial-state objectives).
 
 * state feedback u = K x (this module): variables X = P^-1 > 0, W = K X (the change of
   variables of (6.7));

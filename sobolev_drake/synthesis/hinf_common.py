@@ -116,9 +116,14 @@ class SynthesisResult:
       upper-left block of P^-1 (Gahinet-Apkarian variables, [[X, I], [I, Y]] > 0); ``P`` is
       None when the controller order was reduced (I - XY rank deficient).
 
-    ``gamma`` is the certified bound (>= ``gamma_opt``, the LMI optimum; relaxed when
-    ``regularized``); ``backend``/``solver`` name what produced the result and ``fallback``
-    why earlier backends of a chain (default / "auto") were not used.
+    ``gamma`` is the certified bound (>= ``gamma_opt``; relaxed when ``regularized``).
+    ``gamma_opt`` is the LMI optimum (``method == "lmi"``) or the upper end of the Riccati
+    bisection bracket (``method == "riccati"``; on singular problems the Riccati estimate of
+    the infimum, an upper bound of it).  ``backend``/``solver`` name what produced the result,
+    ``fallback`` why earlier backends or paths were not used, ``attempts`` what was tried.
+
+    Riccati results: ``P`` is the stabilizing solution of the closed loop's bounded-real
+    Riccati equation at the design level, ``gamma`` = level x (1 + 1e-6).
     """
 
     kind: str  # "state_feedback" | "output_feedback"
@@ -128,7 +133,7 @@ class SynthesisResult:
     P: np.ndarray | None = None  # closed-loop Lyapunov matrix
     X: np.ndarray | None = None
     Y: np.ndarray | None = None
-    gamma_opt: float = np.nan  # LMI optimum (before any regularization)
+    gamma_opt: float = np.nan  # optimum (before any regularization); see the class docstring
     feedthrough_bound: float = 0.0
     solver: str = ""
     backend: str = ""
