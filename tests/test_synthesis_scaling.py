@@ -165,7 +165,12 @@ def test_badly_scaled_output_feedback_same_gamma_and_certified(seed, region):
     assert np.linalg.eigvalsh(r.P).min() > 0
     L = cl[0].T @ r.P + r.P @ cl[0]
     dsc = 1.0 / np.sqrt(np.diag(r.P))
-    assert np.linalg.eigvalsh(dsc[:, None] * L * dsc).max() < 0
+    ev = np.linalg.eigvalsh(dsc[:, None] * L * dsc)
+    # LMI path: strictly negative (the LMI margin).  Riccati path: P solves the closed loop's
+    # bounded-real Riccati equation, so A'P + PA = -C'C - (...) <= 0 has exact zeros in the
+    # directions z does not see; it is accepted at BRL_TOL = 1e-7 relative (measured 5e-9 /
+    # 60.6 under Haswell and Zen kernels, < 0 under the others)
+    assert ev.max() < (0 if r.method == "lmi" else 1e-7 * np.abs(ev).max())
     assert np.allclose(r.P[:p.n, :p.n], r.Y, rtol=1e-6, atol=0)
     assert np.allclose(np.linalg.inv(r.P)[:p.n, :p.n], r.X, rtol=1e-5, atol=1e-12 * np.abs(r.X).max())
 
