@@ -77,6 +77,20 @@ class _Log:
                              + " | ".join(self.entries))
 
 
+def _lmi_only(lmi, regularize, verify, t0, deadline):
+    """The LMI path alone; a failure keeps its type and gains the time spent (and whether the
+    budget ran out) in its message."""
+    try:
+        res = lmi(regularize=regularize, verify=verify, deadline=deadline)
+    except SynthesisError as e:
+        late = deadline is not None and time.perf_counter() > deadline
+        e.args = (f"{e.args[0] if e.args else e} [LMI path: {time.perf_counter() - t0:.3g} s"
+                  + (", time budget exhausted" if late else "") + "]",) + e.args[1:]
+        raise
+    res.attempts = [f"LMI: {time.perf_counter() - t0:.3g} s, certified gamma {res.gamma:.6g}"]
+    return res
+
+
 def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, delta, rtol,
                verify, scaling, regularize):
     """Dispatch one synthesis call (see the module docstring).
@@ -91,10 +105,10 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
         raise ValueError(f"method='riccati' does not support {', '.join(lmi_features)}; use "
                          "method='lmi' or 'auto'")
     if method == "lmi" or (method == "auto" and lmi_features):
-        return lmi(regularize=regularize, verify=verify, deadline=deadline)
+        return _lmi_only(lmi, regularize, verify, t0, deadline)
     singular = rank_deficiency(plant, of)
     if method == "auto" and singular and regularize is False:
-        return lmi(regularize=False, verify=verify, deadline=deadline)
+        return _lmi_only(lmi, False, verify, t0, deadline)
     log = _Log()
     t = time.perf_counter()
     try:
