@@ -53,3 +53,32 @@ def test_family_generator_is_reproducible_and_checks_its_family():
     assert [c.family for c in plant_family(len(FAMILIES), (5, 5))] == list(FAMILIES)
     with pytest.raises(ValueError, match="family must be one of"):
         random_plant(np.random.default_rng(0), 4, "unstabl")
+
+
+# stable, unstable and feedthrough plants only: SB10AD's own gamma iteration takes 4-18 s on
+# 5-state lightly damped and ill-conditioned plants (the benchmark runs those, time-boxed)
+@pytest.mark.parametrize("case", plant_family(9, (3, 8), seed=11,
+                                              families=("stable", "unstable", "feedthrough")),
+                         ids=str)
+def test_output_feedback_against_python_control(case):
+    """python-control's hinfsyn (slycot SB10AD) on the same plant: where its controller is
+    stabilizing and its claimed gamma holds (its closed-loop norm, computed here, is not above
+    it), our certified gamma is within 1e-4 of that norm or below -- both approximate the
+    same optimum from above.  Where it is not (measured on lightly damped and unstable plants:
+    claimed gamma below the achieved norm, or an unstable closed loop), ours still certifies."""
+    control = pytest.importorskip("control")
+    from sobolev_drake.synthesis.hinf_common import DynamicController
+    p = case.plant
+    res = output_feedback(p)
+    assert res.certificate.ok and res.method == "riccati"
+    P = control.ss(p.A, np.hstack([p.B1, p.B2]), np.vstack([p.C1, p.C2]),
+                   np.block([[p.D11, p.D12], [p.D21, np.zeros((p.ny, p.nu))]]))
+    K, _, gam, _ = control.hinfsyn(P, p.ny, p.nu)
+    cl = p.closed_loop(controller=DynamicController(K.A, K.B, K.C, K.D))
+    if np.linalg.eigvals(cl[0]).real.max() >= 0:
+        return
+    theirs = hinf_norm(*cl)[0]
+    if theirs <= gam * (1 + 1e-6):  # an honest python-control result
+        # an optimum on the feedthrough bound is relaxed by design to (1 + delta) x it
+        factor = (1 + 1e-2) * (1 + 1e-6) if res.regularized else 1.0
+        assert res.gamma <= theirs * factor * (1 + 1e-4)
