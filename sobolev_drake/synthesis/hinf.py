@@ -184,7 +184,7 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
                                    deadline=deadline)
     return synthesize(plant, "state_feedback", lmi, method=method, time_limit=time_limit,
                       lmi_features=features, gamma=gamma, delta=delta, rtol=rtol, verify=verify,
-                      scaling=scaling, regularize=regularize)
+                      scaling=scaling, regularize=regularize, region=region)
 
 
 def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regularize, delta,

@@ -213,7 +213,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
                                     transient_gain_weight=transient_gain_weight, deadline=deadline)
     return synthesize(plant, "output_feedback", lmi, method=method, time_limit=time_limit,
                       lmi_features=features, gamma=gamma, delta=delta, rtol=rtol, verify=verify,
-                      scaling=scaling, regularize=regularize)
+                      scaling=scaling, regularize=regularize, region=region)
 
 
 def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regularize, delta,

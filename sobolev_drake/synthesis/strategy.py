@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from ..validation import one_of, real_scalar
-from .hinf_common import publish_result
+from .hinf_common import certify_result, publish_result
 from .hinf_riccati import BudgetExceeded, GammaNotReachable, riccati_synthesis
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
@@ -91,8 +91,42 @@ def _lmi_only(lmi, regularize, verify, t0, deadline):
     return res
 
 
+#: LMI-only options under which a Riccati controller may still answer a region problem
+REGION_FALLBACK_OK = {"region", "backend", "solver_options"}
+#: levels (times the Riccati optimum without region) tried for a controller in the region
+REGION_LEVELS = (1.1, 1.5, 2.0, 4.0, 10.0)
+
+
+def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_error):
+    """Fallback when the LMI path fails on a region problem: Riccati controllers at increasing
+    levels above the optimum without region (a lower bound of the optimum in it) until one
+    certifies with its poles in the region.  Relaxing gamma slows the central controller down
+    (measured on the benchmark's failures: all poles inside the disk from 1.1-1.5 x on).
+    Returns (result, warnings) or None."""
+    try:
+        free, _ = riccati_synthesis(plant, of, delta=delta, rtol=rtol, scaling=scaling,
+                                    deadline=deadline)
+    except (SynthesisError, BudgetExceeded):
+        return None
+    base = free.gamma_opt
+    for factor in ((1 + delta),) + REGION_LEVELS:
+        try:
+            res, warns = riccati_synthesis(plant, of, gamma=factor * base, delta=delta,
+                                           rtol=rtol, scaling=scaling, deadline=deadline)
+        except (SynthesisError, BudgetExceeded):
+            continue
+        certify_result(res, [plant], region, rtol, False, res.status)
+        if res.certificate.ok:
+            res.region, res.gamma_opt, res.regularized = region, base, True
+            return res, warns + [
+                f"the LMI path failed ({lmi_error}); returned the Riccati controller at gamma "
+                f"= {factor:g} x {base:.6g}, the optimum without the region (a lower bound of "
+                f"the optimum in it), whose closed-loop poles lie in the region"]
+    return None
+
+
 def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, delta, rtol,
-               verify, scaling, regularize):
+               verify, scaling, regularize, region=None):
     """Dispatch one synthesis call (see the module docstring).
 
     ``lmi(regularize=..., verify=..., deadline=...)`` runs the LMI path with the caller's other
@@ -104,6 +138,27 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
     if method == "riccati" and lmi_features:
         raise ValueError(f"method='riccati' does not support {', '.join(lmi_features)}; use "
                          "method='lmi' or 'auto'")
+    if (method == "auto" and gamma is None and "region" in lmi_features
+            and set(lmi_features) <= REGION_FALLBACK_OK):
+        # the LMI path, with a slice of the budget kept for the Riccati fallback in the region
+        reserve = 0.0 if deadline is None else 0.1 * time_limit
+        try:
+            return _lmi_only(lmi, regularize, verify, t0,
+                             None if deadline is None else deadline - reserve)
+        except SynthesisError as e:
+            # the reserved slice, even when the LMI solver overran its own limit
+            fb_deadline = None if deadline is None else max(deadline,
+                                                            time.perf_counter() + reserve)
+            found = _riccati_in_region(plant, kind == "output_feedback", region, delta, rtol,
+                                       scaling, fb_deadline, e)
+            if found is None:
+                raise
+            res, warns = found
+            res.attempts = [f"LMI: failed ({e})",
+                            f"Riccati in the region: certified gamma {res.gamma:.6g}"]
+            res.fallback = "the LMI path failed"
+            return publish_result(res, warns, t0, [plant], region, rtol, verify,
+                                  recertify=False)
     if method == "lmi" or (method == "auto" and lmi_features):
         return _lmi_only(lmi, regularize, verify, t0, deadline)
     singular = rank_deficiency(plant, of)
