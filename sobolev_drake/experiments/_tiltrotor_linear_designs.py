@@ -118,11 +118,12 @@ def _solve(lin, kind, backend, x0=None):
         backend = "clarabel" if thesis_form else "auto"
     if kind in ("sf", "sf_disk"):
         return sb.winf_state_feedback(A, B, D, GAMMA0, GAMMA1, backend=backend, initial_states=x0,
-                                      region=disk if kind == "sf_disk" else None), None, notes
+                                      region=disk if kind == "sf_disk" else None,
+                                      time_limit=None), None, notes
     if kind == "of":
         C = output_matrix()
         return hinf.output_feedback(sb.winf_plant(A, B, D, GAMMA0, GAMMA1, C), region=disk,
-                                    backend=backend, initial_states=x0), C, notes
+                                    backend=backend, initial_states=x0, time_limit=None), C, notes
     Ad, Bd, Cd = _disturbance_model()
     if kind.startswith("dm_thesis"):
         of = kind.endswith("of")
@@ -137,7 +138,8 @@ def _solve(lin, kind, backend, x0=None):
         # coordinates; its γ is the solver's value, not a verified bound.
         nv = Bd.shape[1]
         plant = sb.winf_plant(A, B, np.hstack([D @ Cd, np.zeros((A.shape[0], nv))]), GAMMA0, GAMMA1, C)
-        kw = dict(input_weight=rep.weight, regularize=False, verify=False, margin=0.0, backend=backend)
+        kw = dict(input_weight=rep.weight, regularize=False, verify=False, margin=0.0, backend=backend,
+                  time_limit=None)
         try:
             if of:
                 r = hinf.output_feedback(plant, region=disk, **kw)
@@ -173,7 +175,7 @@ def _solve(lin, kind, backend, x0=None):
     # solver optimum is flown and the table says what it does.  That optimum depends on
     # Clarabel's thread count (W-inf-D: gamma 0.0354391 with the automatic setting, 0.0354647
     # with max_threads=1, each reproducible to the bit), so it can differ between machines.
-    r = hinf.output_feedback(plant, region=disk, backend=dm_backend)
+    r = hinf.output_feedback(plant, region=disk, backend=dm_backend, time_limit=None)
     return r, (np.eye(20) if C is None else C), notes
 
 

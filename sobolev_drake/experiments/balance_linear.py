@@ -102,7 +102,9 @@ def result_gains(res):
 
 
 def quiet(fn, *args, **kw):
-    """Call a synthesis, returning (result, list of warning texts)."""
+    """Call a synthesis, returning (result, list of warning texts).  The thesis designs are
+    offline computations: no time budget unless the caller sets one."""
+    kw.setdefault("time_limit", None)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = fn(*args, **kw)
