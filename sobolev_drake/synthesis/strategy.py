@@ -141,7 +141,7 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
     if (method == "auto" and gamma is None and "region" in lmi_features
             and set(lmi_features) <= REGION_FALLBACK_OK):
         # the LMI path, with a slice of the budget kept for the Riccati fallback in the region
-        reserve = 0.0 if deadline is None else 0.1 * time_limit
+        reserve = 0.0 if deadline is None else 0.2 * time_limit
         try:
             return _lmi_only(lmi, regularize, verify, t0,
                              None if deadline is None else deadline - reserve)
