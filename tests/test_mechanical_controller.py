@@ -239,7 +239,7 @@ def test_bad_input_raises_clear_errors():
     with pytest.raises(TypeError, match="SobolevLaw or an HinfLaw"):
         MechanicalLaw(model, Partition(controlled=[0, 1]), g)
     quad = make_quadrotor_model()
-    with pytest.raises(ValueError, match="square B"):
+    with pytest.raises(ValueError, match="square and invertible"):
         MechanicalLaw(quad, Partition(controlled=list(range(6))),
                       SobolevLaw(controlled_gains(*[np.ones(6)] * 4)))
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ForceElementIndex, ModelInstanceIndex
 
 
 def check_vector(name: str, value, size: int) -> np.ndarray:
@@ -131,3 +132,139 @@ class MechanicalModel:
         M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it."""
         check_vector("qdot", qdot, self.n)
         return np.zeros(self.n)
+
+    @classmethod
+    def from_plant(cls, plant: MultibodyPlant, *, context=None, name=None) -> "PlantModel":
+        """A model of any finalized ``MultibodyPlant`` (continuous or discrete), in Drake's
+        coordinates (q_thesis = q_drake, so the plant's state port is the controller's ``x``
+        and its actuation port takes the controller's ``u``).  See :class:`PlantModel`.
+
+        Parameters
+        ----------
+        plant : MultibodyPlant
+            Finalized, double-valued plant whose q̇ = v (revolute, prismatic, planar, weld,
+            universal joints; a quaternion or roll-pitch-yaw floating base is refused by name).
+        context : Context, optional
+            A context of ``plant`` whose parameters (masses, damping, reflected inertias) the
+            model uses; the plant's defaults when omitted.  Copied, never modified.
+        name : str, optional
+            Model name for messages (default: the plant's first model instance name).
+
+        Returns
+        -------
+        PlantModel
+        """
+        return PlantModel(plant, context=context, name=name)
+
+
+#: force elements whose generalized forces the model represents (gravity is g(q))
+_SUPPORTED_FORCE_ELEMENTS = ("UniformGravityFieldElement",)
+
+
+class PlantModel(MechanicalModel):
+    """:class:`MechanicalModel` of an arbitrary MultibodyPlant, built by
+    :meth:`MechanicalModel.from_plant`.
+
+    What the plant's equations contain and where it is in the model:
+
+    * M(q) — ``CalcMassMatrix``, which includes the reflected (rotor) inertia of joint actuators;
+    * C(q, q̇) q̇ and g(q) — the bias term and the uniform gravity field;
+    * joint damping — Drake applies τ = −d v per joint; here it is the friction term
+      K(q̇) = D q̇ of (4.30), D = diag(d) read from the context at construction;
+    * B — ``MakeActuationMatrix()`` (columns in actuator order, i.e. the order of the plant's
+      actuation input port); constant in q.
+
+    Refused with a ``ValueError`` naming the element: force elements other than gravity
+    (springs, bushings, custom ones: subclass :class:`MechanicalModel` and put them in
+    ``g``/``friction``), joints whose q̇ ≠ v (quaternion or roll-pitch-yaw floating bases,
+    ball joints: model a floating body with a chain of prismatic and revolute joints, as the
+    library's quadrotor does) and actuators with Drake's implicit PD control.  Contact, joint
+    limits and effort limits are not part of M q̈ + C q̇ + g = B u; the effort limits are
+    available as ``input_lower``/``input_upper`` for a controller's ``lower``/``upper``.
+    """
+
+    def __init__(self, plant: MultibodyPlant, *, context=None, name=None):
+        if not isinstance(plant, MultibodyPlant):
+            raise TypeError("plant must be a finalized pydrake MultibodyPlant (double), got "
+                            f"{type(plant).__name__}")
+        if not plant.is_finalized():
+            raise ValueError("plant must be finalized (plant.Finalize()) before from_plant")
+        _refuse_unsupported(plant)
+        if name is None:
+            name = plant.GetModelInstanceName(ModelInstanceIndex(min(plant.num_model_instances() - 1, 2)))
+        names = plant.GetPositionNames(add_model_instance_prefix=False, always_add_suffix=False)
+        super().__init__(plant, dof_names=names, name=name)
+        if context is not None:
+            plant.ValidateContext(context)
+            self.context = context.Clone()
+        damping = np.zeros(self.n)
+        for index in plant.GetJointIndices():
+            joint = plant.get_joint(index)
+            if joint.num_velocities():
+                start = joint.velocity_start()
+                damping[start:start + joint.num_velocities()] = joint.GetDampingVector(self.context)
+                # the law adds D q̇ itself; zeroed here so Drake's force-element pass (the
+                # recursive inverse dynamics) does not count it twice
+                joint.SetDampingVector(self.context, np.zeros(joint.num_velocities()))
+        if np.any(damping < 0):
+            raise ValueError(f"joint damping must be >= 0, got {damping}")
+        self.damping = damping
+        self.frictionless = not np.any(damping)
+        self._B = plant.MakeActuationMatrix()
+        self.num_inputs = self._B.shape[1]
+        lower, upper = -np.inf * np.ones(self.num_inputs), np.inf * np.ones(self.num_inputs)
+        for k, index in enumerate(plant.GetJointActuatorIndices()):
+            limit = plant.get_joint_actuator(index).effort_limit()
+            lower[k], upper[k] = -limit, limit
+        self.input_lower, self.input_upper = lower, upper
+
+    def B(self, q) -> np.ndarray:
+        """Actuation matrix (n × number of actuators), constant in q."""
+        check_vector("q", q, self.n)
+        return self._B.copy()
+
+    def friction(self, qdot) -> np.ndarray:
+        """Joint damping D q̇ (Drake's τ = −d v, moved to the left-hand side)."""
+        return self.damping * check_vector("qdot", qdot, self.n)
+
+
+def _refuse_unsupported(plant: MultibodyPlant) -> None:
+    """ValueError naming the first joint, force element or actuator the model cannot represent."""
+    for index in plant.GetJointIndices():
+        joint = plant.get_joint(index)
+        if joint.num_positions() != joint.num_velocities():
+            raise ValueError(
+                f"joint {joint.name()!r} ({joint.type_name()}) has {joint.num_positions()} "
+                f"positions and {joint.num_velocities()} velocities; the Euler–Lagrange model "
+                "needs q̇ = v: model a floating body with prismatic and revolute joints "
+                "(x, y, z, yaw, pitch, roll), as sobolev_drake's quadrotor URDF does")
+    context = plant.CreateDefaultContext()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-1.0, 1.0, plant.num_positions())
+    plant.SetPositions(context, q)
+    v = rng.uniform(-1.0, 1.0, plant.num_velocities())
+    qdot = plant.MapVelocityToQDot(context, v)
+    for index in plant.GetJointIndices():
+        joint = plant.get_joint(index)
+        s, m = joint.position_start(), joint.num_positions()
+        # the map is exact for joints with q̇ = v, so any difference is structural
+        if m and not np.allclose(qdot[s:s + m], v[joint.velocity_start():joint.velocity_start() + m],
+                                 rtol=0.0, atol=1e-12):
+            raise ValueError(
+                f"joint {joint.name()!r} ({joint.type_name()}) has q̇ ≠ v (its velocities are "
+                "not the time derivatives of its positions); the Euler–Lagrange model needs "
+                "q̇ = v: use revolute/prismatic joint chains instead")
+    for i in range(plant.num_force_elements()):
+        element = plant.get_force_element(ForceElementIndex(i))
+        kind = type(element).__name__
+        if kind not in _SUPPORTED_FORCE_ELEMENTS:
+            raise ValueError(
+                f"force element {i} ({kind}) is not represented by from_plant (supported: "
+                f"{', '.join(_SUPPORTED_FORCE_ELEMENTS)} and joint damping); subclass "
+                "MechanicalModel and add its generalized force to g(q) or friction(q̇)")
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
+        if actuator.has_controller():
+            raise ValueError(
+                f"actuator {actuator.name()!r} has Drake's implicit PD controller, so the "
+                "actuation port does not carry torques; build the plant without PD gains")

@@ -51,59 +51,10 @@ from scipy.optimize import lsq_linear
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native.rnea import cached_tree_kernel
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
-from sobolev_drake.validation import bounds_pair, index_tuple
+from sobolev_drake.systems.partition import Partition, check_actuation
+from sobolev_drake.validation import bounds_pair, real_matrix
 
 __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalController"]
-
-
-@dataclass(frozen=True)
-class Partition:
-    """DOF partition by thesis indices (0-based, thesis order).
-
-    ``controlled``: tracked with integral action; ``regulated``: tracked without (7.66);
-    ``stabilized``: q̇s → 0 (5.66); ``uncontrolled``: eliminated by the reduced model (5.5).
-    Every DOF must be in exactly one group.  Mode: ``reduced`` if ``uncontrolled`` is non-empty,
-    ``input_coupling`` if ``stabilized`` or ``regulated`` is, ``fully_actuated`` otherwise.
-    """
-
-    controlled: tuple
-    stabilized: tuple = ()
-    regulated: tuple = ()
-    uncontrolled: tuple = ()
-
-    def __post_init__(self):
-        seen = {}
-        for name in ("controlled", "stabilized", "regulated", "uncontrolled"):
-            idx = index_tuple(f"Partition.{name}", getattr(self, name), None)
-            for i in idx:
-                if i in seen:
-                    raise ValueError(f"Partition: DOF {i} is in both {seen[i]} and {name}; "
-                                     "each DOF belongs to exactly one group")
-                seen[i] = name
-            object.__setattr__(self, name, idx)
-        if not self.controlled:
-            raise ValueError("partition.controlled must name at least one DOF")
-        if self.uncontrolled and (self.stabilized or self.regulated):
-            raise ValueError("partition: a reduced model (uncontrolled DOF) cannot also have "
-                             "stabilized or regulated DOF")
-
-    @property
-    def tracked(self) -> tuple:
-        return self.controlled + self.regulated
-
-    @property
-    def mode(self) -> str:
-        if self.uncontrolled:
-            return "reduced"
-        if self.stabilized or self.regulated:
-            return "input_coupling"
-        return "fully_actuated"
-
-    def check(self, n: int) -> None:
-        allidx = self.controlled + self.stabilized + self.regulated + self.uncontrolled
-        if sorted(allidx) != list(range(n)):
-            raise ValueError(f"partition must assign each of the {n} DOF to exactly one group, "
-                             f"got {self}")
 
 
 @dataclass
@@ -157,10 +108,16 @@ class MechanicalLaw:
     allocation : None (B⁻¹ / B̄⁻¹ / B†) or ``callable(u_star, q, qdot) -> tau``.
     lower, upper : optional actuator bounds (size n_τ) enforced by bounded least squares when
         no ``allocation`` callable is given.
+    operating_points : array_like, optional
+        Configurations q (rows, thesis order) along the expected operating range at which the
+        partition's actuation assumptions are checked (:func:`~sobolev_drake.systems.partition.
+        check_actuation`; Assumptions 5–7); default q = 0.  A partition the inputs cannot
+        serve there raises ``ValueError``.  Skipped with an ``allocation`` callable, which
+        then owns the mapping from u* to the inputs.
     """
 
     def __init__(self, model, partition: Partition, law, *, allocation: Callable | None = None,
-                 lower=None, upper=None):
+                 lower=None, upper=None, operating_points=None):
         if not all(hasattr(model, k) for k in ("n", "M", "Cqdot", "g")):
             raise TypeError("model must be a MechanicalModel (M(q), C(q,q̇)q̇, g(q) of a plant), "
                             f"got {type(model).__name__}")
@@ -199,9 +156,10 @@ class MechanicalLaw:
             if allocation is None:
                 raise ValueError("model has no B(q): give an allocation callable") from None
             self.num_inputs = int(getattr(model, "num_inputs", self.n))
-        if p.mode == "fully_actuated" and allocation is None and self.num_inputs != self.n:
-            raise ValueError(f"fully actuated partition needs a square B (n = {self.n}), got "
-                             f"{self.num_inputs} inputs; use a reduced or input-coupling partition")
+        points = (np.zeros((1, self.n)) if operating_points is None else
+                  real_matrix("operating_points", np.atleast_2d(operating_points), (None, self.n)))
+        if allocation is None:
+            check_actuation(model, p, self._B, points)
         if p.mode == "reduced" and self.num_inputs != self.nc:
             raise ValueError(f"reduced model needs as many inputs as controlled DOF (Assumption 5):"
                              f" {self.num_inputs} inputs, {self.nc} controlled DOF")
@@ -510,13 +468,13 @@ class MechanicalController(LeafSystem):
 
     def __init__(self, model=None, partition: Partition | None = None, inner=None, *,
                  law: MechanicalLaw | None = None, allocation=None, lower=None, upper=None,
-                 initial_integral=None):
+                 initial_integral=None, operating_points=None):
         super().__init__()
         if law is None:
             if model is None or partition is None or inner is None:
                 raise ValueError("give either law= or (model, partition, inner)")
             law = MechanicalLaw(model, partition, inner, allocation=allocation, lower=lower,
-                                upper=upper)
+                                upper=upper, operating_points=operating_points)
         self.law = law
         n, nc = law.n, law.nc
         self._x = self.DeclareVectorInputPort("x", 2 * n)
