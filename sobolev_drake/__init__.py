@@ -1,11 +1,52 @@
 """sobolev_drake: robust control in weighted Sobolev spaces on Drake's systems framework.
 
-Subpackages
------------
-synthesis    controller design (pure maths: LMIs, Riccati equations, Galerkin)
-systems      Drake LeafSystems (controllers, allocation, propellers, aerodynamics, wind, ...)
+``import sobolev_drake as sd`` gives the curated API below; the subpackages hold the rest:
+
+synthesis    controller design (pure maths: Riccati equations, LMIs, Galerkin)
+systems      Drake LeafSystems (controllers, references, disturbances, propellers, wind, ...)
 models       plant builders: URDF -> MultibodyPlant wrapped as :class:`MechanicalModel`
 experiments  the thesis experiments, composed from the above
+
+Naming rule: ``<norm>_<structure>`` for syntheses (``winf_state_feedback``,
+``hinf_output_feedback``, ...), each returning a :class:`SynthesisResult`; ``hinfsyn`` alone
+follows python-control's signature and return value.  Sign convention everywhere: u = +K x
+(state feedback) and u = C_K x_K + D_K y (output feedback); Drake's
+``LinearQuadraticRegulator`` returns K for u = −K x.
 """
 
 __version__ = "0.1.0"
+
+from sobolev_drake import norms, viz
+from sobolev_drake.models import MechanicalModel, PlantHandles
+from sobolev_drake.models.base import PlantModel
+from sobolev_drake.simulation import SimulationTimeout, simulate
+from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
+                                     SynthesisResult, controlled_gains, generalized_plant,
+                                     hinf_mechanical_gains, hinf_output_feedback,
+                                     hinf_output_feedback_qr, hinf_plant, hinf_state_feedback,
+                                     hinf_state_feedback_qr, hinfsyn, regions, regulated_gains,
+                                     stabilized_gains, to_statespace, winf_output_feedback,
+                                     winf_plant, winf_state_feedback)
+from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
+                                   MechanicalController, MechanicalLaw, Partition,
+                                   PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
+                                   TrajectoryReference, const, controller_system, poly, sine)
+
+__all__ = [
+    "__version__", "norms", "viz",
+    # models
+    "MechanicalModel", "PlantModel", "PlantHandles",
+    # nonlinear mechanical controllers
+    "Partition", "MechanicalLaw", "MechanicalController", "SobolevLaw", "HinfLaw",
+    "controlled_gains", "regulated_gains", "stabilized_gains", "hinf_mechanical_gains",
+    # references, disturbances, simulation
+    "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "TimeProfiledForce",
+    "simulate", "SimulationTimeout",
+    # linear synthesis
+    "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",
+    "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
+    "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisError",
+    "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace",
+    # linear controllers as Drake systems
+    "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
+]

@@ -1,0 +1,34 @@
+"""Controller design without simulation (pure maths: Riccati equations, LMIs, Galerkin).
+
+The names below are the public synthesis API; the modules hold the rest:
+``hinf`` (generalized-plant H∞ state and output feedback), ``sobolev`` (W∞ channels),
+``interop`` (linear systems in, controllers out), ``mechanical`` (Sobolev gains of
+Euler–Lagrange systems), ``regions`` (LMI pole regions), ``certificates`` (independent
+checks), ``polytopic``, ``galerkin``, ``margins``.
+"""
+
+from sobolev_drake.synthesis import regions
+from sobolev_drake.synthesis.certificates import hinf_norm
+from sobolev_drake.synthesis.hinf import (DynamicController, GeneralizedPlant, SynthesisResult,
+                                          SynthesisWarning, output_feedback, state_feedback)
+from sobolev_drake.synthesis.interop import (HinfsynOutput, generalized_plant, hinf_output_feedback,
+                                             hinf_state_feedback, hinfsyn, state_space_matrices,
+                                             to_statespace)
+from sobolev_drake.synthesis.lmi import InfeasibleLMIError, SynthesisError
+from sobolev_drake.synthesis.mechanical import (controlled_gains, hinf_mechanical_gains,
+                                                regulated_gains, stabilized_gains)
+from sobolev_drake.synthesis.sobolev import (hinf_output_feedback_qr, hinf_plant,
+                                             hinf_state_feedback_qr, winf_output_feedback,
+                                             winf_plant, winf_state_feedback)
+
+__all__ = [
+    "regions", "hinf_norm",
+    "DynamicController", "GeneralizedPlant", "SynthesisResult", "SynthesisWarning",
+    "state_feedback", "output_feedback",
+    "HinfsynOutput", "generalized_plant", "hinf_output_feedback", "hinf_state_feedback", "hinfsyn",
+    "state_space_matrices", "to_statespace",
+    "InfeasibleLMIError", "SynthesisError",
+    "controlled_gains", "hinf_mechanical_gains", "regulated_gains", "stabilized_gains",
+    "hinf_output_feedback_qr", "hinf_plant", "hinf_state_feedback_qr", "winf_output_feedback",
+    "winf_plant", "winf_state_feedback",
+]

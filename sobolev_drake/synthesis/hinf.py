@@ -43,7 +43,7 @@ from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthe
 from .scaling import balance_scaling, resolve_scaling, scale_plant, unscale_gain  # noqa: F401
 
 __all__ = ["GeneralizedPlant", "DynamicController", "SynthesisResult", "SynthesisWarning",
-           "state_feedback", "output_feedback", "hinf_state_feedback", "hinfsyn",
+           "state_feedback", "output_feedback",
            "reconstruct_controller", "compress_performance", "balance_scaling", "scale_plant",
            "COUPLING_MARGIN", "EPS"]
 
@@ -257,16 +257,3 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
     return publish_result(res, warns, t0, plants, region, rtol, verify)
-
-
-# --------------------------------------------------------------------------- functional API
-def hinf_state_feedback(plant, **kwargs):
-    """python-control style: ``K, gamma, result = hinf_state_feedback(plant, ...)``."""
-    r = state_feedback(plant, **kwargs)
-    return r.K, r.gamma, r
-
-
-def hinfsyn(plant, **kwargs):
-    """python-control style: ``controller, gamma, result = hinfsyn(plant, ...)`` (AK, BK, CK, DK)."""
-    r = output_feedback(plant, **kwargs)
-    return r.controller, r.gamma, r

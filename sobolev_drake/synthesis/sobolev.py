@@ -26,6 +26,7 @@ import numpy as np
 
 from .certificates import as_matrix, check_weight, sqrtm_psd
 from .hinf import GeneralizedPlant, output_feedback, state_feedback
+from .interop import is_linear_system, state_space_matrices
 from .lmi import InfeasibleLMIError, LMIProgram, bmat
 
 
@@ -36,8 +37,47 @@ def _abd(A, B, D):
     return A, as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
 
 
+def _plant(A, B, D, C, *, measured):
+    """(A, B, D, C) from matrices or from a linear system given as ``A`` (its B, and its C as
+    the measurement when ``measured``; D defaults to B, a disturbance at the inputs)."""
+    if not is_linear_system(A):
+        if B is None or D is None:
+            raise TypeError("B and D are required when A is a matrix (or pass a linear system "
+                            "as A: a Drake LinearSystem, a python-control StateSpace)")
+        return (*_abd(A, B, D), C)
+    if B is not None:
+        raise TypeError("B comes from the linear system given as A; do not pass it again")
+    A, B, Cs, Ds = state_space_matrices(A, "A")
+    if measured and C is None:
+        if np.any(Ds):
+            raise ValueError("the linear system's measurement has a feedthrough D ≠ 0; the "
+                             "W∞ plant measures y = C x (pass C explicitly)")
+        C = Cs
+    return (*_abd(A, B, B if D is None else D), C)
+
+
+def _weights(name0, W0, name1, W1):
+    for name, W in ((name0, W0), (name1, W1)):
+        if W is None:
+            raise TypeError(f"{name} is required")
+
+
 def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
-    """Generalized plant of the W-infinity channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot]."""
+    """Generalized plant of the W-infinity channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
+
+    Parameters
+    ----------
+    A, B, D : array_like
+        x' = A x + B u + D w (6.1).
+    Gamma0, Gamma1 : array_like
+        Positive semidefinite weights of x and x' (n × n, or a vector for a diagonal).
+    C : array_like, optional
+        Measurement y = C x (default: the full state).
+
+    Returns
+    -------
+    GeneralizedPlant
+    """
     A, B, D = _abd(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
     G0 = sqrtm_psd(check_weight("Gamma0", Gamma0, n, definite=False))
@@ -50,7 +90,21 @@ def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
 
 
 def hinf_plant(A, B, D, Q, R, C=None):
-    """Generalized plant of the classic H-infinity channel z = [Q^1/2 x ; R^1/2 u]."""
+    """Generalized plant of the classic H-infinity channel z = [Q^1/2 x ; R^1/2 u].
+
+    Parameters
+    ----------
+    A, B, D : array_like
+        x' = A x + B u + D w.
+    Q, R : array_like
+        Weights of x (positive semidefinite) and u (positive definite).
+    C : array_like, optional
+        Measurement y = C x (default: the full state).
+
+    Returns
+    -------
+    GeneralizedPlant
+    """
     A, B, D = _abd(A, B, D)
     n, nu = A.shape[0], B.shape[1]
     Qh = sqrtm_psd(check_weight("Q", Q, n, definite=False))
@@ -61,22 +115,101 @@ def hinf_plant(A, B, D, Q, R, C=None):
     return GeneralizedPlant.make(A, D, B, C1, None, D12, C2, None)
 
 
-def winf_state_feedback(A, B, D, Gamma0, Gamma1, **kw):
-    """Full-state W-infinity controller (6.7); returns a SynthesisResult (u = K x)."""
-    return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **kw)
+def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
+    """Full-state W-infinity controller (6.7), certified; u = +K x.
+
+    Parameters
+    ----------
+    A : array_like or linear system
+        The n × n state matrix, or a Drake LinearSystem/AffineSystem (e.g. from
+        ``Linearize``) / python-control StateSpace whose A and B are used (then omit ``B``).
+    B, D : array_like
+        Input and disturbance matrices of x' = A x + B u + D w; with a linear system ``D``
+        defaults to its B (a disturbance entering with the inputs).
+    Gamma0, Gamma1 : array_like
+        Sobolev weights of x and x' (required).
+    **options
+        Passed to :func:`~sobolev_drake.synthesis.hinf.state_feedback` (``method``,
+        ``time_limit``, ``gamma``, ``region``, ...).
+
+    Returns
+    -------
+    SynthesisResult
+        ``K`` with u = +K x (no minus sign), certified ``gamma``.
+    """
+    _weights("Gamma0", Gamma0, "Gamma1", Gamma1)
+    A, B, D, _ = _plant(A, B, D, None, measured=False)
+    return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **options)
 
 
-def winf_output_feedback(A, B, C, D, Gamma0, Gamma1, **kw):
-    """Dynamic output-feedback W-infinity controller (6.22) with y = C x."""
-    return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **kw)
+def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **options):
+    """Dynamic output-feedback W-infinity controller (6.22) with y = C x, certified.
+
+    Parameters
+    ----------
+    A : array_like or linear system
+        The state matrix, or a linear system whose A, B and C (the measurement) are used.
+    B, C, D : array_like
+        x' = A x + B u + D w, y = C x; with a linear system ``D`` defaults to its B.
+    Gamma0, Gamma1 : array_like
+        Sobolev weights of x and x' (required).
+    **options
+        Passed to :func:`~sobolev_drake.synthesis.hinf.output_feedback`.
+
+    Returns
+    -------
+    SynthesisResult
+        ``controller`` (A_K, B_K, C_K, D_K) with x_K' = A_K x_K + B_K y, u = C_K x_K + D_K y.
+    """
+    _weights("Gamma0", Gamma0, "Gamma1", Gamma1)
+    A, B, D, C = _plant(A, B, D, C, measured=True)
+    if C is None:
+        raise TypeError("C (the measurement y = C x) is required")
+    return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **options)
 
 
-def hinf_state_feedback_qr(A, B, D, Q, R, **kw):
-    return state_feedback(hinf_plant(A, B, D, Q, R), **kw)
+def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
+    """Classic H∞ state feedback with z = [Q^1/2 x; R^1/2 u], certified; u = +K x.
+
+    Parameters
+    ----------
+    A, B, D : array_like or linear system
+        As for :func:`winf_state_feedback`.
+    Q, R : array_like
+        Weights of x and u (required).
+    **options
+        Passed to :func:`~sobolev_drake.synthesis.hinf.state_feedback`.
+
+    Returns
+    -------
+    SynthesisResult
+    """
+    _weights("Q", Q, "R", R)
+    A, B, D, _ = _plant(A, B, D, None, measured=False)
+    return state_feedback(hinf_plant(A, B, D, Q, R), **options)
 
 
-def hinf_output_feedback_qr(A, B, C, D, Q, R, **kw):
-    return output_feedback(hinf_plant(A, B, D, Q, R, C), **kw)
+def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options):
+    """Classic H∞ dynamic output feedback with z = [Q^1/2 x; R^1/2 u] and y = C x, certified.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like or linear system
+        As for :func:`winf_output_feedback`.
+    Q, R : array_like
+        Weights of x and u (required).
+    **options
+        Passed to :func:`~sobolev_drake.synthesis.hinf.output_feedback`.
+
+    Returns
+    -------
+    SynthesisResult
+    """
+    _weights("Q", Q, "R", R)
+    A, B, D, C = _plant(A, B, D, C, measured=True)
+    if C is None:
+        raise TypeError("C (the measurement y = C x) is required")
+    return output_feedback(hinf_plant(A, B, D, Q, R, C), **options)
 
 
 def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):

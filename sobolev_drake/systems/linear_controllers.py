@@ -25,6 +25,8 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.validation import bounds_pair, real_matrix
 
+__all__ = ["LinearStateFeedback", "LinearDynamicOutputFeedback", "controller_system"]
+
 
 def _mat(name, M, shape=None):
     return real_matrix(name, M, shape, allow_empty=True)
@@ -216,3 +218,59 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
             u = u + DK @ self._dy(context)
         return u
 
+
+
+def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=None,
+                      u_max=None):
+    """A ready-to-connect Drake system for a synthesized linear controller around an
+    operating point.
+
+    The synthesis works in deviations from the operating point (x_op, u_op) at which the
+    plant was linearized; this system applies the controller to the absolute signals:
+
+    * state feedback (u = +K x in deviations): u = u_op + K (S x − x_op), a
+      :class:`LinearStateFeedback` with input port ``x`` and output ``u``;
+    * output feedback (x_K' = A_K x_K + B_K ỹ, u = u_op + C_K x_K + D_K ỹ with
+      ỹ = S y − y_op): a :class:`LinearDynamicOutputFeedback` with input port ``y`` and output
+      ``u``.  ``y_op`` defaults to ``S @ x_op`` when the connected signal is the plant's state
+      and ``S`` selects the measurement (e.g. ``S = C``).
+
+    Parameters
+    ----------
+    result : SynthesisResult, DynamicController or gain matrix K
+        What ``winf_state_feedback``/``winf_output_feedback``/``hinf_*`` returned.
+    x_op, u_op : array_like, optional
+        Operating point of the linearization (state and input); zero by default.
+    y_op : array_like, optional
+        Operating point of the measurement (output feedback only).
+    S : array_like, optional
+        Selection applied to the connected signal (default identity), e.g. the measurement
+        matrix C when the plant's full state is connected to an output-feedback controller.
+    u_min, u_max : array_like, optional
+        Elementwise clipping of u (then an extra output ``u_raw`` is the unclipped command).
+
+    Returns
+    -------
+    LinearStateFeedback or LinearDynamicOutputFeedback
+    """
+    kind = getattr(result, "kind", None)
+    if kind == "state_feedback" or (kind is None and not hasattr(result, "AK")
+                                    and np.ndim(result) == 2):
+        K = result.K if kind else result
+        if y_op is not None:
+            raise TypeError("y_op is for output feedback; a state-feedback controller takes x_op")
+        return LinearStateFeedback(K, u_r=u_op, x_r=x_op, S=S, u_min=u_min, u_max=u_max)
+    controller = result.controller if kind else result
+    AK, BK, CK, DK = controller
+    if y_op is None and x_op is not None:
+        x_op = real_matrix("x_op", np.atleast_2d(x_op)).ravel()
+        if S is None:
+            if x_op.size != np.shape(BK)[1]:
+                raise ValueError(f"x_op has {x_op.size} entries but the controller measures "
+                                 f"{np.shape(BK)[1]} signals: give y_op, or S (the measurement "
+                                 "matrix) so that y_op = S x_op")
+            y_op = x_op
+        else:
+            y_op = real_matrix("S", S) @ x_op
+    return LinearDynamicOutputFeedback(AK, BK, CK, DK, y_op=y_op, u_op=u_op, S=S, u_min=u_min,
+                                       u_max=u_max)
