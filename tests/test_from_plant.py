@@ -146,3 +146,12 @@ def test_operating_points_check_rank_along_the_range():
     with pytest.raises(ValueError, match="operating_points"):
         MechanicalLaw(model, Partition(controlled=[0], uncontrolled=[1]), gains,
                       operating_points=[[0.0, 0.0, 0.0]])
+
+
+def test_hinf_law_refuses_regulated_dof_at_construction():
+    from sobolev_drake.synthesis.mechanical import hinf_mechanical_gains
+    from sobolev_drake.systems.mechanical_controller import HinfLaw
+    model = MechanicalModel.from_plant(load(GRIPPER))
+    law = HinfLaw(hinf_mechanical_gains(1.0, 2.0, 1.0, 1.0, gamma=2.0))
+    with pytest.raises(ValueError, match="no regulated-DOF form"):
+        MechanicalLaw(model, Partition(controlled=[0, 1, 2, 3, 4], regulated=[5]), law)

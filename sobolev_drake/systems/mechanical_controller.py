@@ -145,6 +145,9 @@ class MechanicalLaw:
         self.nc, self.nr, self.ns = len(self.ic), len(self.ir), len(self.is_)
         self.n_ref = self.nc + self.nr
         self._tracked = np.array(p.tracked, dtype=int)
+        if isinstance(law, HinfLaw) and self.nr:
+            raise ValueError("the classic H∞ law (Chen, Lee & Feng) has no regulated-DOF form: "
+                             "use controlled or stabilized DOF, or the SobolevLaw")
         if isinstance(law, SobolevLaw):
             self._check_group("controlled", law.controlled, self.nc)
             self._check_group("regulated", law.regulated, self.nr)
