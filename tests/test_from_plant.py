@@ -155,3 +155,10 @@ def test_hinf_law_refuses_regulated_dof_at_construction():
     law = HinfLaw(hinf_mechanical_gains(1.0, 2.0, 1.0, 1.0, gamma=2.0))
     with pytest.raises(ValueError, match="no regulated-DOF form"):
         MechanicalLaw(model, Partition(controlled=[0, 1, 2, 3, 4], regulated=[5]), law)
+
+
+def test_a_subclass_that_would_ignore_joint_damping_is_refused():
+    class Bare(MechanicalModel):
+        pass
+    with pytest.raises(ValueError, match="damping .*would ignore.*from_plant"):
+        Bare(load(GRIPPER))

@@ -68,6 +68,14 @@ class MechanicalModel:
         if len(self.dof_names) != self.n:
             raise ValueError(f"dof_names must have {self.n} entries, got {len(self.dof_names)}")
         self.context = plant.CreateDefaultContext()
+        if type(self).friction is MechanicalModel.friction:
+            for index in plant.GetJointIndices():
+                joint = plant.get_joint(index)
+                if joint.num_velocities() and np.any(joint.GetDampingVector(self.context)):
+                    raise ValueError(
+                        f"joint {joint.name()!r} has damping {joint.GetDampingVector(self.context)}"
+                        f", which {type(self).__name__} would ignore: override friction(q̇) to "
+                        "include it, or use MechanicalModel.from_plant(plant), which does")
 
     # --- coordinate maps -------------------------------------------------------------------
     def to_drake(self, q_thesis) -> np.ndarray:
