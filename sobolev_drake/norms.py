@@ -50,7 +50,24 @@ __all__ = [
 
 
 def check_time(t) -> np.ndarray:
-    """Return ``t`` as a float vector after checking it is 1-D, finite, strictly increasing."""
+    """Return ``t`` as a float vector after checking it is 1-D, finite, strictly increasing.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times; at least 2.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``t`` as floats.
+
+    Raises
+    ------
+    ValueError
+        If ``t`` is not 1-D, has fewer than 2 samples, is not finite or not strictly
+        increasing.
+    """
     t = np.asarray(t, dtype=float)
     if t.ndim != 1:
         raise ValueError(f"t must be a 1-D array of sample times, got shape {t.shape}")
@@ -86,7 +103,20 @@ def _signal(name: str, z, n: int) -> tuple[np.ndarray, bool]:
 
 
 def trapezoid(t, y) -> np.ndarray | float:
-    """∫ y dt by the trapezoid rule on the (non-uniform) grid ``t``; per channel for 2-D ``y``."""
+    """∫ y dt by the trapezoid rule on the (non-uniform) grid ``t``; per channel for 2-D ``y``.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    y : array_like, shape (N,) or (N, p)
+        Signal sampled at ``t``.
+
+    Returns
+    -------
+    float or ndarray, shape (p,)
+        The integral (a float for 1-D ``y``, one value per channel otherwise).
+    """
     t = check_time(t)
     y2, was_1d = _signal("y", y, t.size)
     out = np.trapezoid(y2, t, axis=0)
@@ -98,6 +128,20 @@ def finite_difference(t, z, order: int = 1) -> np.ndarray:
 
     Second order in the interior and at the ends on non-uniform grids.  Each repetition loses
     accuracy near discontinuities; prefer derivatives from the model.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times (at least 3 when ``order > 0``).
+    z : array_like, shape (N,) or (N, p)
+        Signal sampled at ``t``.
+    order : int, default 1
+        Derivative order (non-negative; 0 returns ``z`` as floats).
+
+    Returns
+    -------
+    ndarray
+        The derivative, shaped like ``z``.
     """
     t = check_time(t)
     if isinstance(order, (bool, np.bool_)) or int(order) != order or order < 0:
@@ -138,13 +182,22 @@ def sobolev_norm_terms(t, z, sigmas: Sequence, derivatives: Sequence | None = No
 
     Parameters
     ----------
-    t : (N,) strictly increasing sample times.
-    z : (N,) or (N, p) signal.
-    sigmas : sequence σ_0..σ_m; each a scalar (σ I), a length-p vector (diagonal) or a (p, p)
-        positive semidefinite matrix.  ``len(sigmas) - 1`` is the order m.
-    derivatives : optional sequence of the m derivatives d^α z/dt^α, α = 1..m, each shaped like
-        ``z`` (preferred: from the model).  ``None`` entries (or ``derivatives=None``) are
-        computed by :func:`finite_difference`.
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    z : array_like, shape (N,) or (N, p)
+        Signal sampled at ``t``.
+    sigmas : sequence
+        σ_0..σ_m; each a scalar (σ I), a length-p vector (diagonal) or a (p, p) positive
+        semidefinite matrix.  ``len(sigmas) - 1`` is the order m.
+    derivatives : sequence or None, optional
+        The m derivatives d^α z/dt^α, α = 1..m, each shaped like ``z`` (preferred: from the
+        model).  ``None`` entries (or ``derivatives=None``) are computed by
+        :func:`finite_difference`.
+
+    Returns
+    -------
+    ndarray, shape (m + 1,)
+        The terms, α = 0..m; their sum is ‖z‖²_{W^{m,2,σ}}.
     """
     t = check_time(t)
     z2, _ = _signal("z", z, t.size)
@@ -177,15 +230,39 @@ def sobolev_norm_terms(t, z, sigmas: Sequence, derivatives: Sequence | None = No
 def sobolev_norm(t, z, sigmas: Sequence, derivatives: Sequence | None = None, *, squared: bool = False) -> float:
     """Weighted Sobolev norm ‖z‖_{W^{m,2,σ}} of (3.4) (p = 2) on a logged signal.
 
-    See :func:`sobolev_norm_terms` for the arguments.  ``squared=True`` returns ‖z‖².
     With ``sigmas=[σ0]`` this is the weighted L2 norm.
+
+    Parameters
+    ----------
+    t, z, sigmas, derivatives
+        As in :func:`sobolev_norm_terms`.
+    squared : bool, default False
+        Return ‖z‖² instead of ‖z‖.
+
+    Returns
+    -------
+    float
+        ‖z‖_{W^{m,2,σ}} (or its square).
     """
     s = float(np.sum(sobolev_norm_terms(t, z, sigmas, derivatives)))
     return s if squared else float(np.sqrt(max(s, 0.0)))
 
 
 def ise(t, e):
-    """Integral of the square error ∫ e(t)² dt per channel (float for 1-D ``e``)."""
+    """Integral of the square error ∫ e(t)² dt per channel (float for 1-D ``e``).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    e : array_like, shape (N,) or (N, p)
+        Error signal sampled at ``t``.
+
+    Returns
+    -------
+    float or ndarray, shape (p,)
+        The ISE (trapezoid rule), per channel.
+    """
     t = check_time(t)
     e2, was_1d = _signal("e", e, t.size)
     out = np.trapezoid(e2 ** 2, t, axis=0)
@@ -193,7 +270,20 @@ def ise(t, e):
 
 
 def iae(t, e):
-    """Integral of the absolute error ∫ |e(t)| dt per channel (trapezoid on the samples)."""
+    """Integral of the absolute error ∫ |e(t)| dt per channel (trapezoid on the samples).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    e : array_like, shape (N,) or (N, p)
+        Error signal sampled at ``t``.
+
+    Returns
+    -------
+    float or ndarray, shape (p,)
+        The IAE per channel (a float for 1-D ``e``).
+    """
     t = check_time(t)
     e2, was_1d = _signal("e", e, t.size)
     out = np.trapezoid(np.abs(e2), t, axis=0)
@@ -205,6 +295,18 @@ def iadu(t, u):
 
     The thesis tables report the sum over channels, ``iadu(t, u).sum()``.  ``t`` is only
     checked (the total variation does not depend on the sample times).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    u : array_like, shape (N,) or (N, p)
+        Control signal sampled at ``t``.
+
+    Returns
+    -------
+    float or ndarray, shape (p,)
+        Σ_k |u_{k+1} − u_k| per channel (a float for 1-D ``u``).
     """
     t = check_time(t)
     u2, was_1d = _signal("u", u, t.size)
@@ -213,7 +315,22 @@ def iadu(t, u):
 
 
 def l2_norm(t, w, sigma=1.0) -> float:
-    """‖w‖_{L2,σ} = (∫ wᵀ σ w dt)^{1/2} over all channels."""
+    """‖w‖_{L2,σ} = (∫ wᵀ σ w dt)^{1/2} over all channels.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    w : array_like, shape (N,) or (N, p)
+        Signal sampled at ``t``.
+    sigma : float, array_like (p,) or (p, p), default 1.0
+        Weight σ: a scalar (σ I), a diagonal or a positive semidefinite matrix.
+
+    Returns
+    -------
+    float
+        The weighted L2 norm.
+    """
     return sobolev_norm(t, w, [sigma])
 
 
@@ -224,6 +341,28 @@ def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | N
     ``initial_term`` (e.g. 2V(x0)) is subtracted from ‖z‖² before the square root, so the
     result can be compared directly with γ of the dissipation inequality
     ‖z‖²_W ≤ γ²‖w‖² + 2V(x0).  Raises ``ValueError`` if ‖w‖ = 0 (gain undefined).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    z : array_like, shape (N,) or (N, p)
+        Performance signal.
+    w : array_like, shape (N,) or (N, q)
+        Disturbance signal.
+    sigmas : sequence, default (1.0,)
+        Weights σ_0..σ_m of ‖z‖_W (see :func:`sobolev_norm_terms`).
+    derivatives : sequence or None, optional
+        Derivatives of ``z`` of orders 1..m (see :func:`sobolev_norm_terms`).
+    w_sigma : float or array_like, default 1.0
+        Weight of ‖w‖_{L2,σ} (see :func:`l2_norm`).
+    initial_term : float, default 0.0
+        Non-negative term subtracted from ‖z‖²_W (negative differences are clipped to 0).
+
+    Returns
+    -------
+    float
+        (max(‖z‖²_W − initial_term, 0))^{1/2} / ‖w‖_{L2,σ}.
     """
     t = check_time(t)
     initial_term = real_scalar("initial_term", initial_term, low=0.0)

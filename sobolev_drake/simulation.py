@@ -70,7 +70,15 @@ class ProgressMonitor:
 
 
 class SimulationTimeout(TimeoutError):
-    """:func:`simulate` ran longer than its ``wall_time_limit``; ``simulated`` is where it stopped."""
+    """:func:`simulate` ran longer than its ``wall_time_limit``; ``simulated`` is where it stopped.
+
+    Parameters
+    ----------
+    message : str
+        The error message.
+    simulated : float
+        Simulated time reached when the simulation was stopped (kept as ``.simulated``).
+    """
 
     def __init__(self, message: str, simulated: float):
         super().__init__(message)
@@ -98,22 +106,41 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
 
     Parameters
     ----------
-    duration : simulated seconds, a finite number > 0.
-    wall_time_limit : optional bound on the wall-clock seconds this call may take; past it the
-        simulation stops and :class:`SimulationTimeout` is raised (the context keeps the state
-        reached, ``error.simulated`` the simulated time).  ``None`` (default): no bound.
-    integrator : Drake scheme name (default ``"runge_kutta3"``, error controlled).
-    accuracy : target accuracy of the error-controlled integrator.
-    max_step : maximum step size (s); also bounds how far a time-profiled discontinuity can be
+    diagram : Diagram
+        The system to simulate (ignored when ``simulator`` is given).
+    context : Context
+        Root context of ``diagram`` (``diagram.CreateDefaultContext()``), advanced in place;
+        ignored (may be None) when ``simulator`` is given.
+    duration : float
+        Simulated seconds, a finite number > 0.
+    progress : bool, default True
+        Show the progress line on stderr (live only on a terminal) and a final summary line.
+    label : str, optional
+        Prefix of the progress line (default ``"simulate"``).
+    integrator : str, default "runge_kutta3"
+        Drake scheme name, one of :data:`INTEGRATORS` (error controlled unless fixed-step).
+    accuracy : float, default 1e-4
+        Target accuracy of the error-controlled integrator.
+    max_step : float, default 0.05
+        Maximum step size (s); also bounds how far a time-profiled discontinuity can be
         overstepped before the error control notices it.  Applied with a relative slack of
         :data:`MAX_STEP_SLACK`: a ``max_step`` equal to (or dividing) the period of a sampled
         controller or log sink otherwise ends many steps a few ulp short of the event time,
         and the integrator then takes an extra full step of ~1e-16 s to reach it (measured:
         10–20 wasted RK3 steps per simulated second in the tilt-rotor missions).
-    simulator : reuse an existing Simulator (e.g. in sweeps); its own context is advanced and
+    simulator : Simulator, optional
+        Reuse an existing Simulator (e.g. in sweeps); its own context is advanced and
         ``context`` is ignored.
+    wall_time_limit : float, optional
+        Bound on the wall-clock seconds this call may take; past it the simulation stops and
+        :class:`SimulationTimeout` is raised (the context keeps the state reached,
+        ``error.simulated`` the simulated time).  ``None`` (default): no bound, but then at
+        most :data:`MAX_STEPS_UNBOUNDED` steps of ``max_step`` are accepted.
 
-    Returns the Simulator (its context holds the final state; logs are in the diagram's sinks).
+    Returns
+    -------
+    Simulator
+        Its context holds the final state; logs are in the diagram's sinks.
     """
     duration = positive_scalar("duration", duration)
     one_of("integrator", integrator, INTEGRATORS)

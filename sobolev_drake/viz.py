@@ -69,7 +69,20 @@ __all__ = [
 def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
     """A Drake Meshcat server.  ``port=0`` asks the OS for a free ephemeral port, so parallel
     runs (CI with pytest-xdist, several experiments) never collide; ``host='localhost'`` keeps it
-    off the network.  The URL is ``meshcat.web_url()``."""
+    off the network.  The URL is ``meshcat.web_url()``.
+
+    Parameters
+    ----------
+    host : str, default "localhost"
+        Interface the server listens on.
+    port : int, default 0
+        0 (any free port) or a port in [1024, 65535].
+
+    Returns
+    -------
+    pydrake.geometry.Meshcat
+        The server (stats plot hidden).
+    """
     if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not (port == 0 or 1024 <= port <= 65535):
         raise ValueError(f"port must be 0 (any free port) or an integer in [1024, 65535], got {port!r}")
     return Meshcat(MeshcatParams(host=host, port=int(port), show_stats_plot=False))
@@ -81,6 +94,24 @@ def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_peri
 
     ``live=False`` (default) records without streaming every frame to connected browsers (faster
     in batch runs); the animation is published by :func:`save_recording_html`.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        Builder of the diagram holding ``scene_graph``.
+    scene_graph : SceneGraph
+        The geometry to draw (not None).
+    meshcat : Meshcat
+        Server, e.g. from :func:`start_meshcat`.
+    publish_period : float, default 1/32
+        Positive publish (and recording) period in seconds.
+    live : bool, default False
+        Also send the transforms to the browsers while recording.
+
+    Returns
+    -------
+    MeshcatVisualizer
+        The visualizer, recording.
     """
     if scene_graph is None:
         raise ValueError("scene_graph is None: build the plant with a DiagramBuilder to get geometry")
@@ -97,7 +128,18 @@ _LINK_HREF = re.compile(r"<link[^>]*\bhref\s*=\s*[\"']?(https?:)?//", re.IGNOREC
 
 
 def external_script_sources(html: str) -> list[str]:
-    """The ``<script src=…>`` / ``<link href=…>`` tags of ``html`` pointing at http(s) or //."""
+    """The ``<script src=…>`` / ``<link href=…>`` tags of ``html`` pointing at http(s) or //.
+
+    Parameters
+    ----------
+    html : str
+        An HTML page.
+
+    Returns
+    -------
+    list of str
+        The offending tags (empty for a self-contained page).
+    """
     tags = []
     for pattern in (_SCRIPT_SRC, _LINK_HREF):
         for m in pattern.finditer(html):
@@ -109,7 +151,23 @@ def external_script_sources(html: str) -> list[str]:
 def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> Path:
     """Stop the recording, publish it as Meshcat's animation, write ``meshcat.StaticHtml()``.
 
-    Returns the path.  Raises ``RuntimeError`` if the page would load an external script.
+    Raises ``RuntimeError`` if the page would load an external script.  When the recording
+    animates the camera rig (:func:`follow_camera`), :data:`FOLLOW_CAMERA_JS` is added to the
+    page.
+
+    Parameters
+    ----------
+    meshcat : Meshcat
+        The server the recording was made on.
+    recorder : MeshcatVisualizer
+        The recording visualizer from :func:`add_meshcat_recorder`.
+    path : str or Path
+        Output HTML file (parent folders are created).
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -128,7 +186,18 @@ def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> 
 def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *, line_width: float = 2.0) -> None:
     """Draw a polyline (e.g. a reference path) at meshcat path ``/paths/<name>``.
 
-    ``points`` is (N, 3) (or (3, N)), inertial frame.
+    Parameters
+    ----------
+    meshcat : Meshcat
+        The server.
+    name : str
+        Last element of the scene path ``/paths/<name>``.
+    points : array_like, shape (N, 3) or (3, N)
+        At least 2 finite points, inertial frame.
+    rgba : sequence of 4 float, default (0.1, 0.4, 1.0, 1.0)
+        Colour, entries in [0, 1].
+    line_width : float, default 2.0
+        Positive line width.
     """
     P = np.asarray(points, dtype=float)
     if P.ndim != 2 or 3 not in P.shape:
@@ -147,9 +216,24 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
 
 
 def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
-    """Save a matplotlib figure as PNG (creating folders) and close it.
+    """Save a matplotlib figure (creating folders) and close it.
 
-    ``tight=True`` crops to the drawn artists (``bbox_inches="tight"``, an extra draw pass)."""
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; closed afterwards.
+    path : str or Path
+        Output file; its suffix (``.png``, ``.svg`` or ``.pdf``) selects the format.
+    dpi : int, default 110
+        Resolution.
+    tight : bool, default False
+        Crop to the drawn artists (``bbox_inches="tight"``, an extra draw pass).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
@@ -164,9 +248,32 @@ def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t
                      references: dict | None = None, vlines=()) -> Path:
     """One stacked subplot per entry of ``series`` ({panel name: (N,) or (N, k) array}).
 
-    ``labels[name]`` gives the k line labels, ``ylabels[name]`` the axis label,
-    ``references[name]`` a same-shaped array drawn dashed (e.g. the reference trajectory),
-    ``vlines`` times marked by thin vertical lines (phase switches, disturbance edges).
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times.
+    series : dict
+        {panel name: (N,) or (N, k) array}, one panel each, in order.
+    path : str or Path
+        Output image (see :func:`save_figure`).
+    title : str, optional
+        Figure title.
+    xlabel : str, default "t [s]"
+        Label of the shared time axis.
+    ylabels : dict, optional
+        {panel name: axis label} (default: the panel name).
+    labels : dict, optional
+        {panel name: the k line labels}.
+    references : dict, optional
+        {panel name: array shaped like the series}, drawn dashed in the same colours (e.g. the
+        reference trajectory).
+    vlines : sequence of float, optional
+        Times marked by thin vertical lines (phase switches, disturbance edges).
+
+    Returns
+    -------
+    Path
+        The saved figure's path.
     """
     t = np.asarray(t, dtype=float)
     if t.ndim != 1:
@@ -246,9 +353,24 @@ def camera_position(target, *, distance: float | None = None, radius: float = 1.
                     elevation_deg: float = 20.0, azimuth_deg: float = -90.0) -> np.ndarray:
     """Camera location looking at ``target`` (world frame, z up) from ``distance`` metres.
 
-    ``azimuth_deg`` is measured about +z from +x (−90°: camera on the −y side, Meshcat's
-    default direction), ``elevation_deg`` above the horizontal.  ``distance=None`` fits a sphere
-    of ``radius`` into Meshcat's 75° vertical field of view with a 20 % margin.
+    Parameters
+    ----------
+    target : array_like, shape (3,)
+        Point looked at, world frame.
+    distance : float, optional
+        Camera distance from ``target`` in metres.  None fits a sphere of ``radius`` into
+        Meshcat's 75° vertical field of view with a 20 % margin.
+    radius : float, default 1.0
+        Radius of the sphere to fit when ``distance`` is None.
+    elevation_deg : float, default 20.0
+        Elevation above the horizontal, in (−90, 90).
+    azimuth_deg : float, default -90.0
+        Azimuth about +z from +x (−90°: camera on the −y side, Meshcat's default direction).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The camera position, world frame.
     """
     target = _point("target", target)
     if distance is None:
@@ -266,7 +388,22 @@ def camera_position(target, *, distance: float | None = None, radius: float = 1.
 def frame_camera(meshcat: Meshcat, target, **view) -> np.ndarray:
     """Static view: put Meshcat's camera at :func:`camera_position` (same keywords) looking at
     ``target`` (also the orbit centre).  Resets the rig ``/Cameras/default`` to the origin.
-    Returns the camera position."""
+
+    Parameters
+    ----------
+    meshcat : Meshcat
+        The server.
+    target : array_like, shape (3,)
+        Point looked at, world frame.
+    **view
+        ``distance``, ``radius``, ``elevation_deg``, ``azimuth_deg`` of
+        :func:`camera_position`.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The camera position.
+    """
     cam = camera_position(target, **view)
     meshcat.SetCameraPose(cam, _point("target", target))
     return cam
@@ -296,13 +433,29 @@ def follow_camera(recorder, times, positions, *, meshcat: Meshcat | None = None,
     """Write a follow camera into a recording: the rig ``/Cameras/default`` is translated by
     p(t) − p(t₀) at every animation frame in [t₀, t_end] (positions linearly interpolated).
 
-    ``recorder`` is the MeshcatVisualizer from :func:`add_meshcat_recorder` (or its
-    ``MeshcatAnimation``); ``positions`` (N, 3) or (3, N) world positions at ``times`` (N,),
-    e.g. from :func:`trajectory_from_log`.  ``follow_axes`` selects the followed world axes
-    (``"xy"`` keeps the camera height).  With ``meshcat`` given, the camera is first placed by
-    :func:`frame_camera` around p(t₀) with ``view`` (distance / radius / elevation_deg /
-    azimuth_deg).  Call after simulating, before :func:`save_recording_html`.  Returns the number
-    of keyframes written (frames are ``round((t − start) · fps)`` as in Drake's recorder).
+    Call after simulating, before :func:`save_recording_html`.
+
+    Parameters
+    ----------
+    recorder : MeshcatVisualizer or MeshcatAnimation
+        The recording visualizer from :func:`add_meshcat_recorder` (or its animation).
+    times : array_like, shape (N,)
+        Non-decreasing sample times.
+    positions : array_like, shape (N, 3) or (3, N)
+        World positions p(t) at ``times``, e.g. from :func:`trajectory_from_log`.
+    meshcat : Meshcat, optional
+        When given, the camera is first placed by :func:`frame_camera` around p(t₀) with
+        ``view``.
+    follow_axes : str, default "xyz"
+        The followed world axes (``"xy"`` keeps the camera height).
+    **view
+        ``distance``, ``radius``, ``elevation_deg``, ``azimuth_deg`` for :func:`frame_camera`.
+
+    Returns
+    -------
+    int
+        Number of keyframes written (frames in [t₀, t_end] at the animation's frames per
+        second, as in Drake's recorder).
     """
     anim = recorder.get_mutable_recording() if hasattr(recorder, "get_mutable_recording") else recorder
     if not hasattr(anim, "SetTransform") or not hasattr(anim, "frames_per_second"):
@@ -329,12 +482,27 @@ def follow_camera(recorder, times, positions, *, meshcat: Meshcat | None = None,
 def trajectory_from_log(log, *, indices=None, plant=None, body=None) -> tuple[np.ndarray, np.ndarray]:
     """(times (N,), positions (N, 3)) for :func:`follow_camera` from a logged signal.
 
-    ``log`` is a Drake ``VectorLog`` (``logger.FindLog(context)``) or a pair ``(t, data)`` with
-    ``data`` shaped (size, N) like ``VectorLog.data()``.  Either ``indices`` — the three rows
-    holding x, y, z (e.g. (5, 6, 7) of the tilt-rotor's thesis state [αR αL φ θ ψ x y z …],
-    (3, 4, 5) of the quadrotor's) — or ``plant`` and ``body`` (a Body or body name): then ``log``
-    is the plant state (``plant.get_state_output_port()``) and the body origin is computed by
-    forward kinematics.
+    Give either ``indices`` or ``plant`` and ``body``.
+
+    Parameters
+    ----------
+    log : VectorLog or (t, data)
+        A Drake ``VectorLog`` (``logger.FindLog(context)``) or a pair with ``data`` shaped
+        (size, N) like ``VectorLog.data()``.
+    indices : sequence of 3 int, optional
+        The rows holding x, y, z (e.g. (5, 6, 7) of the tilt-rotor's thesis state
+        [αR αL φ θ ψ x y z …], (3, 4, 5) of the quadrotor's).
+    plant : MultibodyPlant, optional
+        With ``body``: ``log`` holds the plant's positions or state
+        (``plant.get_state_output_port()``) and the body origin is computed by forward
+        kinematics.
+    body : Body or str, optional
+        The body (or its name) whose origin is followed.
+
+    Returns
+    -------
+    times : ndarray, shape (N,)
+    positions : ndarray, shape (N, 3)
     """
     if hasattr(log, "sample_times"):
         t, data = np.asarray(log.sample_times(), float), np.asarray(log.data(), float)
@@ -418,8 +586,19 @@ _BLOB = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")
 
 
 def meshcat_commands(html: str) -> list[dict]:
-    """The Meshcat commands embedded in a ``StaticHtml()`` page, decoded (dicts with ``type``,
-    ``path``, …); assets that are not commands are skipped."""
+    """The Meshcat commands embedded in a ``StaticHtml()`` page, decoded.
+
+    Parameters
+    ----------
+    html : str
+        A page from ``Meshcat.StaticHtml()``.
+
+    Returns
+    -------
+    list of dict
+        The commands (dicts with ``type``, ``path``, …); assets that are not commands are
+        skipped.
+    """
     import base64
     out = []
     for m in _BLOB.finditer(html):
@@ -434,7 +613,18 @@ def meshcat_commands(html: str) -> list[dict]:
 
 
 def animation_keyframes(html: str) -> dict[str, dict[str, int]]:
-    """{scene path: {track name: number of keyframes}} of the animation in a StaticHtml page."""
+    """{scene path: {track name: number of keyframes}} of the animation in a StaticHtml page.
+
+    Parameters
+    ----------
+    html : str
+        A page from ``Meshcat.StaticHtml()``.
+
+    Returns
+    -------
+    dict
+        {scene path: {track name: number of keyframes}} (empty without an animation).
+    """
     out: dict[str, dict[str, int]] = {}
     for cmd in meshcat_commands(html):
         if cmd.get("type") != "set_animation":

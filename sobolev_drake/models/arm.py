@@ -29,10 +29,26 @@ from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapt
                                           verify_against_closed_forms)
 from sobolev_drake.validation import check_parameter_fields
 
+__all__ = ["ArmParams", "TwoLinkArmModel", "make_arm_model", "add_arm"]
+
 
 @dataclass(frozen=True)
 class ArmParams:
-    """Table 5.1: I1 = I2 = 1 kg m², m1 = m2 = 1 kg, l1 = l2 = 1 m, g = 9.8 m/s²."""
+    """Table 5.1: I1 = I2 = 1 kg m², m1 = m2 = 1 kg, l1 = l2 = 1 m, g = 9.8 m/s².
+
+    All fields must be positive.
+
+    Parameters
+    ----------
+    m1, m2 : float, default 1.0
+        Link masses (kg).
+    l1, l2 : float, default 1.0
+        Link lengths (m); the centres of mass are at mid-link, lc_i = l_i / 2.
+    I1, I2 : float, default 1.0
+        Moments of inertia of the links about their centres of mass (kg m²).
+    g : float, default 9.8
+        Gravitational acceleration (m/s²).
+    """
 
     m1: float = 1.0
     m2: float = 1.0
@@ -47,10 +63,12 @@ class ArmParams:
 
     @property
     def lc1(self) -> float:
+        """Distance of link 1's centre of mass from joint 1, l1 / 2 (m)."""
         return self.l1 / 2
 
     @property
     def lc2(self) -> float:
+        """Distance of link 2's centre of mass from joint 2, l2 / 2 (m)."""
         return self.l2 / 2
 
 
@@ -69,8 +87,13 @@ def _arm_urdf(p: ArmParams) -> str:
 class TwoLinkArmModel(MechanicalModel):
     """MechanicalModel of the two-link arm with the closed forms (5.120)–(5.122).
 
-    ``plant``: a finalized plant built from ``urdf/arm.urdf`` with the same ``params``
-    (``None``: build a standalone one).
+    Parameters
+    ----------
+    plant : MultibodyPlant, optional
+        A finalized plant built from ``urdf/arm.urdf`` with the same ``params`` (checked
+        against the closed forms); ``None`` builds a standalone one.
+    params : ArmParams, optional
+        Table 5.1 values by default.
     """
 
     num_inputs = 2
@@ -85,7 +108,18 @@ class TwoLinkArmModel(MechanicalModel):
 
     # --- thesis closed forms -------------------------------------------------------------------
     def M_closed_form(self, q) -> np.ndarray:
-        """(5.120) with the d11/d12 typos corrected (module docstring)."""
+        """Inertia matrix (5.120) with the d11/d12 typos corrected (module docstring).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [q1, q2] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            M(q).
+        """
         q = check_vector("q", q, 2)
         p = self.params
         c2 = np.cos(q[1])
@@ -95,7 +129,18 @@ class TwoLinkArmModel(MechanicalModel):
         return np.array([[d11, d12], [d12, d22]])
 
     def C_closed_form(self, q, qdot) -> np.ndarray:
-        """C(q, q̇) of (5.121), h = −m2 l1 lc2 sin q2."""
+        """C(q, q̇) of (5.121), h = −m2 l1 lc2 sin q2.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (2,)
+            Joint angles and rates.
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            C(q, q̇).
+        """
         q = check_vector("q", q, 2)
         qdot = check_vector("qdot", qdot, 2)
         p = self.params
@@ -103,30 +148,85 @@ class TwoLinkArmModel(MechanicalModel):
         return np.array([[h * qdot[1], h * (qdot[0] + qdot[1])], [-h * qdot[0], 0.0]])
 
     def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+        """C(q, q̇) q̇ from :meth:`C_closed_form`.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (2,)
+            Joint angles and rates.
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            C(q, q̇) q̇.
+        """
         return self.C_closed_form(q, qdot) @ check_vector("qdot", qdot, 2)
 
     def g_closed_form(self, q) -> np.ndarray:
-        """(5.122)."""
+        """Gravity vector g(q) of (5.122).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [q1, q2] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            g(q).
+        """
         q = check_vector("q", q, 2)
         p = self.params
         g2 = p.m2 * p.lc2 * p.g * np.cos(q[0] + q[1])
         return np.array([(p.m1 * p.lc1 + p.m2 * p.l1) * p.g * np.cos(q[0]) + g2, g2])
 
     def B(self, q) -> np.ndarray:
-        """B = I (both joints actuated, (5.119))."""
+        """B = I (both joints actuated, (5.119)).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            Joint angles (checked only).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            The identity.
+        """
         check_vector("q", q, 2)
         return np.eye(2)
 
 
 def make_arm_model(params: ArmParams | None = None) -> TwoLinkArmModel:
-    """Standalone TwoLinkArmModel on its own plant (no SceneGraph)."""
+    """Standalone TwoLinkArmModel on its own plant (no SceneGraph).
+
+    Parameters
+    ----------
+    params : ArmParams, optional
+        Table 5.1 values by default.
+
+    Returns
+    -------
+    TwoLinkArmModel
+    """
     return TwoLinkArmModel(None, params)
 
 
 def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHandles:
     """Add the arm (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 
-    ``u`` = joint torques [τ1, τ2] (N m); ``disturbance`` = [w1, w2]; ``x`` = [q1 q2 q̇1 q̇2].
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        The builder the systems are added to.
+    params : ArmParams, optional
+        Table 5.1 values by default.
+
+    Returns
+    -------
+    PlantHandles
+        ``u`` = joint torques [τ1, τ2] (N m); ``disturbance`` = [w1, w2];
+        ``x`` = [q1 q2 q̇1 q̇2].
     """
     params = params or ArmParams()
     plant, scene_graph = build_plant(_arm_urdf(params), params.g, builder)

@@ -19,12 +19,29 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ForceElementIndex, ModelInstanceIndex
 
+__all__ = ["check_vector", "MechanicalModel", "PlantModel"]
+
 
 def check_vector(name: str, value, size: int) -> np.ndarray:
     """Return ``value`` as a float vector of length ``size`` or raise a clear ``ValueError``.
 
-    Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument.  Called at every
-    integrator stage by the controllers: the common case is one shape test and one reduction.
+    Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument, and complex
+    entries (``TypeError``).  Called at every integrator stage by the controllers: the common
+    case is one shape test and one reduction.
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in the error message.
+    value : array_like
+        The vector to check.
+    size : int
+        Required length.
+
+    Returns
+    -------
+    ndarray, shape (size,)
+        ``value`` as floats.
     """
     if getattr(value, "dtype", None) is not None and value.dtype.kind == "c":
         raise TypeError(f"{name} must be real, got complex entries")  # astype would drop .imag
@@ -41,10 +58,14 @@ class MechanicalModel:
 
     Parameters
     ----------
-    plant : finalized ``MultibodyPlant`` (double) whose q̇ = v.
-    coordinate_map : (n, n) matrix T with ``q_drake = T q_thesis`` (default identity).
-    dof_names : thesis names of the generalized coordinates, in thesis order.
-    name : human-readable model name.
+    plant : MultibodyPlant
+        Finalized, double-valued plant whose q̇ = v.
+    coordinate_map : array_like, shape (n, n), optional
+        Invertible matrix T with ``q_drake = T q_thesis`` (default identity).
+    dof_names : sequence of str, optional
+        Thesis names of the generalized coordinates, in thesis order (default q0, q1, ...).
+    name : str, default "model"
+        Human-readable model name.
 
     All public methods take and return thesis-ordered vectors.  One private context is reused,
     so instances are cheap to query but not thread-safe.
@@ -79,19 +100,63 @@ class MechanicalModel:
 
     # --- coordinate maps -------------------------------------------------------------------
     def to_drake(self, q_thesis) -> np.ndarray:
-        """Thesis-ordered coordinates (or velocities) → Drake's."""
+        """Thesis-ordered coordinates (or velocities) → Drake's.
+
+        Parameters
+        ----------
+        q_thesis : array_like, shape (n,)
+            Coordinates or velocities in thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            T q_thesis.
+        """
         return self.T @ np.asarray(q_thesis, dtype=float)
 
     def to_thesis(self, q_drake) -> np.ndarray:
-        """Drake-ordered coordinates (or velocities) → thesis order."""
+        """Drake-ordered coordinates (or velocities) → thesis order.
+
+        Parameters
+        ----------
+        q_drake : array_like, shape (n,)
+            Coordinates or velocities in Drake's order.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            T⁻¹ q_drake.
+        """
         return self.T_inv @ np.asarray(q_drake, dtype=float)
 
     def force_to_drake(self, tau_thesis) -> np.ndarray:
-        """Thesis generalized force → Drake generalized force (τ_d = T⁻ᵀ τ_th)."""
+        """Thesis generalized force → Drake generalized force (τ_d = T⁻ᵀ τ_th).
+
+        Parameters
+        ----------
+        tau_thesis : array_like, shape (n,)
+            Generalized force in thesis coordinates.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            τ_d.
+        """
         return self.T_inv.T @ np.asarray(tau_thesis, dtype=float)
 
     def force_to_thesis(self, tau_drake) -> np.ndarray:
-        """Drake generalized force → thesis generalized force (τ_th = Tᵀ τ_d)."""
+        """Drake generalized force → thesis generalized force (τ_th = Tᵀ τ_d).
+
+        Parameters
+        ----------
+        tau_drake : array_like, shape (n,)
+            Generalized force in Drake's coordinates.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            τ_th.
+        """
         return self.T.T @ np.asarray(tau_drake, dtype=float)
 
     def _set(self, q, qdot=None):
@@ -103,17 +168,50 @@ class MechanicalModel:
 
     # --- Euler–Lagrange terms ----------------------------------------------------------------
     def M(self, q) -> np.ndarray:
-        """Inertia matrix M(q) (thesis order)."""
+        """Inertia matrix M(q) (thesis order).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            M(q) = Tᵀ M_drake T.
+        """
         self._set(q)
         return self.T.T @ self.plant.CalcMassMatrix(self.context) @ self.T
 
     def Cqdot(self, q, qdot) -> np.ndarray:
-        """Coriolis/centripetal vector C(q, q̇) q̇ (Drake's bias term)."""
+        """Coriolis/centripetal vector C(q, q̇) q̇ (Drake's bias term).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            C(q, q̇) q̇, thesis order.
+        """
         self._set(q, qdot)
         return self.T.T @ self.plant.CalcBiasTerm(self.context)
 
     def g(self, q) -> np.ndarray:
-        """Gravity vector g(q) as in M q̈ + C q̇ + g = τ (i.e. minus Drake's gravity forces)."""
+        """Gravity vector g(q) as in M q̈ + C q̇ + g = τ (i.e. minus Drake's gravity forces).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            g(q), thesis order.
+        """
         self._set(q)
         return -self.T.T @ self.plant.CalcGravityGeneralizedForces(self.context)
 
@@ -122,13 +220,38 @@ class MechanicalModel:
 
         With Christoffel symbols (a, b) ↦ C(q, a) b is symmetric bilinear, hence
         C(q, q̇) v = ¼ [c(q̇ + v) − c(q̇ − v)] with c(a) = C(q, a) a.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        v : array_like, shape (n,)
+            The vector multiplied by C(q, q̇).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            C(q, q̇) v, thesis order.
         """
         qdot = check_vector("qdot", qdot, self.n)
         v = check_vector("v", v, self.n)
         return 0.25 * (self.Cqdot(q, qdot + v) - self.Cqdot(q, qdot - v))
 
     def B(self, q) -> np.ndarray:
-        """Input matrix B(q) (thesis order, columns = actuator inputs). Overridden per model."""
+        """Input matrix B(q) (thesis order, columns = actuator inputs). Overridden per model.
+
+        The base class raises ``NotImplementedError``.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n, number of inputs)
+            B(q).
+        """
         raise NotImplementedError(f"{self.name} does not define an input matrix")
 
     #: True when K(q̇) ≡ 0, so per-sample paths may skip adding it (a model overriding
@@ -137,7 +260,18 @@ class MechanicalModel:
 
     def friction(self, qdot) -> np.ndarray:
         """Velocity-dependent generalized friction K(q̇) (thesis order, on the left-hand side of
-        M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it."""
+        M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it.
+
+        Parameters
+        ----------
+        qdot : array_like, shape (n,)
+            Generalized velocities, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            K(q̇) (zeros here).
+        """
         check_vector("qdot", qdot, self.n)
         return np.zeros(self.n)
 
@@ -189,6 +323,11 @@ class PlantModel(MechanicalModel):
     library's quadrotor does) and actuators with Drake's implicit PD control.  Contact, joint
     limits and effort limits are not part of M q̈ + C q̇ + g = B u; the effort limits are
     available as ``input_lower``/``input_upper`` for a controller's ``lower``/``upper``.
+
+    Parameters
+    ----------
+    plant, context, name
+        As in :meth:`MechanicalModel.from_plant`.
     """
 
     def __init__(self, plant: MultibodyPlant, *, context=None, name=None):
@@ -227,12 +366,34 @@ class PlantModel(MechanicalModel):
         self.input_lower, self.input_upper = lower, upper
 
     def B(self, q) -> np.ndarray:
-        """Actuation matrix (n × number of actuators), constant in q."""
+        """Actuation matrix (n × number of actuators), constant in q.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates (checked only).
+
+        Returns
+        -------
+        ndarray, shape (n, num_inputs)
+            A copy of the plant's ``MakeActuationMatrix()``.
+        """
         check_vector("q", q, self.n)
         return self._B.copy()
 
     def friction(self, qdot) -> np.ndarray:
-        """Joint damping D q̇ (Drake's τ = −d v, moved to the left-hand side)."""
+        """Joint damping D q̇ (Drake's τ = −d v, moved to the left-hand side).
+
+        Parameters
+        ----------
+        qdot : array_like, shape (n,)
+            Generalized velocities.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            K(q̇) = D q̇, D = diag(joint damping).
+        """
         return self.damping * check_vector("qdot", qdot, self.n)
 
 

@@ -24,21 +24,34 @@ from sobolev_drake.models._adapter import ThesisForceAdapter
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.validation import index_tuple
 
+__all__ = [
+    "PlantHandles", "add_state_selector", "urdf_text", "UrdfEditor", "build_plant",
+    "coordinate_map", "verify_against_closed_forms", "attach_adapter",
+]
+
 
 @dataclass
 class PlantHandles:
     """What ``add_<name>`` hands back (shared contract, see the team brief).
 
+    ``u`` and ``disturbance`` read as zero when left unconnected.
+
     Attributes
     ----------
-    plant, scene_graph : the Drake systems added to the builder.
-    model : MechanicalModel wrapping ``plant`` (thesis-ordered M, C q̇, g, B).
-    u : input port, actuator commands in thesis units (size ``model.num_inputs``).
-    disturbance : input port, thesis-ordered generalized disturbance force w (size n).
-    x : output port, thesis-ordered state [q; q̇] (size 2n).
-    adapter : the ThesisForceAdapter system (for extra wiring or inspection).
-
-    ``u`` and ``disturbance`` read as zero when left unconnected.
+    plant : MultibodyPlant
+        The plant added to the builder.
+    scene_graph : SceneGraph or None
+        Its SceneGraph (None for a bare plant).
+    model : MechanicalModel
+        Model wrapping ``plant`` (thesis-ordered M, C q̇, g, B).
+    u : InputPort
+        Actuator commands in thesis units (size ``model.num_inputs``).
+    disturbance : InputPort
+        Thesis-ordered generalized disturbance force w (size n).
+    x : OutputPort
+        Thesis-ordered state [q; q̇] (size 2n).
+    adapter : ThesisForceAdapter or None
+        The adapter system (for extra wiring or inspection).
     """
 
     plant: MultibodyPlant
@@ -52,9 +65,15 @@ class PlantHandles:
     def set_state(self, context, diagram: Diagram | None, q, qdot) -> None:
         """Write thesis-ordered (q, q̇) into the plant's part of ``context``.
 
-        ``context`` is the root diagram context (e.g. ``simulator.get_mutable_context()``);
-        ``diagram`` is accepted for the shared contract but not needed: the plant's sub-context is
-        found from the root context.
+        Parameters
+        ----------
+        context : Context
+            The root diagram context (e.g. ``simulator.get_mutable_context()``).
+        diagram : Diagram or None
+            Accepted for the shared contract but not needed: the plant's sub-context is found
+            from the root context.
+        q, qdot : array_like, shape (n,)
+            Thesis-ordered generalized coordinates and velocities.
         """
         n = self.model.n
         q = check_vector("q", q, n)
@@ -64,7 +83,18 @@ class PlantHandles:
         self.plant.SetVelocities(plant_context, self.model.to_drake(qdot))
 
     def get_state(self, context) -> tuple[np.ndarray, np.ndarray]:
-        """Thesis-ordered (q, q̇) read from the plant's part of the root ``context``."""
+        """Thesis-ordered (q, q̇) read from the plant's part of the root ``context``.
+
+        Parameters
+        ----------
+        context : Context
+            The root diagram context.
+
+        Returns
+        -------
+        q, qdot : ndarray, shape (n,)
+            Thesis-ordered generalized coordinates and velocities.
+        """
         plant_context = self.plant.GetMyContextFromRoot(context)
         q = self.model.to_thesis(self.plant.GetPositions(plant_context))
         v = self.model.to_thesis(self.plant.GetVelocities(plant_context))

@@ -49,6 +49,11 @@ from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapt
                                           verify_against_closed_forms)
 from sobolev_drake.validation import check_parameter_fields
 
+__all__ = [
+    "QuadrotorParams", "euler_rate_matrix", "euler_rate_matrix_dot", "rotation_zyx", "rotor_poses",
+    "QuadrotorModel", "make_quadrotor_model", "add_quadrotor",
+]
+
 THESIS_ORDER = ("phi", "theta", "psi", "x", "y", "z")
 ROTOR_DIRECTIONS = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0], [0, -1.0, 0]])
 ROTOR_SPIN = np.array([1.0, -1.0, 1.0, -1.0])
@@ -57,7 +62,25 @@ REACTION_MODES = ("thesis", "axial")
 
 @dataclass(frozen=True)
 class QuadrotorParams:
-    """Table 5.4 (SI units; ``alpha`` in radians)."""
+    """Table 5.4 (SI units; ``alpha`` in radians).
+
+    Parameters
+    ----------
+    Ixx, Iyy, Izz : float, default 0.0363, 0.0363, 0.0615
+        Principal moments of inertia of the body (kg m²); positive, triangle inequality.
+    m : float, default 2.2
+        Mass (kg).
+    alpha : float, default 5° in rad
+        Rotor tilt toward the centre (rad), in (−π/2, π/2).
+    l : float, default 0.21
+        Distance from the centre to each rotor (m).
+    g : float, default 9.8
+        Gravitational acceleration (m/s²).
+    b : float, default 2.9e-5
+        Thrust coefficient: thrust b Ω² along the rotor axis.
+    d : float, default 6e-6
+        Drag (reaction torque) coefficient: torque d Ω².
+    """
 
     Ixx: float = 0.0363
     Iyy: float = 0.0363
@@ -71,13 +94,27 @@ class QuadrotorParams:
 
     @classmethod
     def chapter6_nominal(cls) -> "QuadrotorParams":
-        """Centres of the ±10 % uncertainty boxes of section 6.5.3 (m = 2.24, Ixx = Iyy = 0.0384)."""
+        """Centres of the ±10 % uncertainty boxes of section 6.5.3 (m = 2.24, Ixx = Iyy = 0.0384).
+
+        Returns
+        -------
+        QuadrotorParams
+            Table 5.4 with m, Ixx, Iyy replaced (Izz = 0.0615 unchanged).
+        """
         return cls(Ixx=0.0384, Iyy=0.0384, Izz=0.0615, m=2.24)
 
     def __post_init__(self):
         self.validate()
 
     def validate(self) -> "QuadrotorParams":
+        """Check the fields (``ValueError`` otherwise): positive values, |alpha| < π/2 and the
+        triangle inequality of the inertias.
+
+        Returns
+        -------
+        QuadrotorParams
+            ``self``, for chaining.
+        """
         check_parameter_fields(self, positive=("Ixx", "Iyy", "Izz", "m", "l", "g", "b", "d"))
         if not abs(self.alpha) < np.pi / 2:
             raise ValueError(f"quadrotor tilt alpha must be in (-pi/2, pi/2) rad, got {self.alpha}")
@@ -87,7 +124,13 @@ class QuadrotorParams:
         return self
 
     def hover_input(self) -> float:
-        """Ω² per rotor that balances gravity: m g / (4 b cos α)."""
+        """Ω² per rotor that balances gravity: m g / (4 b cos α).
+
+        Returns
+        -------
+        float
+            The hover input Ω² (rad²/s²).
+        """
         return self.m * self.g / (4 * self.b * np.cos(self.alpha))
 
 
@@ -147,11 +190,16 @@ class QuadrotorModel(MechanicalModel):
 
     Parameters
     ----------
-    plant : finalized plant built by this module (``None``: build a standalone one).
-    params : QuadrotorParams (Table 5.4 by default).
-    tilt : rotor inclination α in radians (default ``params.alpha`` = 5°); 0 gives the untilted
+    plant : MultibodyPlant, optional
+        Finalized plant built by this module (``None``: build a standalone one).
+    params : QuadrotorParams, optional
+        Table 5.4 by default.
+    tilt : float, optional
+        Rotor inclination α in radians (default ``params.alpha`` = 5°); 0 gives the untilted
         vehicle.  If ``plant`` is given its rotor frames must have this tilt.
-    reaction_torque : ``"thesis"`` (body-z drag torque d cos α, equals (5.123)) or ``"axial"``.
+    reaction_torque : {"thesis", "axial"}, default "thesis"
+        ``"thesis"``: body-z drag torque d cos α, equals (5.123); ``"axial"``: drag torque along
+        the tilted rotor axis.
     """
 
     num_inputs = 4
@@ -182,6 +230,18 @@ class QuadrotorModel(MechanicalModel):
 
     # --- thesis closed forms -------------------------------------------------------------------
     def M_closed_form(self, q) -> np.ndarray:
+        """M(q) = blockdiag(Wᵀ I W, m I₃) of (5.123).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 6)
+            M(q).
+        """
         q = check_vector("q", q, 6)
         p = self.params
         W = euler_rate_matrix(q[0], q[1])
@@ -191,7 +251,18 @@ class QuadrotorModel(MechanicalModel):
         return M
 
     def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
-        """C(q, q̇) q̇ = [Wᵀ(I Ẇ η̇ + ω × I ω); 0], ω = W η̇ (Christoffel C of M, see module doc)."""
+        """C(q, q̇) q̇ = [Wᵀ(I Ẇ η̇ + ω × I ω); 0], ω = W η̇ (Christoffel C of M, see module doc).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (6,)
+            [ϕ θ ψ x y z] and its rates.
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            C(q, q̇) q̇.
+        """
         q = check_vector("q", q, 6)
         qdot = check_vector("qdot", qdot, 6)
         p = self.params
@@ -203,12 +274,33 @@ class QuadrotorModel(MechanicalModel):
         return np.r_[W.T @ (I @ Wdot @ eta_dot + np.cross(w, I @ w)), np.zeros(3)]
 
     def g_closed_form(self, q) -> np.ndarray:
+        """g(q) = [0 0 0 0 0 m g] of (5.123).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z] (checked only).
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            g.
+        """
         check_vector("q", q, 6)
         p = self.params
         return np.array([0.0, 0.0, 0.0, 0.0, 0.0, p.m * p.g])
 
     def B0_closed_form(self) -> np.ndarray:
-        """Body-frame 6×4 matrix of (5.123) (rows: roll, pitch, yaw torque; x, y, z force)."""
+        """Body-frame 6×4 matrix of (5.123) (rows: roll, pitch, yaw torque; x, y, z force).
+
+        With ``reaction_torque="axial"`` the in-plane part −s_i d sin α p̂_i of each drag torque
+        is added to the torque rows.
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+            B₀ per unit Ω_i².
+        """
         p = self.params
         ca, sa = np.cos(self.tilt), np.sin(self.tilt)
         lb, d, b = p.l * p.b * ca, p.d * ca, p.b
@@ -224,7 +316,18 @@ class QuadrotorModel(MechanicalModel):
         return B0
 
     def B_closed_form(self, q) -> np.ndarray:
-        """B(q) = blockdiag(Wᵀ, R) B₀ of (5.123)."""
+        """B(q) = blockdiag(Wᵀ, R) B₀ of (5.123).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+            B(q).
+        """
         q = check_vector("q", q, 6)
         W = euler_rate_matrix(q[0], q[1])
         R = rotation_zyx(q[0], q[1], q[2])
@@ -233,7 +336,19 @@ class QuadrotorModel(MechanicalModel):
 
     # --- input matrix from the rotor frames ---------------------------------------------------
     def rotor_wrench_in_rotor_frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """(torque, force) per unit Ω_i², expressed in rotor frame i."""
+        """(torque, force) per unit Ω_i², expressed in rotor frame i.
+
+        Parameters
+        ----------
+        i : int
+            Rotor index, 0..3.
+
+        Returns
+        -------
+        torque, force : ndarray, shape (3,)
+            Drag torque (body-z component only for ``reaction_torque="thesis"``) and thrust
+            [0, 0, b].
+        """
         p = self.params
         force = np.array([0.0, 0.0, p.b])
         if self.reaction_torque == "axial":
@@ -244,8 +359,14 @@ class QuadrotorModel(MechanicalModel):
         return torque, force
 
     def body_wrench_matrix(self) -> np.ndarray:
-        """6×4: unit-Ω² wrench of each rotor about the body origin, in body axes (rows: torque,
-        force), assembled from the poses of the Drake rotor frames (constant: rotors are fixed)."""
+        """Unit-Ω² wrench of each rotor about the body origin, in body axes, assembled from the
+        poses of the Drake rotor frames (constant: rotors are fixed).
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+            Rows: torque, force; one column per rotor.
+        """
         cols = []
         for i, frame in enumerate(self._rotors):
             X_BR = frame.GetFixedPoseInBodyFrame()
@@ -258,7 +379,18 @@ class QuadrotorModel(MechanicalModel):
     def B(self, q) -> np.ndarray:
         """B(q) (6×4, thesis order) from Drake's spatial-velocity Jacobian of the body:
         B = Tᵀ J_Bᵀ blockdiag(R_WB, R_WB) W_B, with W_B the rotor wrenches moved to the body
-        origin (:meth:`body_wrench_matrix`).  Same as summing Jᵢᵀ wrenchᵢ over the rotor frames."""
+        origin (:meth:`body_wrench_matrix`).  Same as summing Jᵢᵀ wrenchᵢ over the rotor frames.
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+            B(q).
+        """
         self._set(q)
         plant, ctx, world = self.plant, self.context, self.plant.world_frame()
         frame = self._body.body_frame()
@@ -270,7 +402,18 @@ class QuadrotorModel(MechanicalModel):
 
     def B_per_rotor_jacobians(self, q) -> np.ndarray:
         """B(q) column by column, column i = Jᵢᵀ [τ_W; f_W] with Jᵢ the Jacobian of rotor frame i
-        (slower reference implementation of :meth:`B`)."""
+        (slower reference implementation of :meth:`B`).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+            B(q).
+        """
         self._set(q)
         plant, ctx, world = self.plant, self.context, self.plant.world_frame()
         cols = []
@@ -285,7 +428,17 @@ class QuadrotorModel(MechanicalModel):
 
 def make_quadrotor_model(params: QuadrotorParams | None = None, *, tilt=None,
                          reaction_torque: str = "thesis") -> QuadrotorModel:
-    """Standalone QuadrotorModel on its own plant (no SceneGraph)."""
+    """Standalone QuadrotorModel on its own plant (no SceneGraph).
+
+    Parameters
+    ----------
+    params, tilt, reaction_torque
+        As in :class:`QuadrotorModel`.
+
+    Returns
+    -------
+    QuadrotorModel
+    """
     return QuadrotorModel(None, params, tilt=tilt, reaction_torque=reaction_torque)
 
 
@@ -293,10 +446,25 @@ def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None
                   reaction_torque: str = "thesis") -> PlantHandles:
     """Add the quadrotor (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 
-    ``u`` = [Ω1² Ω2² Ω3² Ω4²] (rad²/s²); ``disturbance`` = [δϕ δθ δψ δx δy δz];
-    ``x`` = [ϕ θ ψ x y z, rates].  ``tilt`` (rad, default Table 5.4's 5°) sets the rotor
-    inclination of this plant: use ``tilt=0`` for the untilted truth of section 5.3.2.
     B(q) is recomputed from the plant state at every adapter evaluation.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        The builder the systems are added to.
+    params : QuadrotorParams, optional
+        Table 5.4 by default.
+    tilt : float, optional
+        Rotor inclination of this plant (rad, default ``params.alpha``, Table 5.4's 5°): use
+        ``tilt=0`` for the untilted truth of section 5.3.2.
+    reaction_torque : {"thesis", "axial"}, default "thesis"
+        See :class:`QuadrotorModel`.
+
+    Returns
+    -------
+    PlantHandles
+        ``u`` = [Ω1² Ω2² Ω3² Ω4²] (rad²/s²); ``disturbance`` = [δϕ δθ δψ δx δy δz];
+        ``x`` = [ϕ θ ψ x y z, rates].
     """
     params = (params or QuadrotorParams()).validate()
     if tilt is not None:

@@ -26,6 +26,11 @@ from sobolev_drake.models.handles import PlantHandles, add_state_selector
 from sobolev_drake.models.tiltrotor_params import DOF_NAMES, TiltrotorParams
 from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
 
+__all__ = [
+    "tiltrotor_urdf", "thesis_coordinate_map", "TiltrotorModel", "TiltrotorForces",
+    "TiltrotorHandles", "add_tiltrotor",
+]
+
 #: Drake joint of each thesis coordinate
 JOINTS = ("tilt_right", "tilt_left", "base_roll", "base_pitch", "base_yaw", "base_x", "base_y", "base_z")
 
@@ -69,9 +74,21 @@ def _marker_frames(p: TiltrotorParams):
 def tiltrotor_urdf(params: TiltrotorParams | None = None, *, marker_links: bool = True) -> str:
     """URDF text of the tilt-rotor for ``params`` (default: Table B.1).
 
-    ``marker_links=False`` leaves out the massless ``frame_*`` links (and their fixed joints):
-    :func:`_build_plant` adds them as FixedOffsetFrames instead, which spares MultibodyPlant
-    eight welded bodies in every dynamics evaluation (same frames, same dynamics)."""
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+    marker_links : bool, default True
+        Include the massless ``frame_*`` links (and their fixed joints).  False leaves them
+        out: :func:`_build_plant` adds them as FixedOffsetFrames instead, which spares
+        MultibodyPlant eight welded bodies in every dynamics evaluation (same frames, same
+        dynamics).
+
+    Returns
+    -------
+    str
+        The URDF document.
+    """
     p = TiltrotorParams() if params is None else params
     b, eps, mu = p.beta, p.epsilon, p.mu
     grey, blue, dark, prop = (0.8, 0.8, 0.85, 1), (0.2, 0.4, 0.8, 1), (0.2, 0.2, 0.2, 1), (0.1, 0.1, 0.1, 0.35)
@@ -152,6 +169,14 @@ class TiltrotorModel(MechanicalModel):
     ``M``, ``Cqdot``, ``g`` come from Drake (equal to (7.16) and its Christoffel symbols, tested);
     the generalized forces (7.18) are in :mod:`sobolev_drake.systems.propulsion`,
     :mod:`sobolev_drake.systems.aerodynamics` and :func:`sobolev_drake.systems.input_affine.input_affine`.
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+    plant : MultibodyPlant, optional
+        A finalized plant built from ``params`` (as :func:`add_tiltrotor` does); ``None``
+        builds a standalone one.
     """
 
     num_inputs = 8
@@ -168,14 +193,43 @@ class TiltrotorModel(MechanicalModel):
     def friction(self, qdot) -> np.ndarray:
         """K(q̇) = 0: the servo friction ν α̇ (7.33) is part of the generalized forces (passive
         term of (7.62)), not of the left-hand side.  Same as the base class, cheaper check
-        (the controller asks for it at every sample)."""
+        (the controller asks for it at every sample).
+
+        Parameters
+        ----------
+        qdot : array_like, shape (8,)
+            Generalized velocities, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (8,)
+            Zeros.
+        """
         arr = np.asarray(qdot, dtype=float)
         if arr.shape != (8,) or not np.isfinite(arr).all():
             return super().friction(qdot)          # raises the descriptive error
         return np.zeros(8)
 
     def B(self, q, qdot=None, zeta=None):
-        """Input-coupling matrix B(q, q̇, ζ) of (7.62) (columns ``ACTUATOR_NAMES``)."""
+        """Input-coupling matrix B(q, q̇, ζ) of (7.62) (columns ``ACTUATOR_NAMES``).
+
+        Computed by :func:`sobolev_drake.systems.input_affine.input_affine` with its defaults
+        (reference propeller speeds, drag torque through the thrust columns).
+
+        Parameters
+        ----------
+        q : array_like, shape (8,)
+            Generalized coordinates, thesis order.
+        qdot : array_like, shape (8,), optional
+            Generalized velocities (default zero).
+        zeta : array_like, shape (3,), optional
+            Wind velocity ζ, inertial frame, m/s (default zero).
+
+        Returns
+        -------
+        ndarray, shape (8, 8)
+            B(q, q̇, ζ).
+        """
         from sobolev_drake.systems.input_affine import input_affine
         qdot = np.zeros(8) if qdot is None else qdot
         zeta = np.zeros(3) if zeta is None else zeta
@@ -330,7 +384,17 @@ class TiltrotorForces(LeafSystem):
 
 
 class TiltrotorHandles(PlantHandles):
-    """PlantHandles plus the tilt-rotor's extra input ports and its force system."""
+    """PlantHandles plus the tilt-rotor's extra input ports and its force system.
+
+    Parameters
+    ----------
+    forces : TiltrotorForces
+        The force system; its ports ``propeller_speed``, ``servo_torque``,
+        ``surface_deflection``, ``wind``, ``force_disturbance`` (inputs) and
+        ``generalized_force`` (output) become attributes of the same names.
+    **kw
+        The :class:`PlantHandles` fields.
+    """
 
     def __init__(self, *, forces: TiltrotorForces, **kw):
         super().__init__(**kw)
@@ -347,10 +411,22 @@ def add_tiltrotor(builder, params: TiltrotorParams | None = None, *,
                   native: bool | None = None) -> TiltrotorHandles:
     """Add the tilt-rotor (MultibodyPlant + SceneGraph + :class:`TiltrotorForces`) to ``builder``.
 
-    Returns :class:`TiltrotorHandles`: ``plant, scene_graph, model, u, disturbance, x`` (shared
-    contract) and ``propeller_speed, servo_torque, surface_deflection, wind, force_disturbance,
-    generalized_force, forces``.  ``native``: see :class:`TiltrotorForces` (None: the compiled
-    force kernel when it is built, else Python).
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        The builder the systems are added to.
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+    native : bool or None, optional
+        See :class:`TiltrotorForces` (None: the compiled force kernel when it is built, else
+        Python).
+
+    Returns
+    -------
+    TiltrotorHandles
+        ``plant, scene_graph, model, u, disturbance, x`` (shared contract; ``adapter`` is None)
+        and ``propeller_speed, servo_torque, surface_deflection, wind, force_disturbance,
+        generalized_force, forces``.
     """
     params = TiltrotorParams() if params is None else params
     plant, scene_graph = _build_plant(params, builder)

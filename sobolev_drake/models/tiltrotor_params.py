@@ -21,6 +21,11 @@ import numpy as np
 
 from sobolev_drake.validation import check_parameter_fields
 
+__all__ = [
+    "DOF_NAMES", "ACTUATOR_NAMES", "SURFACES", "TiltrotorParams", "rot_x", "rot_y", "rot_z",
+    "R_IB", "W_eta", "R_BA", "body_generalized_force", "body_point_velocity", "R_W", "cross_rows",
+]
+
 #: thesis order of the generalized coordinates
 DOF_NAMES = ("alpha_R", "alpha_L", "phi", "theta", "psi", "x", "y", "z")
 #: thesis order of the input-affine actuator vector τ̄ (7.62)
@@ -49,6 +54,57 @@ class TiltrotorParams:
 
     Gravity: Table B.1 lists 9.87 m/s², the text of (7.17) 9.8 m/s²; 9.8 is the default because
     it reproduces the thesis' hover trim n = 51.9 rev/s best (see ``trim_hover``).
+
+    SI units, angles in radians; vectors ``d_X_Y`` are positions of point Y from the origin of
+    frame X, in X's axes (B: main body, A: thruster group frame A2 or A3).  Masses, g, rho, S,
+    chord and span must be positive, every other field finite.
+
+    Parameters
+    ----------
+    g : float, default 9.8
+        Gravitational acceleration (m/s²).
+    beta : float, default 5°
+        Thruster inclination toward the fuselage, β of (7.4), (7.6).
+    epsilon : float, default 5°
+        Wing dihedral (visual only: R_I^S = R_I^B, App. B).
+    mu : float, default 30°
+        V-tail dihedral (visual only).
+    nu : float, default 0.005
+        Servo viscous friction ν (N m s/rad), (7.33).
+    m1, m2, m3 : float, default 7.0, 0.3, 0.3
+        Masses (kg) of the main body C1 and the right and left thruster groups C2, C3.
+    d_B_C1 : ndarray, shape (3,)
+        Main body centre of mass C1.
+    d_B_A2, d_B_A3 : ndarray, shape (3,)
+        Right and left servo joints A2, A3.
+    d_A_C : ndarray, shape (3,)
+        Thruster group centre of mass (A2→C2, A3→C3).
+    d_A_P : ndarray, shape (3,)
+        Propeller hub (A2→PR, A3→PL).
+    d_B_F, d_B_WR, d_B_WL, d_B_TR, d_B_TL : ndarray, shape (3,)
+        Aerodynamic centres of the fuselage, right and left wing, right and left tail.
+    I_C1, I_C2, I_C3 : ndarray, shape (3, 3)
+        Inertia tensors (kg m²) of the main body and the thruster groups about their centres
+        of mass.
+    lambda_R, lambda_L : float, default 1.0, -1.0
+        Propeller rotation signs λR, λL of (7.25)–(7.28).
+    rho : float, default 1.21
+        Air density (kg/m³).
+    S : float, default 0.125
+        Reference area (m²) of each tested component (each wing or tail half uses S/2).
+    chord : float, default 0.1366
+        Reference length (m) of the pitch moment coefficients.
+    span : float, default 1.7592
+        Reference length (m) of the yaw moment coefficients.
+    c_delta_a, c_delta_e, c_delta_r : float, default 0.7104, 0.3759, -0.0730
+        Control surface coefficients per unit deflection: aileron lift (wings), ruddervator
+        lift (elevator part) and side force (rudder part) of the tails.
+    crossflow : {"independence", "thesis"}, default "independence"
+        How the angle-of-attack tables meet sideslip (see the aerodynamics module): on the
+        x–z-plane dynamic pressure, or on κ = ½ρV² as (7.41)–(7.45) are written.
+    reverse_flow : {"clipped", "mirrored"}, default "clipped"
+        How the angle-of-attack tables meet reverse flow u < 0: α = atan2(w, max(u, 0)), or
+        tables at atan2(w, |u|) with axes along the flow.
     """
 
     g: float = 9.8
@@ -101,14 +157,32 @@ class TiltrotorParams:
 
     @property
     def mass(self) -> float:
+        """Total mass m1 + m2 + m3 (kg)."""
         return self.m1 + self.m2 + self.m3
 
     def with_(self, **changes) -> "TiltrotorParams":
-        """Copy with some parameters changed."""
+        """Copy with some parameters changed.
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values (checked as at construction).
+
+        Returns
+        -------
+        TiltrotorParams
+            The modified copy (``self`` is frozen and unchanged).
+        """
         return replace(self, **changes)
 
     def aero_points(self) -> np.ndarray:
-        """(6, 3) body-frame aerodynamic centres in ``SURFACES`` order (interference at C1)."""
+        """Body-frame aerodynamic centres in ``SURFACES`` order (interference at C1).
+
+        Returns
+        -------
+        ndarray, shape (6, 3)
+            d_B_F, d_B_WR, d_B_WL, d_B_TR, d_B_TL, d_B_C1.
+        """
         return np.array([self.d_B_F, self.d_B_WR, self.d_B_WL, self.d_B_TR, self.d_B_TL, self.d_B_C1])
 
 

@@ -27,6 +27,12 @@ from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
 from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 from sobolev_drake.systems.input_affine import generalized_force
 
+__all__ = [
+    "THESIS_HOVER", "tiltrotor_model", "Trim", "balance", "trim_level_flight", "trim_hover",
+    "HoverWindLimit", "hover_wind_limit", "tilt_reference_polynomial", "tilt_schedule",
+    "write_tilt_schedule_report", "Linearization", "linearize",
+]
+
 #: thesis hover trim [θ, αR, αL, n, τs] (7.3.1)
 THESIS_HOVER = {"theta": 0.137, "alpha_R": -0.137, "alpha_L": -0.137, "n": 51.9, "tau_s": -0.127}
 

@@ -33,10 +33,34 @@ from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapt
                                           verify_against_closed_forms)
 from sobolev_drake.validation import check_parameter_fields
 
+__all__ = ["TwoWheeledParams", "TwoWheeledModel", "make_two_wheeled_model", "add_two_wheeled"]
+
 
 @dataclass(frozen=True)
 class TwoWheeledParams:
-    """Table 4.1 (SI units)."""
+    """Table 4.1 (SI units).
+
+    All fields must be positive except ``k``, which may be zero.
+
+    Parameters
+    ----------
+    Ir : float, default 0.0421
+        Wheel inertia (kg m²).
+    Ip : float, default 0.201
+        Pendulum inertia about its centre of mass (kg m²).
+    k : float, default 0.00215
+        Viscous friction coefficient (N m s/rad).
+    m : float, default 2.75
+        Pendulum mass (kg).
+    M : float, default 3.75
+        Wheels' mass (kg).
+    l : float, default 0.1435
+        Distance from the axle to the pendulum's centre of mass (m).
+    r : float, default 0.25
+        Wheel radius (m).
+    g : float, default 9.8
+        Gravitational acceleration (m/s²).
+    """
 
     Ir: float = 0.0421   # wheel inertia, kg m²
     Ip: float = 0.201    # pendulum inertia about its centre of mass, kg m²
@@ -51,6 +75,13 @@ class TwoWheeledParams:
         self.validate()
 
     def validate(self) -> "TwoWheeledParams":
+        """Check the fields (positive, ``k`` non-negative; ``ValueError`` otherwise).
+
+        Returns
+        -------
+        TwoWheeledParams
+            ``self``, for chaining.
+        """
         check_parameter_fields(self, positive=("Ir", "Ip", "m", "M", "l", "r", "g"), nonnegative=("k",))
         return self
 
@@ -70,8 +101,13 @@ def _two_wheeled_urdf(p: TwoWheeledParams) -> str:
 class TwoWheeledModel(MechanicalModel):
     """MechanicalModel of (4.30) in thesis coordinates q = [ϕ, θ] (Drake: [x = r ϕ, θ]).
 
-    ``plant``: a finalized plant built from ``urdf/two_wheeled.urdf`` with the same ``params``
-    (``None``: build a standalone one).
+    Parameters
+    ----------
+    plant : MultibodyPlant, optional
+        A finalized plant built from ``urdf/two_wheeled.urdf`` with the same ``params``
+        (checked against the closed forms); ``None`` builds a standalone one.
+    params : TwoWheeledParams, optional
+        Table 4.1 values by default.
     """
 
     num_inputs = 1
@@ -85,47 +121,137 @@ class TwoWheeledModel(MechanicalModel):
         verify_against_closed_forms(self, np.array([0.3, -0.8]))
 
     def M_closed_form(self, q) -> np.ndarray:
+        """Inertia matrix M(q) of (4.30).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [ϕ, θ] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            M(q).
+        """
         q = check_vector("q", q, 2)
         p = self.params
         m12 = p.m * p.l * p.r * np.cos(q[1])
         return np.array([[(p.M + p.m) * p.r**2 + p.Ir, m12], [m12, p.m * p.l**2 + p.Ip]])
 
     def C_closed_form(self, q, qdot) -> np.ndarray:
+        """C(q, q̇) of (4.30), with C q̇ = [−m l r sin θ θ̇², 0].
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (2,)
+            [ϕ, θ] and [ϕ̇, θ̇].
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            C(q, q̇).
+        """
         q = check_vector("q", q, 2)
         qdot = check_vector("qdot", qdot, 2)
         p = self.params
         return np.array([[0.0, -p.m * p.l * p.r * np.sin(q[1]) * qdot[1]], [0.0, 0.0]])
 
     def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+        """C(q, q̇) q̇ from :meth:`C_closed_form`.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (2,)
+            [ϕ, θ] and [ϕ̇, θ̇].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            C(q, q̇) q̇.
+        """
         return self.C_closed_form(q, qdot) @ check_vector("qdot", qdot, 2)
 
     def g_closed_form(self, q) -> np.ndarray:
-        """G(q) of (4.30)."""
+        """G(q) = [0, −m g l sin θ] of (4.30).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [ϕ, θ] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            G(q).
+        """
         q = check_vector("q", q, 2)
         p = self.params
         return np.array([0.0, -p.m * p.g * p.l * np.sin(q[1])])
 
     def friction(self, qdot) -> np.ndarray:
-        """K(q̇) = [k ϕ̇, −k ϕ̇] of (4.30) (left-hand side)."""
+        """K(q̇) = [k ϕ̇, −k ϕ̇] of (4.30) (left-hand side).
+
+        Parameters
+        ----------
+        qdot : array_like, shape (2,)
+            [ϕ̇, θ̇].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            K(q̇).
+        """
         qdot = check_vector("qdot", qdot, 2)
         return self.params.k * qdot[0] * np.array([1.0, -1.0])
 
     def B(self, q) -> np.ndarray:
-        """F(q) = [1, −1]ᵀ: motor torque on the wheel, reaction on the body."""
+        """F(q) = [1, −1]ᵀ: motor torque on the wheel, reaction on the body.
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [ϕ, θ] (checked only).
+
+        Returns
+        -------
+        ndarray, shape (2, 1)
+            F.
+        """
         check_vector("q", q, 2)
         return np.array([[1.0], [-1.0]])
 
 
 def make_two_wheeled_model(params: TwoWheeledParams | None = None) -> TwoWheeledModel:
-    """Standalone TwoWheeledModel on its own plant (no SceneGraph)."""
+    """Standalone TwoWheeledModel on its own plant (no SceneGraph).
+
+    Parameters
+    ----------
+    params : TwoWheeledParams, optional
+        Table 4.1 values by default.
+
+    Returns
+    -------
+    TwoWheeledModel
+    """
     return TwoWheeledModel(None, params)
 
 
 def add_two_wheeled(builder: DiagramBuilder, params: TwoWheeledParams | None = None) -> PlantHandles:
     """Add the vehicle (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 
-    ``u`` = [motor torque] (N m); ``disturbance`` = [wϕ, wθ]; ``x`` = [ϕ θ ϕ̇ θ̇].
     The adapter applies τ = F u + w − K(q̇) (friction included).
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        The builder the systems are added to.
+    params : TwoWheeledParams, optional
+        Table 4.1 values by default.
+
+    Returns
+    -------
+    PlantHandles
+        ``u`` = [motor torque] (N m); ``disturbance`` = [wϕ, wθ]; ``x`` = [ϕ θ ϕ̇ θ̇].
     """
     params = (params or TwoWheeledParams()).validate()
     plant, scene_graph = build_plant(_two_wheeled_urdf(params), params.g, builder)

@@ -9,8 +9,11 @@ checks), ``polytopic``, ``galerkin``, ``margins``.
 
 from sobolev_drake.synthesis import regions
 from sobolev_drake.synthesis.certificates import hinf_norm
+# (``hinf.output_feedback``/``state_feedback`` are not re-exported: the first would hide the
+# module ``synthesis.output_feedback``; ``hinf_output_feedback``/``hinf_state_feedback`` are
+# the same functions, also taking linear systems)
 from sobolev_drake.synthesis.hinf import (DynamicController, GeneralizedPlant, SynthesisResult,
-                                          SynthesisWarning, output_feedback, state_feedback)
+                                          SynthesisWarning)
 from sobolev_drake.synthesis.interop import (HinfsynOutput, generalized_plant, hinf_output_feedback,
                                              hinf_state_feedback, hinfsyn, state_space_matrices,
                                              to_statespace)
@@ -24,7 +27,6 @@ from sobolev_drake.synthesis.sobolev import (hinf_output_feedback_qr, hinf_plant
 __all__ = [
     "regions", "hinf_norm",
     "DynamicController", "GeneralizedPlant", "SynthesisResult", "SynthesisWarning",
-    "state_feedback", "output_feedback",
     "HinfsynOutput", "generalized_plant", "hinf_output_feedback", "hinf_state_feedback", "hinfsyn",
     "state_space_matrices", "to_statespace",
     "InfeasibleLMIError", "SynthesisError",

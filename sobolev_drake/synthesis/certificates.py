@@ -20,6 +20,12 @@ import numpy as np
 from ..validation import real_matrix, real_scalar, real_vector
 from .lmi import SynthesisError
 
+__all__ = [
+    "as_matrix", "check_weight", "sqrtm_psd", "uncontrollable_modes", "require_stabilizable",
+    "require_detectable", "parrott_bound", "hinf_norm", "hinf_norm_sweep", "Certificate",
+    "certify_closed_loop", "brl_residual",
+]
+
 
 # --------------------------------------------------------------------------- validation
 def as_matrix(name, M, shape=None):
@@ -102,9 +108,24 @@ def _sigma_max(A, B, C, D, w):
 def hinf_norm(A, B, C, D, rtol=1e-7):
     """H-infinity norm of C (sI-A)^-1 B + D by Hamiltonian iteration.
 
-    Returns ``(norm, peak_frequency)``; ``inf`` if A is not Hurwitz. Each iteration takes the
-    imaginary-axis eigenvalues of the Hamiltonian at gamma = (1+2 rtol) * lower bound and
-    evaluates the gain at the midpoints (Bruinsma & Steinbuch 1990); stops when none exist.
+    Each iteration takes the imaginary-axis eigenvalues of the Hamiltonian at
+    gamma = (1+2 rtol) * lower bound and evaluates the gain at the midpoints (Bruinsma &
+    Steinbuch 1990); stops when none exist.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        State-space matrices of the continuous-time system.
+    rtol : float, default 1e-7
+        Relative tolerance of the iteration.
+
+    Returns
+    -------
+    norm : float
+        The H∞ norm; ``inf`` if A is not Hurwitz.
+    peak_frequency : float
+        Frequency (rad/s) of the peak; ``nan`` if A is not Hurwitz, ``inf`` when the peak is
+        the feedthrough ‖D‖ (or the system has no state or no input/output).
     """
     A, B, C, D = (np.atleast_2d(np.asarray(M, float)) for M in (A, B, C, D))
     n = A.shape[0]

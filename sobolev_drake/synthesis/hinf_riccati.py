@@ -33,6 +33,8 @@ from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_c
                       normalize, output_feedback_test, rank_deficiency, state_feedback_test)
 from .scaling import resolve_scaling, scale_plant, unscale_controller, unscale_gain
 
+__all__ = ["GammaNotReachable", "perturbed_plant", "riccati_synthesis", "BudgetExceeded"]
+
 BISECTION_RTOL = 1e-6
 #: the controller is built at (1 + OPTIMUM_GAP) gamma_hi: close enough for "within 1e-4 of the
 #: optimum", far enough from it that the Riccati solutions are not at their blow-up point

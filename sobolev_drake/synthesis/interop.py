@@ -210,10 +210,26 @@ def to_statespace(result_or_controller):
 class HinfsynOutput(tuple):
     """``(K, CL, gamma, rcond)`` as ``control.hinfsyn`` returns them, plus ``.result``.
 
-    ``K`` controller StateSpace (y → u, positive feedback), ``CL`` closed loop w → z,
-    ``gamma`` the certified bound, ``rcond`` reciprocal condition numbers [D12, D21, X, Y]
-    (X, Y the solution's Lyapunov blocks; NaN where absent), ``result`` the full
-    :class:`SynthesisResult` with its certificate.
+    Parameters
+    ----------
+    K : control.StateSpace
+        Controller y → u (positive feedback, u = C_K x_K + D_K y).
+    CL : control.StateSpace
+        Closed loop w → z.
+    gamma : float
+        The certified bound.
+    rcond : ndarray, shape (4,)
+        Reciprocal condition numbers of [D12, D21, X, Y] (X, Y the solution's Lyapunov
+        blocks; NaN where absent).
+    result : SynthesisResult
+        The full result with its certificate (not part of the tuple).
+
+    Attributes
+    ----------
+    K, CL, gamma, rcond
+        The tuple's entries by name.
+    result : SynthesisResult
+        As above.
     """
 
     def __new__(cls, K, CL, gamma, rcond, result):

@@ -36,6 +36,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+__all__ = [
+    "BACKENDS", "SynthesisError", "InfeasibleLMIError", "Affine", "bmat", "kron", "SolveOutcome",
+    "LMIProgram",
+]
+
 DEFAULT_BACKEND = "clarabel"
 BACKENDS = ("clarabel", "ipm", "auto", "cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
             "drake", "drake:clarabel", "drake:scs", "drake:csdp", "drake:mosek")
@@ -46,7 +51,15 @@ class SynthesisError(RuntimeError):
 
 
 class InfeasibleLMIError(SynthesisError):
-    """The solver reported the LMI problem infeasible / not solved (status attached)."""
+    """The solver reported the LMI problem infeasible / not solved (status attached).
+
+    Parameters
+    ----------
+    message : str
+        The error message.
+    status : str, optional
+        The solver's status text (kept as ``.status``).
+    """
 
     def __init__(self, message, status=""):
         super().__init__(message)

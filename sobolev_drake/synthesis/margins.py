@@ -24,6 +24,8 @@ from ..validation import real_scalar
 
 from .certificates import as_matrix
 
+__all__ = ["input_gain_margins", "input_delay_margin"]
+
 #: largest frequency grid of :func:`input_delay_margin` (one eigenvalue problem per point)
 MAX_POINTS = 100_000
 

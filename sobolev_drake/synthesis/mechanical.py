@@ -190,14 +190,30 @@ def _norm(norm: str) -> str:
 def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:
     """Controlled-DOF gains (W^{3,2} on z = ∫q̃c; Theorem 1 (5.18)–(5.24), Theorem 4 (5.77)–(5.82)).
 
-    Y0 weighs ∫e, Y1 e, Y2 ė, Y3 ë.  Y0 and Y3 must be positive definite; Y1, Y2 positive
-    semidefinite suffice for the CARE (the thesis asks all four positive definite).  Weights may
-    be scalars (times I), vectors (diagonals) or full symmetric matrices of equal size.
+    Y0 and Y3 must be positive definite; Y1, Y2 positive semidefinite suffice for the CARE (the
+    thesis asks all four positive definite).  Weights may be scalars (times I), vectors
+    (diagonals) or full symmetric matrices of equal size.
 
-    Returns blocks Q, K, T, R, S, P with the chain CARE solution
-    ``[[Q, K, T], [Kᵀ, R, S], [Tᵀ, Sᵀ, P]]`` on [ė, e, ∫e]; the block equations are
-    (5.32)–(5.37) with 2K read as K + Kᵀ, 2S as S + Sᵀ.  ``K_gain = Y3⁻¹[Q K T]`` (5.26).
-    W2 and W∞ coincide (Remark 30), ``norm`` is recorded only.
+    Parameters
+    ----------
+    Y0 : float, array_like (n,) or (n, n)
+        Weight of ∫e.
+    Y1 : float, array_like (n,) or (n, n)
+        Weight of e.
+    Y2 : float, array_like (n,) or (n, n)
+        Weight of ė.
+    Y3 : float, array_like (n,) or (n, n)
+        Weight of ë.
+    norm : {"W2", "Winf"}, default "W2"
+        Recorded only: W2 and W∞ coincide (Remark 30).
+
+    Returns
+    -------
+    SobolevGains
+        ``group="controlled"``; blocks Q, K, T, R, S, P with the chain CARE solution
+        ``[[Q, K, T], [Kᵀ, R, S], [Tᵀ, Sᵀ, P]]`` on [ė, e, ∫e]; the block equations are
+        (5.32)–(5.37) with 2K read as K + Kᵀ, 2S as S + Sᵀ.  The gain ``K = Y3⁻¹[Q K T]``
+        (5.26).
     """
     n = _size((Y0, Y1, Y2, Y3))
     Y0 = _weight("Y0", Y0, n, definite=True)
@@ -216,10 +232,26 @@ def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:
 def regulated_gains(S0, S1, S2, *, norm: str = "W2") -> SobolevGains:
     """Regulated-DOF gains (W^{2,2} on z = q̃r; Theorem 12 (7.69)–(7.80)).
 
-    Σ0 (``S0``) weighs e, Σ1 ė, Σ2 ë; Σ0 and Σ2 positive definite, Σ1 semidefinite.
-    Blocks A, B, C with CARE solution ``[[A, B], [Bᵀ, C]]`` on [ė, e]:
-    −AΣ2⁻¹A + B + Bᵀ + Σ1 = 0 (7.73), −BᵀΣ2⁻¹B + Σ0 = 0 (7.71), C = AΣ2⁻¹B (the thesis'
-    (7.76) prints "C = BΓ2⁻¹A", a typo).  Desired ë = −Σ2⁻¹[A B][ė; e].
+    Σ0 and Σ2 positive definite, Σ1 semidefinite (scalars, diagonals or symmetric matrices of
+    equal size).
+
+    Parameters
+    ----------
+    S0 : float, array_like (n,) or (n, n)
+        Σ0, weight of e.
+    S1 : float, array_like (n,) or (n, n)
+        Σ1, weight of ė.
+    S2 : float, array_like (n,) or (n, n)
+        Σ2, weight of ë.
+    norm : {"W2", "Winf"}, default "W2"
+        Recorded only (identical gains).
+
+    Returns
+    -------
+    SobolevGains
+        ``group="regulated"``; blocks A, B, C with CARE solution ``[[A, B], [Bᵀ, C]]`` on
+        [ė, e]: −AΣ2⁻¹A + B + Bᵀ + Σ1 = 0 (7.73), −BᵀΣ2⁻¹B + Σ0 = 0 (7.71), C = AΣ2⁻¹B (the
+        thesis' (7.76) prints "C = BΓ2⁻¹A", a typo).  Desired ë = −Σ2⁻¹[A B][ė; e].
     """
     n = _size((S0, S1, S2))
     S0 = _weight("S0", S0, n, definite=True)
@@ -235,8 +267,20 @@ def regulated_gains(S0, S1, S2, *, norm: str = "W2") -> SobolevGains:
 def stabilized_gains(U0, U1, *, norm: str = "W2") -> SobolevGains:
     """Stabilized-DOF gains (W^{1,2} on z = q̇s; (5.76)/(5.91), (7.70)).
 
-    Υ0 (``U0``) weighs q̇s and Υ1 (``U1``) q̈s, both positive definite.  Block U solves
-    −UΥ1⁻¹U + Υ0 = 0; desired q̈s = −Υ1⁻¹U q̇s (5.84).
+    Parameters
+    ----------
+    U0 : float, array_like (n,) or (n, n)
+        Υ0, weight of q̇s (positive definite).
+    U1 : float, array_like (n,) or (n, n)
+        Υ1, weight of q̈s (positive definite).
+    norm : {"W2", "Winf"}, default "W2"
+        Recorded only (identical gains).
+
+    Returns
+    -------
+    SobolevGains
+        ``group="stabilized"``; block U solves −UΥ1⁻¹U + Υ0 = 0; desired
+        q̈s = −Υ1⁻¹U q̇s (5.84).
     """
     n = _size((U0, U1))
     U0 = _weight("U0", U0, n, definite=True)
@@ -398,5 +442,23 @@ def hinf_mechanical_gains(omega1: float, omega2: float, omega3: float, omega_u: 
 
     All weights are positive scalars (the classic design weighs all DOF equally); ω2 may be 0.
     Feasibility requires γ > ωu (R⁻¹ − γ⁻²I > 0).
+
+    Parameters
+    ----------
+    omega1 : float
+        ω1, weight (ω1²I in Q) of the velocity error q̃̇.
+    omega2 : float
+        ω2 ≥ 0, weight of the position error q̃.
+    omega3 : float
+        ω3, weight of the error integral ∫q̃.
+    omega_u : float
+        ωu, input weight R = ωu²I.
+    gamma : float
+        Attenuation level γ > ωu (enters the certificate only; the law does not depend on it).
+
+    Returns
+    -------
+    HinfMechanicalGains
+        With T11 = ω1c, T12 = s c, T13 = ω3c, c = γωu/√(γ² − ωu²), s = √(ω2² + 2ω1ω3).
     """
     return HinfMechanicalGains(omega1, omega2, omega3, omega_u, gamma)   # checked there

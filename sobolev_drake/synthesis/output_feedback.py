@@ -24,6 +24,8 @@ from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 
+__all__ = ["reconstruct_controller", "singular_problem", "output_feedback"]
+
 
 # --------------------------------------------------------------------------- output feedback
 def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, margin=EPS,

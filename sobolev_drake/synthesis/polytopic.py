@@ -18,6 +18,11 @@ from .certificates import as_matrix
 from .hinf import state_feedback
 from .sobolev import hinf_plant, winf_plant
 
+__all__ = [
+    "interval_vertices", "robust_winf_state_feedback", "robust_hinf_state_feedback",
+    "random_interior_points",
+]
+
 
 #: most interval parameters :func:`interval_vertices` accepts (2^k vertices)
 MAX_UNCERTAIN = 12

@@ -22,6 +22,8 @@ import numpy as np
 from ..validation import one_of
 from .hinf_common import GeneralizedPlant
 
+__all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family"]
+
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough",
             "singular")
 

@@ -20,10 +20,23 @@ import scipy.linalg as sla
 
 from ..validation import real_matrix, real_scalar
 
+__all__ = ["LMIRegion", "disk", "half_plane", "sector", "damping", "strip", "intersect",
+           "region_lmi"]
+
 
 @dataclass(frozen=True)
 class LMIRegion:
-    """Region {s : L + s M + conj(s) M^T < 0}; intersections via ``&``."""
+    """Region {s : L + s M + conj(s) M^T < 0}; intersections via ``&``.
+
+    Parameters
+    ----------
+    L : array_like, shape (k, k)
+        Symmetric constant term (alpha of (6.37)).
+    M : array_like, shape (k, k)
+        Coefficient of s (beta of (6.37)).
+    label : str, default "region"
+        Name used by ``str`` and in messages.
+    """
 
     L: np.ndarray
     M: np.ndarray
@@ -49,7 +62,18 @@ class LMIRegion:
         return self.label
 
     def margin(self, s):
-        """Largest eigenvalue of L + s M + conj(s) M^T for each s (< 0 means inside)."""
+        """Largest eigenvalue of L + s M + conj(s) M^T for each s (< 0 means inside).
+
+        Parameters
+        ----------
+        s : complex or array_like of complex
+            Point(s) of the complex plane.
+
+        Returns
+        -------
+        ndarray
+            One margin per point (at least 1-D).
+        """
         s = np.atleast_1d(np.asarray(s, complex))
         out = np.empty(s.shape)
         for k, sk in enumerate(s.ravel()):
@@ -58,37 +82,103 @@ class LMIRegion:
         return out
 
     def contains(self, s, tol=0.0):
+        """Whether each point is inside the region, ``margin(s) < tol``.
+
+        Parameters
+        ----------
+        s : complex or array_like of complex
+            Point(s) of the complex plane.
+        tol : float, default 0.0
+            Threshold on :meth:`margin`.
+
+        Returns
+        -------
+        ndarray of bool
+        """
         return self.margin(s) < tol
 
 
 def disk(radius, center=0.0):
-    """Disk |s - center| < radius (center real; the thesis uses center 0)."""
+    """Disk |s - center| < radius (center real; the thesis uses center 0).
+
+    Parameters
+    ----------
+    radius : float
+        Positive radius.
+    center : float, default 0.0
+        Real centre of the disk.
+
+    Returns
+    -------
+    LMIRegion
+    """
     r = real_scalar("radius", radius, low=0.0, low_open=True)
     c = -real_scalar("center", center)
     return LMIRegion([[-r, c], [c, -r]], [[0.0, 1.0], [0.0, 0.0]], f"disk(r={r:g}, c={-c:g})")
 
 
 def half_plane(a):
-    """Re s < -a (decay rate a)."""
+    """Re s < -a (decay rate a).
+
+    Parameters
+    ----------
+    a : float
+        Decay rate.
+
+    Returns
+    -------
+    LMIRegion
+    """
     a = real_scalar("a", a)
     return LMIRegion([[2.0 * a]], [[1.0]], f"Re s < {-a:g}")
 
 
 def sector(theta):
-    """Conic sector |Im s| < -Re s tan(theta), i.e. damping ratio >= cos(theta)."""
+    """Conic sector |Im s| < -Re s tan(theta), i.e. damping ratio >= cos(theta).
+
+    Parameters
+    ----------
+    theta : float
+        Half-angle in (0, π/2) rad, measured from the negative real axis.
+
+    Returns
+    -------
+    LMIRegion
+    """
     th = real_scalar("theta", theta, low=0.0, high=np.pi / 2, low_open=True, high_open=True)
     s, c = np.sin(th), np.cos(th)
     return LMIRegion(np.zeros((2, 2)), [[s, c], [-c, s]], f"sector({np.degrees(th):.1f} deg)")
 
 
 def damping(zeta):
-    """Damping ratio >= zeta (a conic sector)."""
+    """Damping ratio >= zeta (a conic sector).
+
+    Parameters
+    ----------
+    zeta : float
+        Damping ratio in (0, 1).
+
+    Returns
+    -------
+    LMIRegion
+        ``sector(arccos(zeta))``.
+    """
     zeta = real_scalar("zeta", zeta, low=0.0, high=1.0, low_open=True, high_open=True)
     return sector(np.arccos(zeta))
 
 
 def strip(a_min, a_max):
-    """Vertical strip -a_max < Re s < -a_min."""
+    """Vertical strip -a_max < Re s < -a_min.
+
+    Parameters
+    ----------
+    a_min, a_max : float
+        Bounds of the decay rate, a_max > a_min.
+
+    Returns
+    -------
+    LMIRegion
+    """
     a_min, a_max = real_scalar("a_min", a_min), real_scalar("a_max", a_max)
     if not a_max > a_min:
         raise ValueError(f"strip needs a_max > a_min, got a_min={a_min!r}, a_max={a_max!r}")
@@ -97,7 +187,18 @@ def strip(a_min, a_max):
 
 
 def intersect(*regions):
-    """Intersection of one or more regions (same as ``r1 & r2 & ...``)."""
+    """Intersection of one or more regions (same as ``r1 & r2 & ...``).
+
+    Parameters
+    ----------
+    *regions : LMIRegion
+        One or more regions.
+
+    Returns
+    -------
+    LMIRegion
+        Block-diagonal L and M of the regions.
+    """
     if not regions or not all(isinstance(r, LMIRegion) for r in regions):
         raise TypeError(f"intersect takes one or more LMIRegion objects, got {regions!r}")
     out = regions[0]
@@ -107,6 +208,21 @@ def intersect(*regions):
 
 
 def region_lmi(region, X, AX):
-    """Affine expression L (x) X + M (x) AX + M^T (x) AX^T (must be < 0); see (6.38)-(6.40)."""
+    """Affine expression L (x) X + M (x) AX + M^T (x) AX^T (must be < 0); see (6.38)-(6.40).
+
+    Parameters
+    ----------
+    region : LMIRegion
+        The pole region.
+    X : Affine
+        Symmetric Lyapunov variable (an :class:`~sobolev_drake.synthesis.lmi.Affine`).
+    AX : Affine
+        The product A_cl X in the synthesis variables (e.g. A X + B W).
+
+    Returns
+    -------
+    Affine
+        The region LMI's left-hand side.
+    """
     from .lmi import kron
     return kron(region.L, X) + kron(region.M, AX) + kron(region.M.T, AX.T)

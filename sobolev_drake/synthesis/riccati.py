@@ -38,6 +38,12 @@ import scipy.linalg as sla
 from .certificates import parrott_bound
 from .hinf_common import DynamicController, GeneralizedPlant
 
+__all__ = [
+    "RiccatiInfeasible", "rank_deficiency", "state_feedback_test", "Normalization", "normalize",
+    "OutputFeedbackLevel", "output_feedback_test", "central_controller", "BudgetExceeded",
+    "bisect_gamma",
+]
+
 #: relative ARE residual above which a Riccati solution is not trusted.  scipy's solver is
 #: backward stable (residuals ~1e-13 relative on well-posed levels); near the optimal gamma the
 #: solution grows without bound and the residual with it, so the level is declared infeasible

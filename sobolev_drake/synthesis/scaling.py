@@ -14,6 +14,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+__all__ = [
+    "balance_scaling", "scale_plant", "resolve_scaling", "unscale_gain", "unscale_controller",
+]
+
 
 def _pow2(v):
     """Nearest powers of two: scaling by them is exact in floating point."""

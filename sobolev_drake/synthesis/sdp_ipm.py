@@ -33,6 +33,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+__all__ = ["solve_sdp"]
+
 
 @functools.lru_cache(maxsize=1)
 def _blas_thread_setters():

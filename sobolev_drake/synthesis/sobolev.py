@@ -29,6 +29,13 @@ from .hinf import GeneralizedPlant, output_feedback, state_feedback
 from .interop import is_linear_system, state_space_matrices
 from .lmi import InfeasibleLMIError, LMIProgram, bmat
 
+__all__ = [
+    "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
+    "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_sf_thesis_lmi",
+    "winf_of_thesis_lmi", "DegeneracyReport", "disturbance_model_degeneracy",
+    "winf_disturbance_thesis", "augmented_disturbance_plant", "winf_disturbance_augmented",
+]
+
 
 def _abd(A, B, D):
     A = as_matrix("A", A)

@@ -29,6 +29,8 @@ from .hinf_riccati import BudgetExceeded, GammaNotReachable, riccati_synthesis
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
 
+__all__ = ["DEFAULT_TIME_LIMIT", "check_method", "lmi_only_options", "synthesize"]
+
 METHODS = ("auto", "riccati", "lmi")
 DEFAULT_TIME_LIMIT = 30.0
 

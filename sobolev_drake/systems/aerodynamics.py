@@ -65,6 +65,8 @@ from sobolev_drake.data import load
 from sobolev_drake.models.tiltrotor_params import SURFACES, R_W, TiltrotorParams, cross_rows
 from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
 
+__all__ = ["AeroTables", "AeroModel", "AerodynamicSurfaces"]
+
 _COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
 
 

@@ -31,6 +31,11 @@ from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # no
 from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
 from sobolev_drake.validation import bounds_pair, one_of, real_scalar
 
+__all__ = [
+    "sigmf", "tiltrotor_bounds", "ControlAllocator", "UnreachableThrustError", "rotor_inflow",
+    "propeller_speed_for_thrust", "bounded_least_squares",
+]
+
 # --------------------------------------------------------------------------------------------
 # tilt-rotor bounds (7.85)–(7.89)
 # --------------------------------------------------------------------------------------------

@@ -57,9 +57,13 @@ class TimeProfiledForce(LeafSystem):
 
     Parameters
     ----------
-    n : size of the output (number of generalized coordinates).
-    pulses : iterable of dicts ``{"index": i, "value": v or v(t), "from": t0, "to": t1}``.
-    function : optional callable t ↦ (n,) vector added to the pulses.
+    n : int
+        Size of the output (number of generalized coordinates).
+    pulses : sequence of dict, optional
+        ``{"index": i, "value": v or v(t), "from": t0, "to": t1}``, active on t0 ≤ t < t1
+        (from/to default to −∞/+∞); see :func:`normalize_pulse`.
+    function : callable, optional
+        t ↦ (n,) vector added to the pulses.
 
     ``value(t)`` evaluates the same thing in numpy; ``switch_times`` lists the pulse edges
     (where the integrator meets a discontinuity).
@@ -83,6 +87,18 @@ class TimeProfiledForce(LeafSystem):
                                      prerequisites_of_calc={self.time_ticket()})
 
     def value(self, t: float) -> np.ndarray:
+        """w(t): the active pulses plus ``function(t)``.
+
+        Parameters
+        ----------
+        t : float
+            Time.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order.
+        """
         w = np.zeros(self.n)
         for p in self.pulses:
             if p["from"] <= t < p["to"]:

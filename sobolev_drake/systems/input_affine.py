@@ -26,6 +26,12 @@ from sobolev_drake.models.tiltrotor_params import TiltrotorParams, body_generali
 from sobolev_drake.systems.aerodynamics import AeroModel
 from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_scalar, body_wrench_scalar
 
+__all__ = [
+    "N_REF", "cores", "input_affine", "AffineTerms", "input_affine_terms", "affine_terms_scalar",
+    "affine_terms_scalar_python", "input_affine_vectorized", "generalized_force", "thrust_inputs",
+    "force_disturbance_generalized",
+]
+
 #: reference propeller speed (rev/s) for Cq/Ct when ``n`` is not given: thesis hover trim
 N_REF = 51.9
 

@@ -70,6 +70,22 @@ class LinearStateFeedback(_ClippedOutput, LeafSystem):
     identity) selects the linear-model state from the m-vector on port ``x``.  With ``u_min`` /
     ``u_max`` the output ``u`` is clipped elementwise and a second output ``u_raw`` gives the
     unclipped command (e.g. to measure saturation).
+
+    Parameters
+    ----------
+    K : array_like, shape (nu, nx)
+        Gain, sign convention u = +K x.
+    u_r : array_like, shape (nu,), optional
+        Constant input offset (operating point), zero by default.
+    x_r : array_like, shape (nx,), optional
+        Constant state reference, zero by default (ignored with ``reference_port``).
+    reference_port : bool, default False
+        Declare an input port ``x_r`` (size nx) for the reference instead of the constant.
+    u_min, u_max : float or array_like (nu,), optional
+        Elementwise clipping bounds of ``u``.
+    S : array_like, shape (nx, m), optional
+        Selection of the linear-model state from the m-vector on port ``x`` (identity by
+        default).
     """
 
     def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None,
@@ -89,12 +105,30 @@ class LinearStateFeedback(_ClippedOutput, LeafSystem):
             self.DeclareVectorOutputPort("u_raw", nu, self._calc_raw)
 
     def set_gains(self, context, K):
-        """Write K (shape nu x nx) into this system's parameter in ``context`` (its own context)."""
+        """Write K (shape nu x nx) into this system's parameter in ``context`` (its own context).
+
+        Parameters
+        ----------
+        context : Context
+            This system's context.
+        K : array_like, shape (nu, nx)
+            The new gain.
+        """
         K = _mat("K", K, self.K.shape)
         context.get_mutable_numeric_parameter(self._K_index).SetFromVector(K.ravel())
 
     def gains(self, context):
-        """The gain matrix K currently held by ``context``."""
+        """The gain matrix K currently held by ``context``.
+
+        Parameters
+        ----------
+        context : Context
+            This system's context.
+
+        Returns
+        -------
+        ndarray, shape (nu, nx)
+        """
         return context.get_numeric_parameter(self._K_index).get_value().reshape(self.K.shape)
 
     def _raw(self, context):
@@ -115,6 +149,26 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
     declared dependency (no algebraic loop) stays true.  ``S`` (ny x m, default identity) maps
     the m-vector on port ``y`` to the controller's measurement.  ``u_min`` / ``u_max`` clip
     ``u`` (then ``u_raw`` is the unclipped command).  ``x0`` is the default controller state.
+
+    Parameters
+    ----------
+    AK, BK, CK : array_like
+        Controller matrices, shapes (nk, nk), (nk, ny), (nu, nk): x_K' = AK x_K + BK ỹ,
+        u = u_op + CK x_K + DK ỹ with ỹ = S y − y_op.
+    DK : array_like, shape (nu, ny), optional
+        Feedthrough, zero by default.
+    y_op : array_like, shape (ny,), optional
+        Measurement operating point, zero by default.
+    u_op : array_like, shape (nu,), optional
+        Input operating point, zero by default.
+    x0 : array_like, shape (nk,), optional
+        Default controller state, zero by default.
+    S : array_like, shape (ny, m), optional
+        Selection applied to the m-vector on port ``y`` (identity by default).
+    feedthrough : bool, optional
+        Whether ``u`` may depend directly on ``y`` (default: ``DK`` is nonzero).
+    u_min, u_max : float or array_like (nu,), optional
+        Elementwise clipping bounds of ``u``.
     """
 
     def __init__(self, AK, BK, CK, DK=None, *, y_op=None, u_op=None, x0=None, S=None,
@@ -154,7 +208,20 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
     @classmethod
     def from_controller(cls, controller, **kw):
         """From a synthesis ``DynamicController``, an output-feedback ``SynthesisResult`` or any
-        (AK, BK, CK, DK) iterable."""
+        (AK, BK, CK, DK) iterable.
+
+        Parameters
+        ----------
+        controller : DynamicController, SynthesisResult or tuple
+            The controller (a state-feedback result raises ``TypeError``).
+        **kw
+            Keyword arguments of the constructor (``y_op``, ``u_op``, ``x0``, ``S``,
+            ``feedthrough``, ``u_min``, ``u_max``).
+
+        Returns
+        -------
+        LinearDynamicOutputFeedback
+        """
         kind = getattr(controller, "kind", None)
         if kind == "state_feedback":
             raise TypeError("from_controller got a state-feedback SynthesisResult (u = K x); "
@@ -177,7 +244,15 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
         """Write ``controller`` = (AK, BK, CK, DK) (a ``DynamicController`` or any iterable; DK
         may be None for 0) into this system's parameter in ``context`` (its own context).
 
-        The shapes must equal the construction ones (the controller order is fixed)."""
+        The shapes must equal the construction ones (the controller order is fixed).
+
+        Parameters
+        ----------
+        context : Context
+            This system's context.
+        controller : DynamicController or tuple
+            (AK, BK, CK, DK); DK must be zero (or None) unless built with feedthrough.
+        """
         try:
             AK, BK, CK, DK = controller
         except (TypeError, ValueError):
@@ -191,7 +266,18 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
         context.get_mutable_numeric_parameter(self._p_index).SetFromVector(self._pack(mats))
 
     def gains(self, context):
-        """(AK, BK, CK, DK) currently held by ``context``."""
+        """(AK, BK, CK, DK) currently held by ``context``.
+
+        Parameters
+        ----------
+        context : Context
+            This system's context.
+
+        Returns
+        -------
+        tuple of ndarray
+            (AK, BK, CK, DK).
+        """
         p, out, k = context.get_numeric_parameter(self._p_index).get_value(), [], 0
         for a, b in self._shapes:
             out.append(p[k:k + a * b].reshape(a, b))

@@ -59,7 +59,21 @@ __all__ = ["Partition", "SobolevLaw", "HinfLaw", "MechanicalLaw", "MechanicalCon
 
 @dataclass
 class SobolevLaw:
-    """W2/W∞ inner law: gains per group (identical for W2 and W∞, Remarks 30/36)."""
+    """W2/W∞ inner law: gains per group (identical for W2 and W∞, Remarks 30/36).
+
+    Parameters
+    ----------
+    controlled : SobolevGains
+        Gains of the controlled DOF, from ``controlled_gains`` (required).
+    regulated : SobolevGains, optional
+        Gains of the regulated DOF, from ``regulated_gains``.
+    stabilized : SobolevGains, optional
+        Gains of the stabilized DOF, from ``stabilized_gains``.
+
+    Each group's gains must come from the matching ``*_gains`` function (``TypeError`` /
+    ``ValueError`` otherwise); their sizes are checked against the partition by
+    :class:`MechanicalLaw`.
+    """
 
     controlled: SobolevGains
     regulated: SobolevGains | None = None
@@ -78,12 +92,19 @@ class SobolevLaw:
 
     @property
     def name(self) -> str:
+        """Display name of the law, ``"W2/W∞"``."""
         return "W2/W∞"
 
 
 @dataclass
 class HinfLaw:
-    """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action)."""
+    """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action).
+
+    Parameters
+    ----------
+    gains : HinfMechanicalGains
+        From :func:`~sobolev_drake.synthesis.mechanical.hinf_mechanical_gains`.
+    """
 
     gains: HinfMechanicalGains
 
@@ -94,6 +115,7 @@ class HinfLaw:
 
     @property
     def name(self) -> str:
+        """Display name of the law, ``"H∞"``."""
         return "H∞"
 
 
@@ -102,12 +124,18 @@ class MechanicalLaw:
 
     Parameters
     ----------
-    model : MechanicalModel used by the controller (M, C q̇, g, C(q,q̇)v, B, friction).
-    partition : :class:`Partition`.
-    law : :class:`SobolevLaw` or :class:`HinfLaw`.
-    allocation : None (B⁻¹ / B̄⁻¹ / B†) or ``callable(u_star, q, qdot) -> tau``.
-    lower, upper : optional actuator bounds (size n_τ) enforced by bounded least squares when
-        no ``allocation`` callable is given.
+    model : MechanicalModel
+        Model used by the controller (M, C q̇, g, C(q,q̇)v, B, friction).
+    partition : Partition
+        DOF groups; must cover the model's n DOF.
+    law : SobolevLaw or HinfLaw
+        The inner law (the H∞ law has no regulated-DOF form).
+    allocation : callable, optional
+        ``allocation(u_star, q, qdot) -> tau``; None uses B⁻¹ (square B), B̄⁻¹ (reduced model)
+        or B† (input coupling).
+    lower, upper : array_like, optional
+        Actuator bounds (size n_τ) enforced by bounded least squares when no ``allocation``
+        callable is given.
     operating_points : array_like, optional
         Configurations q (rows, thesis order) along the expected operating range at which the
         partition's actuation assumptions are checked (:func:`~sobolev_drake.systems.partition.
@@ -161,6 +189,7 @@ class MechanicalLaw:
             self.num_inputs = int(getattr(model, "num_inputs", self.n))
         points = (np.zeros((1, self.n)) if operating_points is None else
                   real_matrix("operating_points", np.atleast_2d(operating_points), (None, self.n)))
+        self.operating_points = points
         if allocation is None:
             check_actuation(model, p, self._B, points)
         if p.mode == "reduced" and self.num_inputs != self.nc:
@@ -180,11 +209,35 @@ class MechanicalLaw:
 
     # --- errors ----------------------------------------------------------------------------
     def split_reference(self, reference):
+        """Split the stacked reference of the tracked DOF.
+
+        Parameters
+        ----------
+        reference : array_like, shape (3 n_ref,)
+            [q_r; q̇_r; q̈_r] of ``partition.tracked`` (controlled then regulated DOF).
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : ndarray, shape (n_ref,)
+        """
         r = check_vector("reference", reference, 3 * self.n_ref)
         return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
 
     def integral_derivative(self, q, reference) -> np.ndarray:
-        """d/dt ∫q̃c = q_c − q_cr."""
+        """d/dt ∫q̃c = q_c − q_cr.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates, thesis order.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        ndarray, shape (n_c,)
+            Position error of the controlled DOF.
+        """
         qr, _, _ = self.split_reference(reference)
         return np.asarray(q, dtype=float)[self.ic] - qr[:self.nc]
 
@@ -210,7 +263,20 @@ class MechanicalLaw:
 
     def inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
         """M(q) acc + C(q, q̇) q̇ + g(q) (+ friction): the generalized force for a desired
-        acceleration (full-state form of (5.26)); M, h cached per (q, q̇)."""
+        acceleration (full-state form of (5.26)); M, h cached per (q, q̇).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        acc : array_like, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order.
+        """
         M, h = self._dynamics(q, qdot)
         return M @ acc + h
 
@@ -225,7 +291,20 @@ class MechanicalLaw:
         mission loop) when it is built and switched on and covers the plant (see
         ``sobolev_drake.native.rnea``), else Drake's CalcInverseDynamics
         (:meth:`recursive_inverse_dynamics_python`: ≈ 12 µs hot, 30–45 µs in the loop, still
-        ≈ 3× cheaper than the mass-matrix path)."""
+        ≈ 3× cheaper than the mass-matrix path).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (n,)
+            Generalized coordinates and velocities, thesis order (validated by the caller).
+        acc : ndarray, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order (friction included).
+        """
         if self._perm is None:
             return self.inverse_dynamics(q, qdot, acc)
         compiled = cached_tree_kernel(self._cache, self.model, self._perm[0][:self.n])
@@ -235,7 +314,22 @@ class MechanicalLaw:
         return tau if self.model.frictionless else tau + self.model.friction(qdot)
 
     def recursive_inverse_dynamics_python(self, q, qdot, acc) -> np.ndarray:
-        """:meth:`recursive_inverse_dynamics` by Drake (the compiled kernel's reference)."""
+        """:meth:`recursive_inverse_dynamics` by Drake (the compiled kernel's reference).
+
+        Requires a permutation coordinate map (``ValueError`` otherwise).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        acc : array_like, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order (friction included).
+        """
         if self._perm is None:
             raise ValueError("recursive_inverse_dynamics_python needs a permutation coordinate map")
         m = self.model
@@ -297,7 +391,25 @@ class MechanicalLaw:
 
     # --- W laws ------------------------------------------------------------------------------
     def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
-        """q̈_des (thesis order, size n; uncontrolled entries are NaN) of the Sobolev law."""
+        """q̈_des (thesis order, size n; uncontrolled entries are NaN) of the Sobolev law.
+
+        ``TypeError`` for the H∞ law.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        e_int : array_like, shape (n_c,)
+            Error integral ∫q̃c of the controlled DOF.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            q̈_r − K[ė; e; ∫e] on the controlled DOF, q̈_r − K[ė; e] on the regulated DOF,
+            −K q̇s on the stabilized DOF, NaN on the uncontrolled DOF.
+        """
         if not isinstance(self.law, SobolevLaw):
             raise TypeError("desired_acceleration is defined for the Sobolev law only")
         q, qdot, e_int = self._parse(q, qdot, e_int)
@@ -320,7 +432,22 @@ class MechanicalLaw:
         """:meth:`desired_acceleration` of the Sobolev law on lists of Python floats (q, q̇: n,
         ∫e: n_c, reference: 3 n_ref; validated by the caller), returned as a list: for a handful
         of DOF the products in floats cost a fraction of the numpy calls (per-sample path of
-        the tilt-rotor law).  Equal to :meth:`desired_acceleration` to rounding (tested)."""
+        the tilt-rotor law).  Equal to :meth:`desired_acceleration` to rounding (tested).
+
+        Parameters
+        ----------
+        q, qdot : list of float, length n
+            Generalized coordinates and velocities, thesis order.
+        e_int : list of float, length n_c
+            Error integral of the controlled DOF.
+        reference : list of float, length 3 n_ref
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        list of float, length n
+            q̈_des (NaN on the uncontrolled DOF).
+        """
         rows = self._cache.get("K_rows")
         if rows is None:
             lw = self.law
@@ -348,7 +475,26 @@ class MechanicalLaw:
         return acc
 
     def reduced_model(self, q, qdot):
-        """(M̄, B̄, h̄) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u."""
+        """(M̄, B̄, h̄, Mcu Muu⁻¹) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u.
+
+        Cached per (q, q̇); callers must not mutate the returned arrays.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+
+        Returns
+        -------
+        Mbar : ndarray, shape (n_c, n_c)
+            M_cc − Mcu Muu⁻¹ M_uc.
+        Bbar : ndarray, shape (n_c, n_τ)
+            B_c − Mcu Muu⁻¹ B_u.
+        hbar : ndarray, shape (n_c,)
+            h_c − Mcu Muu⁻¹ h_u.
+        X : ndarray, shape (n_c, n_u)
+            Mcu Muu⁻¹.
+        """
         key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
         if self._cache.get("red_key") == key:
             return self._cache["red"]
@@ -379,8 +525,26 @@ class MechanicalLaw:
     def generalized_input(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
         """u* (generalized force, size n; reduced mode: B̄τ, size n_c), minus ``extra``.
 
-        Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81).
+        Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81); reduced model:
+        M̄ q̈c_des + h̄.
         H∞: M a + h − C(q,q̇)T11⁻¹σ − T11⁻¹R⁻¹σ (DESIGN §4.3, same inverse dynamics).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        e_int : array_like, shape (n_c,)
+            Error integral ∫q̃c of the controlled DOF.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+        extra : array_like, optional
+            Force subtracted from u* (same size), e.g. ϑ_passive(q, q̇, ζ) of the tilt-rotor
+            law (7.81).
+
+        Returns
+        -------
+        ndarray, shape (n,) or (n_c,)
+            u* (size n_c in the reduced mode).
         """
         q, qdot, e_int = self._parse(q, qdot, e_int)
         if isinstance(self.law, SobolevLaw):
@@ -418,7 +582,23 @@ class MechanicalLaw:
         return M @ acc + h - Cw + extra
 
     def allocate(self, u_star, q, qdot) -> np.ndarray:
-        """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds)."""
+        """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds).
+
+        With ``lower``/``upper`` the least-squares solution is returned when it is within
+        the bounds, else the bounded least-squares one.
+
+        Parameters
+        ----------
+        u_star : array_like
+            Generalized input from :meth:`generalized_input`.
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n_τ,)
+            Actuator command τ.
+        """
         if self.allocation is not None:
             return np.asarray(self.allocation(u_star, q, qdot), dtype=float)
         if self.partition.mode == "reduced":
@@ -443,12 +623,32 @@ class MechanicalLaw:
         return np.linalg.pinv(Bmat) @ u_star
 
     def actuation(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
-        """Applied actuator command τ."""
+        """Applied actuator command τ: :meth:`allocate` of :meth:`generalized_input`.
+
+        Parameters
+        ----------
+        q, qdot, e_int, reference, extra
+            As in :meth:`generalized_input`.
+
+        Returns
+        -------
+        ndarray, shape (n_τ,)
+            Actuator command τ.
+        """
         u_star = self.generalized_input(q, qdot, e_int, reference, extra)
         return self.allocate(u_star, np.asarray(q, float), np.asarray(qdot, float))
 
     def closed_loop_matrix(self) -> np.ndarray:
-        """Linear closed loop of the Sobolev law (5.27)/(5.86): blkdiag of the group chains."""
+        """Linear closed loop of the Sobolev law (5.27)/(5.86): blkdiag of the group chains.
+
+        ``TypeError`` for the H∞ law.
+
+        Returns
+        -------
+        ndarray
+            Block diagonal of the stabilized, regulated and controlled chains' closed-loop
+            matrices (in that order, absent groups left out).
+        """
         if not isinstance(self.law, SobolevLaw):
             raise TypeError("closed_loop_matrix is defined for the Sobolev law")
         mats = [g.closed_loop for g in (self.law.stabilized, self.law.regulated, self.law.controlled)
@@ -465,8 +665,23 @@ class MechanicalLaw:
 class MechanicalController(LeafSystem):
     """LeafSystem around a :class:`MechanicalLaw` (ports documented in the module docstring).
 
-    Parameters are those of :class:`MechanicalLaw`, or pass ``law=`` a ready MechanicalLaw.
-    ``initial_integral`` sets the default ∫q̃c(0) (zero by default).
+    Give either ``model``, ``partition`` and ``inner`` (and optionally ``allocation``,
+    ``lower``, ``upper``, ``operating_points``) or ``law=`` a ready MechanicalLaw.
+
+    Parameters
+    ----------
+    model : MechanicalModel, optional
+        See :class:`MechanicalLaw`.
+    partition : Partition, optional
+        See :class:`MechanicalLaw`.
+    inner : SobolevLaw or HinfLaw, optional
+        The inner law (``law`` of :class:`MechanicalLaw`).
+    law : MechanicalLaw, optional
+        A ready law; the other law arguments are then ignored.
+    allocation, lower, upper, operating_points
+        See :class:`MechanicalLaw`.
+    initial_integral : array_like, shape (n_c,), optional
+        Default ∫q̃c(0) (zero by default).
     """
 
     def __init__(self, model=None, partition: Partition | None = None, inner=None, *,
@@ -495,10 +710,17 @@ class MechanicalController(LeafSystem):
         """Swap the inner law (same model, partition, allocation and bounds) so one diagram can
         serve a tuning sweep (Python LeafSystems are not garbage-collected in drake 1.51).
         Re-initialize the context (time, state) before the next run so no cached output is
-        reused."""
+        reused.  The new law is checked at the same ``operating_points``.
+
+        Parameters
+        ----------
+        inner : SobolevLaw or HinfLaw
+            The new inner law.
+        """
         old = self.law
         self.law = MechanicalLaw(old.model, old.partition, inner, allocation=old.allocation,
-                                 lower=old.lower, upper=old.upper)
+                                 lower=old.lower, upper=old.upper,
+                                 operating_points=old.operating_points)
 
     def _read(self, context):
         x = np.asarray(self._x.Eval(context), dtype=float)

@@ -31,10 +31,23 @@ __all__ = ["Partition", "check_actuation"]
 class Partition:
     """DOF partition by thesis indices (0-based, thesis order).
 
-    ``controlled``: tracked with integral action; ``regulated``: tracked without (7.66);
-    ``stabilized``: q̇s → 0 (5.66); ``uncontrolled``: eliminated by the reduced model (5.5).
-    Every DOF must be in exactly one group.  Mode: ``reduced`` if ``uncontrolled`` is non-empty,
-    ``input_coupling`` if ``stabilized`` or ``regulated`` is, ``fully_actuated`` otherwise.
+    Every DOF must be in exactly one group (checked against the model's size by
+    :meth:`check`).  Mode: ``reduced`` if ``uncontrolled`` is non-empty, ``input_coupling`` if
+    ``stabilized`` or ``regulated`` is, ``fully_actuated`` otherwise; a reduced model cannot
+    also have stabilized or regulated DOF.
+
+    Parameters
+    ----------
+    controlled : sequence of int
+        DOF tracked with integral action (at least one).
+    stabilized : sequence of int, optional
+        DOF whose rates are driven to zero, q̇s → 0 (5.66).
+    regulated : sequence of int, optional
+        DOF tracked without integral action (7.66).
+    uncontrolled : sequence of int, optional
+        DOF eliminated by the reduced model (5.5).
+
+    Each is stored as a tuple of ints.
     """
 
     controlled: tuple
@@ -60,10 +73,12 @@ class Partition:
 
     @property
     def tracked(self) -> tuple:
+        """The DOF with a reference: ``controlled + regulated``."""
         return self.controlled + self.regulated
 
     @property
     def mode(self) -> str:
+        """``"reduced"``, ``"input_coupling"`` or ``"fully_actuated"`` (see the class)."""
         if self.uncontrolled:
             return "reduced"
         if self.stabilized or self.regulated:
@@ -71,6 +86,13 @@ class Partition:
         return "fully_actuated"
 
     def check(self, n: int) -> None:
+        """Raise ``ValueError`` unless the groups together hold each of the ``n`` DOF once.
+
+        Parameters
+        ----------
+        n : int
+            Number of generalized coordinates of the model.
+        """
         allidx = self.controlled + self.stabilized + self.regulated + self.uncontrolled
         if sorted(allidx) != list(range(n)):
             raise ValueError(f"partition must assign each of the {n} DOF to exactly one group, "
@@ -94,6 +116,7 @@ def check_actuation(model, partition: Partition, B_of_q, operating_points) -> No
     model : MechanicalModel
         The controller's model (``M(q)`` for the reduced model, ``dof_names`` for messages).
     partition : Partition
+        The DOF partition to check.
     B_of_q : callable
         q ↦ B(q), the input matrix in the model's coordinates (n × n_τ).
     operating_points : sequence of array_like

@@ -17,6 +17,11 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from sobolev_drake.data import load
 from sobolev_drake.models.tiltrotor_params import R_W, TiltrotorParams, cross_rows
 
+__all__ = [
+    "body_kinematics_scalar", "body_wrench_scalar", "PropellerCoefficients", "PropulsionModel",
+    "PropellerForces",
+]
+
 
 def body_kinematics_scalar(q, qdot, zeta):
     """Body-frame kinematics of the fast (Python scalar) force paths, thesis order q.

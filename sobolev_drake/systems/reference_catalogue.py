@@ -14,6 +14,11 @@ from sobolev_drake.systems.references import (
     PiecewiseTrajectory, TrajectoryReference, const, poly, sine,
 )
 
+__all__ = [
+    "TRAJECTORIES", "trajectory", "table_5_2", "table_5_5", "table_5_8", "table_6_3", "table_7_1",
+    "envelope_mission",
+]
+
 PI = np.pi
 
 

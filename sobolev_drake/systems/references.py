@@ -34,8 +34,20 @@ __all__ = [
 class Coordinate:
     """One scalar reference coordinate on a piece: t ↦ (f(t), ḟ(t), f̈(t)), vectorized in t.
 
-    ``scalar`` (optional): the same function for one Python float t returning three floats; the
-    per-sample evaluation of a simulation uses it (numpy's per-call overhead dominates there).
+    Calling the coordinate with t (scalar or array) returns (f, ḟ, f̈) as float arrays shaped
+    like t.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(t) -> (f, ḟ, f̈)`` for a float array t of absolute times (results broadcast to
+        t's shape).
+    description : str, optional
+        Text shown by ``repr``.
+    scalar : callable, optional
+        The same function for one Python float t returning three floats; the per-sample
+        evaluation of a simulation uses it (numpy's per-call overhead dominates there).
+        Default: ``fn`` converted to floats.
     """
 
     def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None):
@@ -44,7 +56,17 @@ class Coordinate:
         self._scalar = scalar
 
     def scalar(self, t: float):
-        """(f, ḟ, f̈) as floats at one time t."""
+        """(f, ḟ, f̈) as floats at one time t.
+
+        Parameters
+        ----------
+        t : float
+            Absolute time.
+
+        Returns
+        -------
+        f, fdot, fddot : float
+        """
         if self._scalar is not None:
             return self._scalar(t)
         f, df, ddf = self(t)
@@ -62,13 +84,43 @@ class Coordinate:
 
 
 def const(c: float) -> Coordinate:
-    """f(t) = c."""
+    """f(t) = c.
+
+    Parameters
+    ----------
+    c : float
+        The constant (finite).
+
+    Returns
+    -------
+    Coordinate
+        Value c, zero derivatives.
+    """
     c = real_scalar("c", c)
     return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0))
 
 
 def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
-    """f(t) = offset + A sin(ω (t − t0) + phase)  (use phase = π/2 for a cosine)."""
+    """f(t) = offset + A sin(ω (t − t0) + phase)  (use phase = π/2 for a cosine).
+
+    Parameters
+    ----------
+    amplitude : float
+        A.
+    omega : float
+        Angular frequency ω (rad/s).
+    phase : float, default 0.0
+        Phase (rad).
+    offset : float, default 0.0
+        Constant added.
+    t0 : float, default 0.0
+        Time origin of the sine.
+
+    Returns
+    -------
+    Coordinate
+        With its analytic derivatives.
+    """
     A, w, ph, c, s = (real_scalar(n, v) for n, v in (("amplitude", amplitude), ("omega", omega),
                                                    ("phase", phase), ("offset", offset), ("t0", t0)))
 
@@ -85,7 +137,20 @@ def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 
 
 
 def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
-    """f(t) = Σ_k c_k (t − t0)^k with ascending coefficients c_0, c_1, …"""
+    """f(t) = Σ_k c_k (t − t0)^k with ascending coefficients c_0, c_1, …
+
+    Parameters
+    ----------
+    coefficients : sequence of float
+        c_0, c_1, … (ascending powers).
+    t0 : float, default 0.0
+        Time origin of the polynomial.
+
+    Returns
+    -------
+    Coordinate
+        With its analytic derivatives.
+    """
     c = real_vector("coefficients (ascending powers c_0, c_1, ...)", coefficients)
     P = np.polynomial.Polynomial(c)
     dP, ddP = P.deriv(1), P.deriv(2)
@@ -112,10 +177,15 @@ class PiecewiseTrajectory:
 
     Parameters
     ----------
-    names : the m coordinate names (e.g. ``["x", "y", "z", "psi"]``), in output order.
-    pieces : list of K pieces; each is a sequence of m :class:`Coordinate`.
-    breakpoints : K − 1 strictly increasing times separating the pieces.
-    description : free text (source, reconstruction notes).
+    names : sequence of str
+        The m distinct coordinate names (e.g. ``["x", "y", "z", "psi"]``), in output order.
+    pieces : sequence of sequences of Coordinate
+        K pieces, each a sequence of m :class:`Coordinate`.
+    breakpoints : sequence of float, optional
+        K − 1 strictly increasing times separating the pieces; piece k applies on
+        (b_{k−1}, b_k].
+    description : str, optional
+        Free text (source, reconstruction notes).
     """
 
     def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
@@ -148,19 +218,50 @@ class PiecewiseTrajectory:
 
     def evaluate_scalar(self, t: float):
         """(q_r, q̇_r, q̈_r) at one finite time t as three lists of floats (fast path of the
-        LeafSystem; equal to :meth:`evaluate`)."""
+        LeafSystem; equal to :meth:`evaluate`).
+
+        Parameters
+        ----------
+        t : float
+            Time (not checked).
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : list of float, length m
+        """
         piece = self.pieces[bisect_left(self._bp, t)]   # (b_{k-1}, b_k] → piece k
         vals = [c.scalar(t) for c in piece]
         return [v[0] for v in vals], [v[1] for v in vals], [v[2] for v in vals]
 
     def index(self, name: str) -> int:
+        """Position of coordinate ``name`` in the output order (``KeyError`` if absent).
+
+        Parameters
+        ----------
+        name : str
+            A coordinate name.
+
+        Returns
+        -------
+        int
+        """
         try:
             return self.names.index(name)
         except ValueError:
             raise KeyError(f"no coordinate {name!r}; coordinates are {self.names}") from None
 
     def evaluate(self, t):
-        """(q_r, q̇_r, q̈_r) at time(s) t: each shaped (m,) for scalar t, (N, m) for a vector."""
+        """(q_r, q̇_r, q̈_r) at time(s) t: each shaped (m,) for scalar t, (N, m) for a vector.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Finite time(s).
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : ndarray, shape (m,) or (N, m)
+        """
         t_arr = np.asarray(t, dtype=float)
         scalar = t_arr.ndim == 0
         tt = np.atleast_1d(t_arr)
@@ -181,7 +282,18 @@ class PiecewiseTrajectory:
         return self.evaluate(t)
 
     def subset(self, names: Sequence[str]) -> "PiecewiseTrajectory":
-        """The trajectory restricted to / reordered as ``names``."""
+        """The trajectory restricted to / reordered as ``names``.
+
+        Parameters
+        ----------
+        names : sequence of str
+            Coordinates to keep, in the new output order.
+
+        Returns
+        -------
+        PiecewiseTrajectory
+            Same pieces' coordinates, breakpoints and description.
+        """
         idx = [self.index(n) for n in names]
         pieces = [[p[i] for i in idx] for p in self.pieces]
         return PiecewiseTrajectory(list(names), pieces, self.breakpoints, self.description)
@@ -189,7 +301,15 @@ class PiecewiseTrajectory:
     def jumps(self, eps: float = 1e-9) -> list[dict]:
         """Jumps of q, q̇, q̈ at each breakpoint b (value of piece k+1 at b minus piece k at b).
 
-        Returns one dict per breakpoint: ``{"t": b, "q": (m,), "qd": (m,), "qdd": (m,)}``.
+        Parameters
+        ----------
+        eps : float, default 1e-9
+            Not used (every difference is reported as computed).
+
+        Returns
+        -------
+        list of dict
+            One per breakpoint: ``{"t": b, "q": (m,), "qd": (m,), "qdd": (m,)}``.
         """
         out = []
         for k, b in enumerate(self.breakpoints):
@@ -200,7 +320,18 @@ class PiecewiseTrajectory:
         return out
 
     def smoothness(self, tol: float = 1e-6) -> list[dict]:
-        """Per breakpoint and coordinate, the continuity class: "C2+", "C1", "C0" or "jump"."""
+        """Per breakpoint and coordinate, the continuity class: "C2+", "C1", "C0" or "jump".
+
+        Parameters
+        ----------
+        tol : float, default 1e-6
+            A jump of absolute size above ``tol`` counts as a discontinuity.
+
+        Returns
+        -------
+        list of dict
+            ``{"t": b, "name": coordinate, "class": ...}`` per breakpoint and coordinate.
+        """
         rows = []
         for j in self.jumps():
             for i, name in enumerate(self.names):
@@ -222,6 +353,11 @@ class TrajectoryReference(LeafSystem):
     Output ports: ``q_r`` (m), ``qdot_r`` (m), ``qddot_r`` (m), ``reference`` (3m, stacked
     [q_r; q̇_r; q̈_r]).  ``evaluate(t)`` is the pure-numpy equivalent; ``names`` lists the
     coordinates in output order.
+
+    Parameters
+    ----------
+    trajectory : PiecewiseTrajectory
+        The trajectory emitted.
     """
 
     def __init__(self, trajectory: PiecewiseTrajectory):
@@ -239,7 +375,17 @@ class TrajectoryReference(LeafSystem):
         self.DeclareVectorOutputPort("reference", 3 * self.m, self._calc_all, prerequisites_of_calc=time_only)
 
     def evaluate(self, t):
-        """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`)."""
+        """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`).
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Finite time(s).
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : ndarray, shape (m,) or (N, m)
+        """
         return self.trajectory.evaluate(t)
 
     def _calc_q(self, context, output: BasicVector):

@@ -48,6 +48,12 @@ from sobolev_drake.native import kernel
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
 
+__all__ = [
+    "N_Q", "THESIS_WEIGHTS", "PARTITION", "thesis_inner_law", "tilt_schedule_polynomial",
+    "forward_air_speed", "regulated_reference", "tracked_reference", "saturation_flags",
+    "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController",
+]
+
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
 REGULATED = np.array([0, 1, 4])      # αR αL ψ

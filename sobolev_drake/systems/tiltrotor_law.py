@@ -20,6 +20,8 @@ from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlS
                                                        _checked, thesis_inner_law,
                                                        tilt_schedule_polynomial)
 
+__all__ = ["make_law", "newton_speed_for_thrust", "plant_trim_schedule"]
+
 
 def make_law(model, inner=None, *, schedule="plant", allocate=None):
     """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.

@@ -40,6 +40,13 @@ from pydrake.systems.primitives import RandomSource
 
 from sobolev_drake.models.base import check_vector
 
+__all__ = [
+    "VonKarmanParameters", "von_karman_transfer_functions", "von_karman_state_space",
+    "von_karman_psd", "von_karman_psd_hz", "discrete_filter", "simulate_discrete",
+    "VonKarmanTurbulence", "ConstantWind", "GustProfile", "WindSum", "add_wind",
+    "hover_linear_turbulence", "mission_wind_sources",
+]
+
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
