@@ -17,7 +17,7 @@ from sobolev_drake.simulation import simulate
 from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import MechanicalController, Partition, SobolevLaw
-from sobolev_drake.systems.references import table_5_2
+from sobolev_drake.systems.reference_catalogue import table_5_2
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/diagrams")
 builder = DiagramBuilder()

@@ -52,9 +52,9 @@ def test_methods_and_fallbacks_agree():
         assert np.max(np.abs(bounded_least_squares(B, u, lo, hi, method="osqp") - ref)) < 1e-6
         # primal active-set method on the unscaled problem
         H, g = B.T @ B, B.T @ u
-        s, *_ = al._box_qp_active_set(H, g, lo, hi, max_iter=100)
+        s, *_ = al.box_qp_active_set(H, g, lo, hi, max_iter=100)
         assert np.max(np.abs(s - ref)) < 1e-6
-        assert np.max(np.abs(al._fallback(B, u, lo, hi, 0.0) - ref)) < 1e-6
+        assert np.max(np.abs(al.bvls_with_regularization(B, u, lo, hi, 0.0) - ref)) < 1e-6
 
 
 def test_unconstrained_solution_when_no_bound_is_active():

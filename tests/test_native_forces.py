@@ -243,8 +243,8 @@ def test_switching_off_after_first_use_reaches_every_dispatch():
     params = TiltrotorParams()
     ql, qdl, zl = random_case(np.random.default_rng(4), 1)
     affine_terms_scalar(params, ql, qdl, zl, [50.0, 50.0])          # caches the capsule
-    assert input_affine._native_core(params) is not None
+    assert input_affine.native_core(params) is not None
     with native_pkg.disabled():
-        assert input_affine._native_core(params) is None
+        assert input_affine.native_core(params) is None
         assert tl.make_law(TiltrotorModel(params)).fused_sample is None
         assert not add_tiltrotor(DiagramBuilder(), params).forces.native

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from sobolev_drake.systems import references
+from sobolev_drake.systems import reference_catalogue as catalogue
 from sobolev_drake.systems.reference_catalogue import TRAJECTORIES, trajectory
-from sobolev_drake.systems.references import PiecewiseTrajectory, const, poly, sine
+from sobolev_drake.systems.references import Coordinate, PiecewiseTrajectory, const, poly, sine
 
 HORIZON = {"table_5_2": 40.0, "table_5_5": 30.0, "table_5_8": 60.0, "table_6_3": 60.0,
            "table_7_1": 220.0, "envelope_mission": 300.0}
@@ -105,7 +105,7 @@ def test_piece_convention_right_closed():
 
 
 def test_leaf_system_ports_match_evaluate():
-    ref = references.table_7_1()
+    ref = catalogue.table_7_1()
     ctx = ref.CreateDefaultContext()
     for t in (0.0, 110.0, 150.0):
         ctx.SetTime(t)
@@ -145,7 +145,7 @@ def test_reference_in_simulated_diagram_integrates_consistently():
     from pydrake.systems.primitives import Integrator
 
     builder = DiagramBuilder()
-    ref = builder.AddSystem(references.table_5_8())
+    ref = builder.AddSystem(catalogue.table_5_8())
     integ = builder.AddSystem(Integrator(4))
     builder.Connect(ref.GetOutputPort("qdot_r"), integ.get_input_port())
     diagram = builder.Build()
@@ -171,5 +171,5 @@ def test_scalar_evaluation_equals_vectorized():
             for a, b in ((q, q0), (qd, qd0), (qdd, qdd0)):
                 np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-12, err_msg=f"{name} t={t}")
     # a user Coordinate without a scalar form falls back to the vectorized function
-    tr = PiecewiseTrajectory(["a"], [[references.Coordinate(lambda t: (t * t, 2 * t, 2 + 0 * t))]])
+    tr = PiecewiseTrajectory(["a"], [[Coordinate(lambda t: (t * t, 2 * t, 2 + 0 * t))]])
     assert tr.evaluate_scalar(3.0) == ([9.0], [6.0], [2.0])

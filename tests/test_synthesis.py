@@ -327,12 +327,12 @@ def test_backend_chain_behaves_like_auto_without_drake():
 
 
 def test_strict_check_rejects_a_wrong_lyapunov_matrix():
-    from sobolev_drake.synthesis.hinf_common import _strict_check
+    from sobolev_drake.synthesis.hinf_common import strict_check
     p = sgc_example7()
     r = state_feedback(p, region=disk(50.0))
-    assert _strict_check(r, [p], r.region, 1e-4, "").certificate.ok
+    assert strict_check(r, [p], r.region, 1e-4, "").certificate.ok
     r.P = 0.2 * r.P  # same controller and norm, P no longer a bounded-real certificate
-    c = _strict_check(r, [p], r.region, 1e-4, "").certificate
+    c = strict_check(r, [p], r.region, 1e-4, "").certificate
     assert not c.ok and "bounded-real" in c.failures[-1]
 
 
@@ -392,7 +392,7 @@ def test_deliberate_regularization_escalates_once():
     when both fail the last error is raised, and a certified first step is kept."""
     from types import SimpleNamespace
 
-    from sobolev_drake.synthesis.hinf_common import _ladder
+    from sobolev_drake.synthesis.hinf_common import regularization_ladder
 
     tried = []
 
@@ -402,11 +402,11 @@ def test_deliberate_regularization_escalates_once():
             raise SynthesisError(f"rejected at {g}")
         return SimpleNamespace(gamma=g, certificate=SimpleNamespace(ok=True), regularized=False)
 
-    r, d = _ladder(lambda g: solve_at(g, 1.02), 1.0, 0.01, True, None)
+    r, d = regularization_ladder(lambda g: solve_at(g, 1.02), 1.0, 0.01, True, None)
     assert d == pytest.approx(0.05) and r.gamma == pytest.approx(1.05) and r.regularized
     assert tried == pytest.approx([1.01, 1.05])
     tried.clear()
-    r, d = _ladder(lambda g: solve_at(g, 0.0), 1.0, 0.01, True, None)
+    r, d = regularization_ladder(lambda g: solve_at(g, 0.0), 1.0, 0.01, True, None)
     assert d == 0.01 and tried == pytest.approx([1.01])
     with pytest.raises(SynthesisError, match="rejected at 1.05"):
-        _ladder(lambda g: solve_at(g, 2.0), 1.0, 0.01, True, None)
+        regularization_ladder(lambda g: solve_at(g, 2.0), 1.0, 0.01, True, None)

@@ -24,7 +24,7 @@ from sobolev_drake.models.arm import add_arm, make_arm_model
 from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
-from sobolev_drake.systems.references import table_5_2
+from sobolev_drake.systems.reference_catalogue import table_5_2
 
 WEIGHTS = ([100, 200], [500, 400], [40, 40], [0.0720, 0.0126])
 Q0, QD0 = np.array([np.pi / 4, 0.0]), np.zeros(2)

@@ -27,7 +27,7 @@ from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_
 from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
-from sobolev_drake.systems.references import table_5_5
+from sobolev_drake.systems.reference_catalogue import table_5_5
 
 WEIGHTS = ([1, 1, 1, 1], [1, 1, 1, 1], [0.61, 0.6, 0.6, 0.6], [2e-3, 1e-7, 1e-7, 1e-7])
 PARTITION = Partition(controlled=[5, 0, 1, 2], uncontrolled=[3, 4])  # z ϕ θ ψ | x y

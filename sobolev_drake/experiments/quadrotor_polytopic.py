@@ -159,7 +159,7 @@ class Rig(LoggedRig):
     def __init__(self, *, record=False, log_period=0.01, params=None):
         from sobolev_drake.models.quadrotor import add_quadrotor
         from sobolev_drake.systems.disturbances import TimeProfiledForce
-        from sobolev_drake.systems.references import table_6_3
+        from sobolev_drake.systems.reference_catalogue import table_6_3
         p = params or _params()
         self.hover = p.hover_input()
         b = DiagramBuilder()

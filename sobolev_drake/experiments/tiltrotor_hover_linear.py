@@ -337,7 +337,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     _check_velocity_reference(velocity_reference)  # before minutes of synthesis
     if regularization not in ("transient", "gain"):
         raise ValueError(f"regularization must be 'transient' or 'gain', got {regularization!r}")
-    from sobolev_drake.experiments.tiltrotor_missions import _write_table
+    from sobolev_drake.report import write_table
     from sobolev_drake.models.tiltrotor_trim import hover_wind_limit, linearize, trim_hover
 
     out_dir = Path(out_dir)
@@ -371,10 +371,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     def write_outputs():  # tables and metrics; also after every design (interrupted runs)
         mjson.write_text(json.dumps(metrics, indent=1, default=str))
         if srows:
-            _write_table(out_dir, "tiltrotor-hover-linear_literal_noise", SENS_COLUMNS, srows,
-                         f"Sensitivity: the same controllers with the noise read literally "
-                         f"(σ × √(Δt/π), gusts ≈ 6 % of σ), {duration:g} s")
-        return _write_table(out_dir, "tiltrotor-hover-linear_table", COLUMNS, rows, table_title(duration))
+            write_table(out_dir, "tiltrotor-hover-linear_literal_noise", SENS_COLUMNS, srows,
+                        title=f"Sensitivity: the same controllers with the noise read literally "
+                              f"(σ × √(Δt/π), gusts ≈ 6 % of σ), {duration:g} s")
+        return write_table(out_dir, "tiltrotor-hover-linear_table", COLUMNS, rows, title=table_title(duration))
 
     for name in designs:
         col = DESIGN_SPECS[name][1]

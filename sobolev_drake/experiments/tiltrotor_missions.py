@@ -28,6 +28,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.data import load
 from sobolev_drake.experiments import Claim, ExperimentResult, register
+from sobolev_drake.report import write_table
 
 # --- mission bookkeeping -------------------------------------------------------------------------
 HOVER, TRANSITION, CRUISE = "hover", "transition", "cruise"
@@ -137,7 +138,7 @@ def _plant_port(handles, name):
 
 def mission_reference(scenario):
     """TrajectoryReference of [x y z ψ] for scenario 1 (Table 7.1) or 2 (envelope mission)."""
-    from sobolev_drake.systems import references as refs
+    from sobolev_drake.systems import reference_catalogue as refs
     from sobolev_drake.systems.references import Coordinate, PiecewiseTrajectory, TrajectoryReference
 
     base = refs.table_7_1() if scenario == 1 else refs.envelope_mission()
@@ -341,18 +342,7 @@ def score(data, scenario, duration):
 
 
 def _write_table(out_dir, stem, columns, rows, title):
-    try:
-        from sobolev_drake.report import write_table
-        return write_table(out_dir, stem, columns, rows, title=title)
-    except ImportError:  # report module not available: minimal markdown + JSON
-        md = [f"### {title}", "", "| " + " | ".join(columns) + " |",
-              "|" + "---|" * len(columns)]
-        md += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-        text = "\n".join(md) + "\n"
-        mdp, jsp = Path(out_dir) / f"{stem}.md", Path(out_dir) / f"{stem}.json"
-        mdp.write_text(text)
-        jsp.write_text(json.dumps({"columns": columns, "rows": rows}, indent=1))
-        return mdp, jsp, text
+    return write_table(out_dir, stem, columns, rows, title=title)
 
 
 def _fmt(v, nd=2):

@@ -32,9 +32,9 @@ import time
 import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
-                          SynthesisResult, SynthesisWarning, _check_gamma_request, certify_result, check_options,
+                          SynthesisResult, SynthesisWarning, check_gamma_request, certify_result, check_options,
                           check_initial_states, transient_bound,
-                          _first_attempt, _ladder, publish_result, _solve, _strict_check, validate_plants,
+                          first_lmi_attempt, regularization_ladder, publish_result, solve_lmi_program, strict_check, validate_plants,
                           compress_performance)
 from .lmi import LMIProgram, SynthesisError, bmat
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
@@ -173,7 +173,7 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
                                 initial_states=initial_states, backend=backend,
                                 solver_options=solver_options, margin=margin)
     if not features:
-        _check_gamma_request(gamma, np.linalg.norm(plant.D11, 2) if plant.D11.size else 0.0)
+        check_gamma_request(gamma, np.linalg.norm(plant.D11, 2) if plant.D11.size else 0.0)
 
     def lmi(regularize, verify, deadline):
         return _lmi_state_feedback(plant, region=region, backend=backend,
@@ -198,7 +198,7 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
            for p in plants):
         raise ValueError("all vertex plants must have the same dimensions")
     fb = max(np.linalg.norm(p.D11, 2) if p.D11.size else 0.0 for p in plants)  # SF: D_cl = D11
-    _check_gamma_request(gamma, fb)
+    check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()
     T, Su = resolve_scaling(scaling, plants)
@@ -215,7 +215,7 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
         nonlocal lam, g_opt
         lam = g_opt = gval(o)
         r = build(o, lam * (1 + 1e-6) if gamma is None else lam)
-        return _strict_check(r, plants, region, rtol, o.status)
+        return strict_check(r, plants, region, rtol, o.status)
 
     def build(out, g):
         # the gamma-form X is gamma times the gamma^2-form one (X = P^-1 of A'P + PA + C'C +
@@ -232,9 +232,9 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
                                status=out.status, timings=timings, region=region,
                                fallback=out.extra.get("fallback", ""))
 
-    out = _solve(prog, backend, solver_options, timings, "lmi", check, deadline)
+    out = solve_lmi_program(prog, backend, solver_options, timings, "lmi", check, deadline)
     g_opt = lam = gval(out)
-    res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
+    res, on_bound, need = first_lmi_attempt(build, out, g_opt, gamma, fb, plants, region, rtol,
                                          regularize, warns, delta)
     if need:
         def solve_at(g):
@@ -244,11 +244,11 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
             X, W, lam = X2, W2, g
 
             def check2(o):
-                return _strict_check(build(o, g), plants, region, rtol, o.status)
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2,
+                return strict_check(build(o, g), plants, region, rtol, o.status)
+            r = build(solve_lmi_program(prog2, backend, solver_options, timings, "regularize", check2,
                              deadline), g)
             return certify_result(r, plants, region, rtol, False, r.status)
-        res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = "the transient bound from initial_states" if X0 is not None else "a bound on the gain"
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
                      f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")

@@ -22,6 +22,8 @@ __all__ = [
     "COUPLING_MARGIN", "EPS", "SynthesisWarning", "GeneralizedPlant", "DynamicController",
     "SynthesisResult", "check_initial_states", "transient_bound", "check_options", "BRL_TOL",
     "compress_performance", "certify_result", "publish_result", "validate_plants",
+    "check_gamma_request", "first_lmi_attempt", "regularization_ladder", "solve_lmi_program",
+    "strict_check", "NORM_BRACKET",
 ]
 
 COUPLING_MARGIN = 1e-6  # [[X, I], [I, Y]] >= margin I keeps I - XY invertible (see reconstruct)
@@ -347,7 +349,7 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
     if region is not None and not isinstance(region, LMIRegion):
         raise TypeError(f"region must be an LMIRegion (regions.disk(...), half_plane(...), ...) "
                         f"or None, got {region!r}")
-    if not (backend is None or isinstance(backend, (str, list, tuple))):  # names: see _solve
+    if not (backend is None or isinstance(backend, (str, list, tuple))):  # names: see solve_lmi_program
         raise TypeError(f"backend must be None, a name in lmi.BACKENDS {BACKENDS} or a sequence "
                         f"of names, got {backend!r}")
     if solver_options is not None and not isinstance(solver_options, dict):
@@ -356,7 +358,7 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
         check_weight("input_weight", input_weight, plant.nw, definite=False)
 
 
-def _check_gamma_request(gamma, bound, what="gamma"):
+def check_gamma_request(gamma, bound, what="gamma"):
     if gamma is not None:
         gamma = real_scalar(what, gamma, low=0.0, low_open=True)
     if gamma is not None and gamma <= bound * (1 + 1e-9):
@@ -368,7 +370,7 @@ FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend
 AUTO_CHAIN = ("ipm", "clarabel", *FALLBACKS)  # backend="auto"
 
 
-def _solve(prog, backend, options, timings, label, check=None, deadline=None):
+def solve_lmi_program(prog, backend, options, timings, label, check=None, deadline=None):
     """Solve the LMI program with ``backend``; None and "auto" are chains of backends.
 
     ``None`` (default): direct Clarabel, then on solver failure Drake/Clarabel, then CSDP.
@@ -376,7 +378,7 @@ def _solve(prog, backend, options, timings, label, check=None, deadline=None):
     is checked the same way).
     ``"auto"``: the own interior-point method ("ipm", 4-8x faster on the 20-state benchmark)
     first; its outcome is kept only if the solver reports (almost) solved *and* ``check(out)``
-    (the result built from it, with :func:`_strict_check`) passes; otherwise the default chain
+    (the result built from it, with :func:`strict_check`) passes; otherwise the default chain
     runs.  ``solver_options`` apply to an explicitly named backend only.  A fallback is recorded
     in ``out.status`` ("after fallback: ...") and ``out.extra["fallback"]``.
 
@@ -430,7 +432,7 @@ def _solve(prog, backend, options, timings, label, check=None, deadline=None):
             continue
         previous = time.perf_counter() - started
         timings[f"{label}_build"] = timings.get(f"{label}_build", 0.0) + out.build_time
-        timings[f"{label}_solve"] = timings.get(f"{label}_solve", 0.0) + out.solve_time
+        timings[f"{label}solve_lmi_program"] = timings.get(f"{label}solve_lmi_program", 0.0) + out.solve_time
         if out.success and np.all(np.isfinite(out.x)):
             why = _rejection(check, out) if b == "ipm" and not explicit and check else None
             if why is None:
@@ -462,7 +464,7 @@ def _rejection(check, out):
     return None if cert.ok else "; ".join(cert.failures)
 
 
-def _strict_check(res, plants, region, rtol, status):
+def strict_check(res, plants, region, rtol, status):
     """Certificate of ``res`` plus the Lyapunov test: the reported P must satisfy the
     gamma^2-form bounded-real inequality of every closed loop (``brl_residual`` <= BRL_TOL).
     Used to accept a result of the automatic chain's first (own IPM) backend: its norm can
@@ -478,7 +480,7 @@ def _strict_check(res, plants, region, rtol, status):
     return res
 
 
-def _ladder(solve_at, g_opt, delta, deliberate, res):
+def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
     """Re-solve at gamma = (1+d) g_opt minimizing a gain bound.
 
     ``deliberate`` (feedthrough bound / user request): d = delta, then 5 delta if that re-solve
@@ -560,7 +562,7 @@ def _raise_to_achieved(res, g_opt, delta, plants, region, rtol, status):
     return certify_result(res, plants, region, rtol, False, status)
 
 
-def _first_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns,
+def first_lmi_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns,
                    delta):
     """Certify the unregularized optimum; decide whether the regularizing ladder must run.
 

@@ -16,8 +16,8 @@ import numpy as np
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
-                          _check_gamma_request, certify_result, check_options, _first_attempt, _ladder, publish_result,
-                          _solve, _strict_check, validate_plants, check_initial_states,
+                          check_gamma_request, certify_result, check_options, first_lmi_attempt, regularization_ladder, publish_result,
+                          solve_lmi_program, strict_check, validate_plants, check_initial_states,
                           compress_performance, transient_bound)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .regions import region_lmi
@@ -204,7 +204,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
                                 strictly_proper=strictly_proper,
                                 transient_gain_weight=transient_gain_weight)
     if not features:
-        _check_gamma_request(gamma, parrott_bound(plant.D11, plant.D12, plant.D21))
+        check_gamma_request(gamma, parrott_bound(plant.D11, plant.D12, plant.D21))
 
     def lmi(regularize, verify, deadline):
         return _lmi_output_feedback(plant, region=region, backend=backend,
@@ -226,7 +226,7 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
     fb = 0.0 if strictly_proper is None else parrott_bound(p.D11, p.D12, p.D21)
     if strictly_proper:
         fb = np.linalg.norm(p.D11, 2)
-    _check_gamma_request(gamma, fb)
+    check_gamma_request(gamma, fb)
     timings, warns = {}, []
     t0 = time.perf_counter()
     T, Su, Sy = resolve_scaling(scaling, [p], outputs=True)
@@ -247,7 +247,7 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
         nonlocal g_opt
         lam[0] = g_opt = gval(o)
         r = build(o, lam[0] * (1 + 1e-6) if gamma is None else lam[0])
-        return _strict_check(r, [p], region, rtol, o.status)
+        return strict_check(r, [p], region, rtol, o.status)
 
     def build(out, g):
         vals = [v.value(out.x) for v in V]
@@ -266,10 +266,10 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
                                timings=timings, region=region,
                                fallback=out.extra.get("fallback", ""))
 
-    out = _solve(prog, backend, solver_options, timings, "lmi", check, deadline)
+    out = solve_lmi_program(prog, backend, solver_options, timings, "lmi", check, deadline)
     g_opt = gval(out)
     lam[0] = g_opt
-    res, on_bound, need = _first_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
+    res, on_bound, need = first_lmi_attempt(build, out, g_opt, gamma, fb, [p], region, rtol,
                                          regularize, warns, delta)
     if need:
         def solve_at(g):
@@ -278,12 +278,12 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
             lam[0] = g
 
             def check2(o):
-                return _strict_check(build(o, g), [p], region, rtol, o.status)
-            r = build(_solve(prog2, backend, solver_options, timings, "regularize", check2,
+                return strict_check(build(o, g), [p], region, rtol, o.status)
+            r = build(solve_lmi_program(prog2, backend, solver_options, timings, "regularize", check2,
                              deadline), g)
             return certify_result(r, [p], region, rtol, False, r.status)
         V = list(V)
-        res, d = _ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
+        res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = ("the transient bound from initial_states" if X0 is not None
                 else "a bound on the (scaled) controller matrices")
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "

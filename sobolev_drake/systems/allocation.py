@@ -27,13 +27,13 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
 from sobolev_drake.native import kernel
-from sobolev_drake.systems.bounded_ls import _box_qp_active_set, _fallback  # noqa: F401  (tests)
-from sobolev_drake.systems.bounded_ls import _check_problem, bounded_least_squares
+from sobolev_drake.systems.bounded_ls import box_qp_active_set, bvls_with_regularization  # noqa: F401  (tests)
+from sobolev_drake.systems.bounded_ls import check_problem, bounded_least_squares
 from sobolev_drake.validation import bounds_pair, one_of, real_scalar
 
 __all__ = [
     "sigmf", "tiltrotor_bounds", "ControlAllocator", "UnreachableThrustError", "rotor_inflow",
-    "propeller_speed_for_thrust", "bounded_least_squares",
+    "propeller_speed_for_thrust", "bounded_least_squares", "thesis_bounds_constants",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -58,7 +58,7 @@ def _thesis_limits() -> dict:
     return _THESIS_LIMITS
 
 
-def _thesis_bounds_constants():
+def thesis_bounds_constants():
     """(s, c, f_lo, f_hi, t_lo, t_hi, δ_lo, δ_hi) of the thesis limits, parsed once."""
     if "_parsed" not in _THESIS_LIMITS:
         _thesis_limits()
@@ -77,7 +77,7 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     < 0.03 % of δ_max: the surfaces are effectively removed from the allocation.
     """
     if limits is None:
-        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _thesis_bounds_constants()
+        s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = thesis_bounds_constants()
     else:
         s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = _parse_limits(limits)
     v = np.asarray(v_air, dtype=float)
@@ -161,7 +161,7 @@ class ControlAllocator(LeafSystem):
             except (TypeError, ValueError):
                 raise ValueError("bounds must be a callable bounds(airspeed) -> (lo, hi), "
                                  "'input', or a pair (lo, hi) of length-m vectors") from None
-            self._const = _check_problem(np.zeros((1, self._m)), np.zeros(1), lo, hi)[2:]
+            self._const = check_problem(np.zeros((1, self._m)), np.zeros(1), lo, hi)[2:]
         self._cache = self.DeclareCacheEntry(
             "allocation", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(self._m + 1)),
                                         calc=self._solve),

@@ -31,10 +31,10 @@ from sobolev_drake.validation import real_array
 
 from sobolev_drake.native import kernel
 
-__all__ = ["bounded_least_squares"]
+__all__ = ["bounded_least_squares", "box_qp_active_set", "bvls_with_regularization", "check_problem"]
 
 
-def _check_problem(B, u, lo, hi):
+def check_problem(B, u, lo, hi):
     B, u = real_array("B", B), real_array("u", u)
     if B.ndim != 2 or B.shape[0] == 0 or B.shape[1] == 0:
         raise ValueError(f"B must be a non-empty 2-D matrix (n × m), got shape {B.shape}")
@@ -112,7 +112,7 @@ def _box_qp_pdas(H, g, l, h, low, up, max_iter=25):
     return None
 
 
-def _box_qp_active_set(H, g, l, h, max_iter):
+def box_qp_active_set(H, g, l, h, max_iter):
     """Primal active-set method for min ½sᵀHs − gᵀs, l ≤ s ≤ h, H ≻ 0 (Nocedal–Wright §16.5).
 
     Returns (s, at_lower, at_upper, iterations) or None if it did not converge (cycling).
@@ -204,7 +204,7 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
         out = _bls_fast(B, u, lo, hi, regularization, warm_start)
         if out is not None:
             return out if return_info else out[0]
-    B, u, lo, hi = _check_problem(B, u, lo, hi)
+    B, u, lo, hi = check_problem(B, u, lo, hi)
     if method not in ("pdas", "osqp"):
         raise ValueError(f"method must be 'pdas' or 'osqp', got {method!r}")
     if not (np.isfinite(regularization) and regularization >= 0):
@@ -236,7 +236,7 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
         H.flat[::k + 1] += eps                         # + ε I
         g = A.T @ b
         if eps == 0.0 and np.linalg.cond(H) > 1e12:  # singular without regularization
-            res = _fallback(A, b, l, h, eps)
+            res = bvls_with_regularization(A, b, l, h, eps)
             s, info["method"] = res, "lsq_linear_bvls"
         else:
             out = _box_qp_osqp(H, g, l, h) if method == "osqp" else None
@@ -255,10 +255,10 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
                 out = _box_qp_pdas(H, g, l, h, low0, up0)
                 info["method"] = "pdas"
             if out is None:  # PDAS cycled: primal active set (finite termination for H ≻ 0)
-                out = _box_qp_active_set(H, g, l, h, max_iter=10 * A.shape[1] + 20)
+                out = box_qp_active_set(H, g, l, h, max_iter=10 * A.shape[1] + 20)
                 info["method"] = "primal_active_set"
             if out is None:  # degenerate cycling: very rare, use the robust reference method
-                s, info["method"] = _fallback(A, b, l, h, eps), "lsq_linear_bvls"
+                s, info["method"] = bvls_with_regularization(A, b, l, h, eps), "lsq_linear_bvls"
             else:
                 s, low, up, info["iterations"] = out
                 s = _polish(A, b, s, low, up, l, h)
@@ -458,7 +458,7 @@ def _polish(A, b, s, low, up, l, h):
     return s
 
 
-def _fallback(A, b, l, h, eps):
+def bvls_with_regularization(A, b, l, h, eps):
     if eps > 0:
         A = np.vstack([A, math.sqrt(eps) * np.eye(A.shape[1])])
         b = np.concatenate([b, np.zeros(A.shape[1])])

@@ -29,7 +29,7 @@ from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_sc
 __all__ = [
     "N_REF", "cores", "input_affine", "AffineTerms", "input_affine_terms", "affine_terms_scalar",
     "affine_terms_scalar_python", "input_affine_vectorized", "generalized_force", "thrust_inputs",
-    "force_disturbance_generalized",
+    "force_disturbance_generalized", "native_core",
 ]
 
 #: reference propeller speed (rev/s) for Cq/Ct when ``n`` is not given: thesis hover trim
@@ -47,7 +47,7 @@ def cores(params: TiltrotorParams | None = None):
     return _CORES[key][1], _CORES[key][2]
 
 
-def _native_core(params: TiltrotorParams):
+def native_core(params: TiltrotorParams):
     """(kernel, model capsule) of the compiled force kernel for ``params``, or None (cached
     beside :func:`cores`; see ``sobolev_drake.native``)."""
     from sobolev_drake.native import enabled
@@ -130,7 +130,7 @@ def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thr
     n: 2) — the controller's per-sample path, without re-checking what it checked.  Computed
     by the compiled kernel when it is built (equal to this Python code to rounding: the kernel's
     hypot may differ in the last bit), else in Python."""
-    native = _native_core(p)
+    native = native_core(p)
     if native is not None:
         k, capsule = native
         B, passive, V, vxz, phis = k.affine_terms(capsule, ql, qdl, zl, nl, torque == "through_thrust")

@@ -10,9 +10,8 @@ every t beyond the last breakpoint.  Each piece gives, for every coordinate, a
 ``qddot_r`` and ``reference`` = [q_r; q̇_r; q̈_r] (size 3m), depending on time only.
 
 The thesis catalogue (see each function's docstring for the reconstruction of garbled tables
-and the smoothness at the breakpoints) lives in :mod:`sobolev_drake.systems.reference_catalogue`
-and is re-exported here: ``table_5_2``, ``table_5_5``, ``table_5_8``, ``table_6_3``,
-``table_7_1``, ``envelope_mission``.
+and the smoothness at the breakpoints) lives in :mod:`sobolev_drake.systems.reference_catalogue` (``table_5_2``, ``table_5_5``,
+``table_5_8``, ``table_6_3``, ``table_7_1``, ``envelope_mission``), which builds on this module.
 """
 
 from __future__ import annotations
@@ -400,44 +399,3 @@ class TrajectoryReference(LeafSystem):
     def _calc_all(self, context, output: BasicVector):
         q, qd, qdd = self.trajectory.evaluate_scalar(context.get_time())
         output.SetFromVector(q + qd + qdd)
-
-
-# Catalogue: thin wrappers (the definitions live in reference_catalogue.py, which imports this
-# module; importing lazily keeps either import order working).
-def table_5_2() -> TrajectoryReference:
-    """Manipulator, Table 5.2 (see :func:`reference_catalogue.table_5_2`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.table_5_2()
-
-
-def table_5_5() -> TrajectoryReference:
-    """Quadrotor altitude/attitude, Table 5.5 (see :func:`reference_catalogue.table_5_5`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.table_5_5()
-
-
-def table_5_8() -> TrajectoryReference:
-    """Quadrotor figure-8, Table 5.8 (see :func:`reference_catalogue.table_5_8`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.table_5_8()
-
-
-def table_6_3() -> TrajectoryReference:
-    """Quadrotor polytopic experiment, Table 6.3 (see :func:`reference_catalogue.table_6_3`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.table_6_3()
-
-
-def table_7_1(full_state: bool = False) -> TrajectoryReference:
-    """Tilt-rotor helicopter mode, Table 7.1 (see :func:`reference_catalogue.table_7_1`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.table_7_1(full_state=full_state)
-
-
-def envelope_mission() -> TrajectoryReference:
-    """Tilt-rotor full-envelope mission, scenario 2 (see :func:`reference_catalogue.envelope_mission`)."""
-    from sobolev_drake.systems import reference_catalogue as cat
-    return cat.envelope_mission()
-
-
-__all__ += ["table_5_2", "table_5_5", "table_5_8", "table_6_3", "table_7_1", "envelope_mission"]

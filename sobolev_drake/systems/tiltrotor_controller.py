@@ -51,7 +51,7 @@ from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition
 __all__ = [
     "N_Q", "THESIS_WEIGHTS", "PARTITION", "thesis_inner_law", "tilt_schedule_polynomial",
     "forward_air_speed", "regulated_reference", "tracked_reference", "saturation_flags",
-    "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController",
+    "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController", "checked_vector",
 ]
 
 # Thesis-order index sets of the partition (7.63).
@@ -149,7 +149,7 @@ def tracked_reference(ref_c, ref_r):
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
-def _checked(name, value, size):
+def checked_vector(name, value, size):
     """(float array, list of its floats) of a finite vector of length ``size``; otherwise
     ``check_vector``'s descriptive error (the cheap form of the check, run once per sample)."""
     arr = value if type(value) is np.ndarray and value.dtype == np.float64 else np.asarray(value, dtype=float)
@@ -243,11 +243,11 @@ class TiltrotorWInfLaw:
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
         (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
-        q, ql = _checked("q", q, N_Q)
-        qdot, qdl = _checked("qdot", qdot, N_Q)
-        _, r = _checked("reference", reference, 12)
-        wind, wl = _checked("wind", wind, 3)
-        _, iel = _checked("e_int", integral_ec, len(CONTROLLED))
+        q, ql = checked_vector("q", q, N_Q)
+        qdot, qdl = checked_vector("qdot", qdot, N_Q)
+        _, r = checked_vector("reference", reference, 12)
+        wind, wl = checked_vector("wind", wind, 3)
+        _, iel = checked_vector("e_int", integral_ec, len(CONTROLLED))
         al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
                                                            (r[3], r[7], r[11]), wl)
         ref_r = (np.array([al, al, psi]), np.array([ald, ald, psid]), np.array([aldd, aldd, psidd]))

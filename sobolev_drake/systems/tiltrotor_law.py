@@ -17,7 +17,7 @@ import numpy as np
 
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw
 from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
-                                                       _checked, thesis_inner_law,
+                                                       checked_vector, thesis_inner_law,
                                                        tilt_schedule_polynomial)
 
 __all__ = ["make_law", "newton_speed_for_thrust", "plant_trim_schedule"]
@@ -42,7 +42,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.data import load
     from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import (N_REF, _native_core, affine_terms_scalar, cores,
+    from sobolev_drake.systems.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
                                                     input_affine)
 
     prop, aero = cores(model.params)
@@ -78,12 +78,12 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
                    qdot.tobytes(), wind.dtype.str, wind.shape, wind.tobytes())
             if shared["key"] == key:
                 return shared["terms"]
-        q, ql = _checked("q", q, N_Q)
-        qdot, qdl = _checked("qdot", qdot, N_Q)
-        wind, wl = _checked("zeta", wind, 3)
+        q, ql = checked_vector("q", q, N_Q)
+        qdot, qdl = checked_vector("qdot", qdot, N_Q)
+        wind, wl = checked_vector("zeta", wind, 3)
         key = (q.dtype.str, q.shape, q.tobytes(), qdot.dtype.str, qdot.shape, qdot.tobytes(),
                wind.dtype.str, wind.shape, wind.tobytes())
-        nl = [N_REF, N_REF] if n is None else _checked("n", n, 2)[1]
+        nl = [N_REF, N_REF] if n is None else checked_vector("n", n, 2)[1]
         t = affine_terms_scalar(model.params, ql, qdl, wl, nl)
         shared["key"], shared["terms"] = key, t   # speeds and inflow do not depend on n
         return t
@@ -98,7 +98,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
         V = terms(q, qdot, wind).surface_speed
         return tiltrotor_bounds(V[1:5])          # surfaces F, WR, WL, TR, TL, I → [WR WL TR TL]
 
-    native = _native_core(model.params)      # compiled Newton solve (same floats) if built
+    native = native_core(model.params)      # compiled Newton solve (same floats) if built
 
     def speeds(f, v_xz, phi, n_guess):
         """(7.90) inverted: warm Newton from ``n_guess`` if given, else (or if it fails) the
@@ -137,21 +137,21 @@ def _fused_sample(law, native, speeds, parts):
     checks and array conversions (which cost more than the arithmetic).  The allocation is the
     law's own ``allocate`` and the inversion make_law's ``speeds``, so the numbers are the same
     (tested against the composed path)."""
-    from sobolev_drake.systems.allocation import _thesis_bounds_constants
+    from sobolev_drake.systems.allocation import thesis_bounds_constants
     from sobolev_drake.systems.input_affine import N_REF
 
     forces, capsule = native
-    limits = _thesis_bounds_constants()
+    limits = thesis_bounds_constants()
     rnea = law.mech_law.recursive_inverse_dynamics
     allocate = parts[2]
 
     def sample(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r):
         nl = None            # B's Cq/Ct at the last speeds, at the hover speed without them
         if n_prev is not None and not min(np.asarray(n_prev, dtype=float).tolist()) <= 0:
-            nl = _checked("n", n_prev, 2)[1]
+            nl = checked_vector("n", n_prev, 2)[1]
         Bl, passive, V, vxz, phi = forces.affine_terms(capsule, ql, qdl, wl,
                                                        [N_REF, N_REF] if nl is None else nl, True)
-        B, theta = np.array(Bl).reshape(8, 8), _checked("theta_passive", passive, N_Q)[0]
+        B, theta = np.array(Bl).reshape(8, 8), checked_vector("theta_passive", passive, N_Q)[0]
         u = rnea(q, qdot, qdd) - theta
         lo, up = forces.surface_bounds(V[1:5], *limits)
         lo, up = np.array(lo), np.array(up)
