@@ -13,19 +13,19 @@ export OMP_NUM_THREADS ?= 1
 # for library users); `make lock` refreshes it.
 LOCK := constraints.txt
 
-.PHONY: demo test bench reproduce install lock clean
+.PHONY: demo test bench reproduce docs install lock clean
 
 $(STAMP): pyproject.toml setup.py $(LOCK) $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet -c $(LOCK) --upgrade pip
-	$(PY) -m pip install --quiet -c $(LOCK) -e '.[test]'
+	$(PY) -m pip install --quiet -c $(LOCK) -e '.[test,docs]'
 	touch $(STAMP)
 
 # Resolve the newest versions the pyproject ranges allow in a scratch venv and pin them all.
 lock:
 	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/pip install --quiet --upgrade pip
-	.venv-lock/bin/pip install --quiet -e '.[test]'
+	.venv-lock/bin/pip install --quiet -e '.[test,docs]'
 	{ sed -n '/^#/p' $(LOCK); .venv-lock/bin/pip freeze --all --exclude-editable \
 	    | grep -v -E '^(setuptools|wheel)=='; } > $(LOCK).new
 	mv $(LOCK).new $(LOCK) && rm -rf .venv-lock
@@ -41,6 +41,11 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	@for b in benchmarks/*.py; do echo "== $$b"; MPLBACKEND=Agg $(PY) $$b || exit 1; done
+
+# HTML API reference from the docstrings into build/docs (offline; any warning fails the build)
+docs: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -q -b html docs/api build/docs
+	@echo "API reference: build/docs/index.html"
 
 reproduce: $(STAMP)
 	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT)

@@ -4,7 +4,7 @@ q = [q1, q2]: q1 angle of link 1 from the horizontal, q2 angle of link 2 relativ
 both joints actuated (B = I), gravity in the plane of motion.
 
 The thesis' printed d11 and d12 contain typos; the closed forms here are the standard Spong
-model, which is also what the URDF produces:
+model, which is also what the URDF produces::
 
     d11 = m1 lc1² + m2 (l1² + lc2² + 2 l1 lc2 cos q2) + I1 + I2
           (thesis prints an extra ``2 l1 (l2/2)²`` term inside the m2 bracket),

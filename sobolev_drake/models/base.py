@@ -67,6 +67,8 @@ class MechanicalModel:
     name : str, default "model"
         Human-readable model name.
 
+    Notes
+    -----
     All public methods take and return thesis-ordered vectors.  One private context is reused,
     so instances are cheap to query but not thread-safe.
     """

@@ -86,6 +86,7 @@ def check_admissible(model: InputAffineModel, u0: Callable, box: Box, *, samples
     2. (``simulate``) trajectories from the vertices of Ω and ``samples`` random points are
        integrated (vectorized RK4) for 15 slowest linear time constants; every one must end
        with ‖x(T)/half-width‖∞ ≤ ``tol``.
+
     Returns diagnostics (eigenvalues, horizon, worst final state).
     """
     n = model.n

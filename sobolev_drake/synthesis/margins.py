@@ -103,8 +103,8 @@ def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
 
     Exact up to the frequency grid: the loop gain G(jω) = K(jω) C (jωI − A)⁻¹ B is evaluated on
     ``points`` log-spaced frequencies in [``w_min``, ``w_max``] (default: 100 × the largest
-    |eigenvalue| of the open and closed loop); where the number of eigenvalues of G with
-    |λ| > 1 changes, the crossing frequency is bisected and τ = (arg λ mod 2π) / ω.  Returns
+    eigenvalue modulus of the open and closed loop); where the number of eigenvalues λ of G
+    with modulus above 1 changes, the crossing frequency is bisected and τ = (arg λ mod 2π) / ω.  Returns
     ``inf`` when |λ| never crosses 1 (no delay destabilizes).  Raises ValueError if the
     nominal loop is unstable.
     """

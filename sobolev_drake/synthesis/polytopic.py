@@ -33,7 +33,7 @@ def interval_vertices(fn, nominal, spread):
 
     ``nominal``: dict of parameter values; ``spread``: dict name -> relative spread (e.g. 0.1
     for +-10 %) or (lo, hi) absolute bounds, for the k uncertain parameters. Returns a list
-    of (params, fn(**params)) pairs.
+    of ``(params, fn(**params))`` pairs.
     """
     if not isinstance(nominal, dict) or not isinstance(spread, dict):
         raise TypeError("nominal and spread must be dicts of parameter name -> value")

@@ -70,6 +70,8 @@ class SobolevLaw:
     stabilized : SobolevGains, optional
         Gains of the stabilized DOF, from ``stabilized_gains``.
 
+    Notes
+    -----
     Each group's gains must come from the matching ``*_gains`` function (``TypeError`` /
     ``ValueError`` otherwise); their sizes are checked against the partition by
     :class:`MechanicalLaw`.
