@@ -162,7 +162,7 @@ def test_winf_dissipation_bound_on_simulation():
 
 
 def test_hinf_dissipation_bound_on_simulation():
-    """Classic H∞ (DESIGN §4.3): V(T) − V(0) + ½∫(x̃ᵀQx̃ + uᵀRu) ≤ ½γ²∫|T11 w|² and V decays
+    """Classic H∞ (docs/design.md §4.3): V(T) − V(0) + ½∫(x̃ᵀQx̃ + uᵀRu) ≤ ½γ²∫|T11 w|² and V decays
     without disturbance."""
     hg = hinf_mechanical_gains(1.0, 4.0, 4.0, 0.3, 0.6)
     model = make_arm_model()

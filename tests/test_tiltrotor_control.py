@@ -67,7 +67,7 @@ def test_care_gains_satisfy_theorem_12_riccati_set():
 
 
 def test_scalar_closed_form_controlled_chain():
-    """t = √(γ0γ3), q²/γ3 = 2k + γ2, k²/γ3 = 2qt/γ3 + γ1 (DESIGN §4.2) match the CARE."""
+    """t = √(γ0γ3), q²/γ3 = 2k + γ2, k²/γ3 = 2qt/γ3 + γ1 (docs/design.md §4.2) match the CARE."""
     g0, g1, g2, g3 = 0.05, 1.0, 400.0, 500.0
     K, P = _chain_gain([np.eye(1) * g2, np.eye(1) * g1, np.eye(1) * g0], np.eye(1) * g3)
     t = np.sqrt(g0 * g3)

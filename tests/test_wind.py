@@ -44,7 +44,7 @@ def turbulence_rig():
 
 
 def test_intensity_pi_normalisation_by_quadrature():
-    # ∫0^∞ |H|² dω ≈ σ² for the rational forms (DESIGN §6): 0.969 σ² and 0.962 σ².
+    # ∫0^∞ |H|² dω ≈ σ² for the rational forms (docs/design.md §6): 0.969 σ² and 0.962 σ².
     p = VonKarmanParameters()
     for axis, expected in zip(range(3), (0.9687, 0.9623, 0.9623)):
         val, _ = integrate.quad(lambda w: von_karman_psd(w, p)[0, axis], 0, np.inf, limit=400)

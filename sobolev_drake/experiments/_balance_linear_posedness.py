@@ -22,7 +22,7 @@ Measurements (public synthesis API only):
   every backend returns the same controller (D_K equal to 4 digits); the γ* anchors differ.
 
 The experiment therefore designs both O.F. controllers as least-gain controllers at
-γ = (1+δ)γ* (``regularize=True, delta=OF_REG_DELTA``, DESIGN.md 4.4) with γ* from one pinned
+γ = (1+δ)γ* (``regularize=True, delta=OF_REG_DELTA``, docs/design.md §8.2) with γ* from one pinned
 backend (``OF_BACKEND``); the raw LMI-optimum controllers are kept as diagnostic rows.
 """
 

@@ -22,9 +22,10 @@ Actuator limit: the thesis prints none.  The motor torque is bounded by ``torque
 hook (:func:`make_allocation`: bounded least squares, closed form for one input); the claims
 report the saturated time.  ``torque_limit=None`` removes it.
 
-H∞ baseline (Raffo et al. 2015 structure, DESIGN §4.3) tuned by the thesis' rule for this table:
-same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tune`` on ωu
-(sliding-surface coefficients matched to the W closed loop, ``hinf_surface``), one reused diagram.
+H∞ baseline (Raffo et al. 2015 structure, docs/design.md §4.3) tuned by the thesis' rule for
+this table: same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tune`` on
+ωu (sliding-surface coefficients matched to the W closed loop, ``hinf_surface``), one reused
+diagram.
 
 Stabilized DOF in the H∞ law.  The classic law weighs all DOF alike: it damps ϕ̇ with the same
 σ gain R⁻¹ as θ (u*_ϕ ∋ −R⁻¹ϕ̇).  Under the constant body torque wθ (22–32 s) holding θ = 0

@@ -10,7 +10,7 @@ model's M(q), C(q,q̇)q̇, g(q) and friction K(q̇) by central differences; :fun
 is the hand Jacobian of (4.30) (test: they agree).
 
 Designs (all with a disk pole region centred at 0, (6.43); the thesis' "α = [−r 0; 0 r]" is read
-as the disk, DESIGN §4.4):
+as the disk, docs/design.md §4.4):
 
 * ``W∞``  — state feedback (6.7), Γ0 = diag(0.2, 2, 0.3), Γ1 = diag(2.6, 0.25, 0.625), r = 40;
 * ``W∞-O.F.`` — dynamic output feedback (6.22), y = [θ, ϕ̇] (θ̇ not measured),
@@ -31,7 +31,7 @@ optimum γ* is not attained — it is approached with Y and the controller gains
 bound, so "the optimal controller" is wherever the SDP solver stops (the synthesis change of
 fe3bb08/d69ca1e moved the W∞-O.F. feedthrough D_K from [60, −37] to [257, −27] and with it
 the settling times).  Both O.F. designs are therefore regularized at γ = (1+δ)γ*, δ =
-:data:`OF_REG_DELTA`, minimizing a gain bound (DESIGN.md 4.4); the evidence (gain growth
+:data:`OF_REG_DELTA`, minimizing a gain bound (docs/design.md §8.2); the evidence (gain growth
 towards γ*, backend spread of the raw and regularized designs) is in
 :mod:`._balance_linear_posedness` and the ``balance-linear_of_posedness`` table.  The O.F.
 settling time is V-shaped in ρ (the slow tail of θ changes sign near ρ ≈ 4.6), so the search

@@ -3,7 +3,7 @@
 Controllers (all tuned with Gamma0 = diag(10, 10), Gamma1 = I as in the thesis):
 
 * W-inf        (6.7)  state feedback; the optimum sits on the feedthrough bound |Gamma1^1/2 D| = 1
-  (matched disturbance), so it is regularized at gamma = 1.01 gamma_opt (DESIGN.md 4.4);
+  (matched disturbance), so it is regularized at gamma = 1.01 gamma_opt (docs/design.md §8.2);
 * W-inf-D      the thesis' (6.31) is degenerate (strict LMI infeasible, see
   ``disturbance_model_degeneracy``); we run the well-posed alternative: disturbance filter
   states in the plant, Lyapunov function on (x, d), d unmeasured (dynamic controller, y = x);

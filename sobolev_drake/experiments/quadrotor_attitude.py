@@ -7,8 +7,8 @@ Y3 = diag(2e-3, 1e-7, 1e-7, 1e-7) (W2 ≡ W∞, Remark 30).  qc(0) = [4.5, π/4,
 everything else 0; reference Table 5.5 (``table_5_5``, discontinuous at t = 8 s as printed);
 disturbances δz = −10 N on 10 ≤ t ≤ 15 s and δϕ = −3 sin(2πt) N m on 16 ≤ t ≤ 20 s; 30 s.
 IADU = ∫Σ|dΩ_i/dt| with Ω_i = √(Ω_i²) as in Table 5.6.  Actuator limits Ω² ∈ [0, 4 × hover]
-(DESIGN §4.2; none printed in the thesis) enforced by bounded least squares; ``limits=False``
-reproduces the unconstrained law.  H∞ baseline: same IADU (``_mechanical_common``).
+(docs/design.md §8.1; none printed in the thesis) enforced by bounded least squares;
+``limits=False`` reproduces the unconstrained law.  H∞ baseline: same IADU (``_mechanical_common``).
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ profile the thesis prints for the same quadrotor and figure-8 in 6.5.3 (a consta
 time-varying one, as 5.3.2 describes): δy = 10 N on 10 ≤ t < 15 s, δz = 10 sin(0.4πt) N on
 25 ≤ t < 30 s.  This is our choice; the ISE values therefore need not match Table 5.9.
 
-Actuator limits (DESIGN §4.2 trap).  B†u* asks the tilted-rotor model for the lateral force of
+Actuator limits (docs/design.md §8.1).  B†u* asks the tilted-rotor model for the lateral force of
 the figure-8 through sin 5°, i.e. rotor commands far outside [0, 4·hover].  Allocations:
 
 * ``"pinv"``: the thesis' τ = B†u* with no limits (negative Ω² allowed) — the headline
@@ -28,8 +28,8 @@ The allocations in ``limited`` (default ``("bls",)``) are run afterwards with th
 and the tuned H∞ law, on the same diagram (:class:`Allocation` is switchable).  Runs that lose
 the vehicle (|ϕ| or |θ| > 1.4 rad) are stopped by :class:`Allocation` and reported as failed.
 The claims report tracking, saturated time and the ISE comparison honestly.  The H∞ baseline
-(Raffo et al. 2011 structure, DESIGN §4.3) is tuned to the same IADU, as in the thesis, by the
-1-D search of ``_mechanical_common.tune`` on one reused diagram.  The signal ‖B⊥(w − d)‖² of
+(Raffo et al. 2011 structure, docs/design.md §4.3) is tuned to the same IADU, as in the thesis,
+by the 1-D search of ``_mechanical_common.tune`` on one reused diagram.  The signal ‖B⊥(w − d)‖² of
 Fig. 5.7 is computed from the logs with the controller (tilted) model (:func:`bperp_signal`).
 """
 

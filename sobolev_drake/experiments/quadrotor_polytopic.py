@@ -61,7 +61,7 @@ RADIUS = 100.0
 SPREAD = 0.1
 UNCERTAIN = ("m", "Ixx", "Iyy", "Izz")
 Q0 = np.array([0, 0, 0, 4.0, 0, 1.0])
-U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), DESIGN §4.2
+U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), docs/design.md §8.1
 THESIS_TABLE_6_4 = {"H∞": (68.3, 22635.0), "W∞": (67.9, 10025.0)}
 RHO_GRID = np.logspace(0.5, 3.0, 6)  # ρ ≤ 0.1 diverges (saturation); ρ = 1000 solves since the γ-form BRL
 DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) beyond this tilt

@@ -9,7 +9,7 @@ synthesis in :mod:`._tiltrotor_linear_designs`):
 * ``W∞-O.F.``  — dynamic output feedback (6.22), ẋ and ẏ not measured, disk r = 250;
 * ``W∞-D (thesis LMI)`` / ``W∞-O.F.D (thesis LMI)`` — (6.31) / (6.36) with the von Kármán
   filters (7.58)–(7.60) as disturbance model, as written.  Their (d, v) block is singular
-  (DESIGN §4.4): the strict LMI is infeasible; the non-strict one is solved and flown, its γ
+  (docs/design.md §8.3): the strict LMI is infeasible; the non-strict one is solved and flown, its γ
   is not a bound;
 * ``W∞-D`` / ``W∞-O.F.D`` — the well-posed form: filter states in the plant, Lyapunov function
   on the augmented state, output-feedback LMI with the filter states unmeasured (a dynamic
@@ -34,8 +34,8 @@ the controller uses) and IADU = ∫Σ|dΔu_i/dt| dt as in Table 7.2.  Every desi
 with the thesis' noise read literally (unit-variance samples, gusts ≈ 6 % of σ; see
 ``systems/wind.py``) in a second table.
 
-The σ-normalized turbulence (DESIGN §6; σv = 5 m/s) reaches 11–18 m/s of lateral wind, and the
-plant's crossflow model decides whether a heading-held hover survives that (``crossflow``,
+The σ-normalized turbulence (docs/design.md §6; σv = 5 m/s) reaches 11–18 m/s of lateral wind,
+and the plant's crossflow model decides whether a heading-held hover survives that (``crossflow``,
 ``TiltrotorParams.crossflow``): with (7.41)–(7.45) read literally ("thesis") a sideways flow
 gets flat-plate drag from the α tables, no hover trim within ±60° exists beyond 12.5 m/s of
 steady lateral wind, and no design stayed within ±60° in these gusts; with the independence

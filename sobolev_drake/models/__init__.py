@@ -1,4 +1,4 @@
-"""Plant builders: URDF → MultibodyPlant wrapped as :class:`MechanicalModel` (DESIGN §5).
+"""Plant builders: URDF → MultibodyPlant wrapped as :class:`MechanicalModel` (docs/design.md §5).
 
 Each model module provides a parameter dataclass (thesis table values by default), a
 MechanicalModel subclass with the thesis closed forms, ``make_<name>_model(params)`` (standalone

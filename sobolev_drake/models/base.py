@@ -3,7 +3,7 @@
 Drake's generalized coordinates are related to the thesis' by a constant invertible map
 ``q_drake = T q_thesis`` (a permutation for the flying bodies, a permutation with scales where a
 model uses e.g. a prismatic axle ``x = r ϕ``).  Because the flying bodies use the x, y, z, yaw,
-pitch, roll joint chain of DESIGN §3, ``q̇ = v`` and Drake's
+pitch, roll joint chain of docs/design.md §3, ``q̇ = v`` and Drake's
 
 * ``CalcMassMatrix``                   is M(q),
 * ``CalcBiasTerm``                     is C(q, q̇) q̇,
@@ -218,7 +218,7 @@ class MechanicalModel:
         return -self.T.T @ self.plant.CalcGravityGeneralizedForces(self.context)
 
     def C_times(self, q, qdot, v) -> np.ndarray:
-        """C(q, q̇) v for any v by polarization (DESIGN §3).
+        """C(q, q̇) v for any v by polarization (docs/design.md §3).
 
         With Christoffel symbols (a, b) ↦ C(q, a) b is symmetric bilinear, hence
         C(q, q̇) v = ¼ [c(q̇ + v) − c(q̇ − v)] with c(a) = C(q, a) a.

@@ -22,8 +22,8 @@ B₀ of (5.123) keeps only the body-z component d cos α of each drag torque; a 
 the tilted rotor axis would add ∓d sin α to the roll/pitch rows (≈ 9 % of l b cos α).  Both are
 available: ``reaction_torque="thesis"`` (default, equals (5.123)) or ``"axial"``.
 
-Drake model: joint chain x, y, z, yaw, pitch, roll (DESIGN §3), rotor frames ``rotor1..rotor4``
-fixed to the body; ``B(q)`` is computed from the rotor frames with Drake's spatial-velocity
+Drake model: joint chain x, y, z, yaw, pitch, roll (docs/design.md §3), rotor frames
+``rotor1..rotor4`` fixed to the body; ``B(q)`` is computed from the rotor frames with Drake's spatial-velocity
 Jacobians (Jᵀ applied to each rotor's spatial force), not from the closed form.
 
 Chapter 6 (6.5.3) reuses (5.123) but its ±10 % uncertainty boxes m ∈ [2.0160, 2.4640],

@@ -9,7 +9,7 @@
 the reaction on the body).  Ip is the pendulum's inertia about its centre of mass (it appears as
 m l² + Ip).
 
-Drake model (DESIGN §5): a prismatic axle coordinate x = r ϕ carrying the equivalent mass
+Drake model (docs/design.md §5): a prismatic axle coordinate x = r ϕ carrying the equivalent mass
 M + Ir/r² and a revolute pendulum joint θ; the coordinate map T = diag(r, 1) turns Drake's M, C q̇,
 g into exactly those of (4.30).  The friction K(q̇) is not part of the plant: the thesis adapter
 subtracts ``friction(q̇)`` from the applied generalized force (τ = F u + w − K(q̇)).

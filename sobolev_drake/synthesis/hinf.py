@@ -19,7 +19,7 @@ symmetric gamma form, equivalent to the gamma^2 form, better conditioned). Both 
 the LMIs for an exactly rescaled plant (``scaling.py``) and map the controller back. Every
 result is checked independently (``certificates.py``) on the original plant before it is
 returned. When the optimum sits on the feedthrough (Parrott) bound the infimum is approached
-only with unbounded gains (DESIGN.md 4.4); the synthesis then re-solves at
+only with unbounded gains (docs/design.md §8.2); the synthesis then re-solves at
 gamma = (1 + delta) gamma_opt minimizing a gain bound, and says so in ``result.warnings``.
 W-infinity problems are performance channels of this plant (``sobolev.py``); LMI regions come
 from ``regions.py``.

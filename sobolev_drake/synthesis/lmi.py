@@ -21,7 +21,7 @@ backend receives exactly this data, so "the same LMIs" are solved by
   P does not satisfy the bounded-real inequality, and record the fallback.
 
 Clarabel is the default because it is the robust choice (the PyPI build uses a faster
-linear-algebra backend than the Clarabel bundled with Drake, DESIGN.md 4.4,
+linear-algebra backend than the Clarabel bundled with Drake, docs/design.md §8.5,
 ``benchmarks/synthesis.py``); "auto" is the fast opt-in.
 
 Matrix expressions (:class:`Affine`) support ``+ - @ .T``, scalar products, :func:`bmat` and

@@ -1,7 +1,7 @@
 """Sobolev (W2 / W∞) and classic nonlinear H∞ gains for Euler–Lagrange systems.
 
 The Riccati sets of Theorems 1, 4 and 12 of the thesis are the algebraic Riccati equations of
-LQR problems on chains of integrators, one chain per DOF group (DESIGN §4.2):
+LQR problems on chains of integrators, one chain per DOF group (docs/design.md §4.2):
 
 ==============  =====================  ==========================  ===========================
 DOF group       chain state            weights                     thesis
@@ -22,7 +22,7 @@ same matrix as the input (k = g), so the worst-case disturbance (5.54)/(5.109) i
 γ of the closed loop is the bound of Theorems 3/6: γ² ≥ λmax(M⁻¹ E M⁻¹) (inequality
 (5.56)/(5.111)), see :func:`winf_gamma`.
 
-The classic nonlinear H∞ baseline (Chen, Lee & Feng 1994, with integral action; DESIGN §4.3)
+The classic nonlinear H∞ baseline (Chen, Lee & Feng 1994, with integral action; docs/design.md §4.3)
 is :func:`hinf_mechanical_gains`.
 """
 
@@ -359,7 +359,7 @@ def winf_gamma(M, E) -> float:
 # --- classic nonlinear H∞ (Chen, Lee & Feng 1994, integral form) -----------------------------
 @dataclass
 class HinfMechanicalGains:
-    """Classic nonlinear H∞ gains with integral action (DESIGN §4.3).
+    """Classic nonlinear H∞ gains with integral action (docs/design.md §4.3).
 
     Error x̃ = [q̃̇; q̃; ∫q̃] (stabilized DOF contribute only q̇s to the first block), weights
     Q = diag(ω1²I, ω2²I, ω3²I), R = ωu²I, γ > ωu.  With c = γωu/√(γ² − ωu²) and
@@ -438,7 +438,7 @@ class HinfMechanicalGains:
 
 def hinf_mechanical_gains(omega1: float, omega2: float, omega3: float, omega_u: float,
                           gamma: float) -> HinfMechanicalGains:
-    """Classic nonlinear H∞ gains (Chen, Lee & Feng 1994, integral form; DESIGN §4.3).
+    """Classic nonlinear H∞ gains (Chen, Lee & Feng 1994, integral form; docs/design.md §4.3).
 
     All weights are positive scalars (the classic design weighs all DOF equally); ω2 may be 0.
     Feasibility requires γ > ωu (R⁻¹ − γ⁻²I > 0).

@@ -8,7 +8,7 @@ linear in the output-feedback variables (6.40).
 
 The disk of radius r centred at -c is L = [[-r, c], [c, -r]], M = [[0, 1], [0, 0]]
 (the thesis prints "alpha = [-r 0; 0 r]", which does not describe a disk: a transcription
-error; see DESIGN.md 4.4).
+error; see docs/design.md §4.4).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ after a Schur complement. Classic H-infinity is z = [Q^1/2 x ; R^1/2 u].
 Disturbance model (6.28)/(6.34): ddot = Ad d + Bd v, w = Cd d. The thesis' LMIs (6.31)/(6.36)
 keep V = x'Px and replace the -gamma^2 I block by -gamma^2 L' diag(Upsilon0, Upsilon1) L with
 L = [[Cd, 0], [Cd Ad, Cd Bd]] acting on (d, v); that block is singular whenever L has a kernel
-(always when n_d + n_v > 2 n_w), so the strict LMI is infeasible (DESIGN.md 4.4). They are
+(always when n_d + n_v > 2 n_w), so the strict LMI is infeasible (docs/design.md §8.3). They are
 implemented faithfully here (:func:`winf_disturbance_thesis`) together with a diagnosis
 (:func:`disturbance_model_degeneracy`), and a well-posed alternative
 (:func:`winf_disturbance_augmented`): filter states in the plant, Lyapunov function on (x, d),

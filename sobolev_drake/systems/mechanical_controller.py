@@ -12,7 +12,7 @@ Two layers:
     −Υ1⁻¹U q̇s on the stabilized DOF (5.84);
   - ``generalized_input(..., extra=None)`` u* = M q̈_des + C q̇ + g (+ friction) − extra
     ((5.73)/(5.84); pass ``extra = ϑ_passive(q, q̇, ζ)`` for the tilt-rotor law (7.81));
-    for the classic H∞ law the Chen–Lee–Feng force of DESIGN §4.3;
+    for the classic H∞ law the Chen–Lee–Feng force of docs/design.md §4.3;
   - ``actuation(...)`` τ: B⁻¹u* (fully actuated, (5.26)), B̄⁻¹(M̄ q̈c_des + h̄) (reduced model
     (5.5)), B†u* (input coupling, (5.100)/(5.118)) or a user ``allocation(u_star, q, qdot)``
     callable (e.g. the tilt-rotor's bounded least squares (7.84)); optional actuator bounds
@@ -529,7 +529,7 @@ class MechanicalLaw:
 
         Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81); reduced model:
         M̄ q̈c_des + h̄.
-        H∞: M a + h − C(q,q̇)T11⁻¹σ − T11⁻¹R⁻¹σ (DESIGN §4.3, same inverse dynamics).
+        H∞: M a + h − C(q,q̇)T11⁻¹σ − T11⁻¹R⁻¹σ (docs/design.md §4.3, same inverse dynamics).
 
         Parameters
         ----------

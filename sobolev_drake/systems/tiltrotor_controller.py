@@ -19,8 +19,8 @@ generalized input is (k = g, so the worst-case disturbance (7.83) vanishes and W
     q̈_c,des = q̈_c,ref − Γ3⁻¹ (Q ė_c + K e_c + T ∫e_c),
 
 where U, A, B, Q, K, T solve the Riccati equations (7.70)–(7.75), i.e. the CARE of one chain of
-integrators per group (DESIGN §4.2).  The gains are *received* here (``synthesis.mechanical``
-computes them); this module never re-derives them.
+integrators per group (docs/design.md §4.2).  The gains are *received* here
+(``synthesis.mechanical`` computes them); this module never re-derives them.
 
 The applied actuator vector τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL] solves the bounded least
 squares allocation (7.84)–(7.89); the propeller forces are then mapped to propeller speeds by
