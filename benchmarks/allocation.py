@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy.optimize import lsq_linear
 
 from sobolev_drake import native
-from sobolev_drake.systems.allocation import bounded_least_squares
+from sobolev_drake.tiltrotor.allocation import bounded_least_squares
 
 
 def problems(count: int, seed: int = 0, n: int = 8, m: int = 8):

@@ -48,7 +48,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     from sobolev_drake.experiments.tiltrotor_missions import score, simulate_mission
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
     params = TiltrotorParams(reverse_flow=args.reverse_flow)
 
     runs = {}

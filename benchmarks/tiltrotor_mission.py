@@ -128,7 +128,7 @@ def _timed(obj, name, acc, key=None):
 
 def instrument(built):
     """CPU timers on the controller law and its parts and on the plant force system."""
-    from sobolev_drake.systems import tiltrotor_controller as tc
+    from sobolev_drake.tiltrotor import controller as tc
     acc = {}
     law = built["law"]
     if law.fused_sample is not None:
@@ -154,8 +154,8 @@ def floor_patches():
 
     import numpy as np
 
-    from sobolev_drake.models.tiltrotor import TiltrotorForces
-    from sobolev_drake.systems.tiltrotor_controller import TiltrotorWInfLaw
+    from sobolev_drake.tiltrotor.plant import TiltrotorForces
+    from sobolev_drake.tiltrotor.controller import TiltrotorWInfLaw
 
     @contextlib.contextmanager
     def patched():

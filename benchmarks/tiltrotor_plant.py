@@ -25,10 +25,10 @@ from pydrake.common.value import Value
 from pydrake.systems.primitives import AffineSystem, Demultiplexer
 from scipy.linalg import solve_continuous_are
 
-from sobolev_drake.models.tiltrotor import add_tiltrotor
-from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
-from sobolev_drake.systems.aerodynamics import AerodynamicSurfaces
-from sobolev_drake.systems.propulsion import PropellerForces
+from sobolev_drake.tiltrotor.plant import add_tiltrotor
+from sobolev_drake.tiltrotor.trim import linearize, trim_hover
+from sobolev_drake.tiltrotor.aerodynamics import AerodynamicSurfaces
+from sobolev_drake.tiltrotor.propulsion import PropellerForces
 
 MEAN_WIND = np.array([-3.0, 0.0, 0.0])   # thesis 7.3.1: ζx decremented by 3 m/s
 
@@ -105,7 +105,7 @@ class _LoadsBase(LeafSystem):
 
     def __init__(self, model, n, zeta):
         super().__init__()
-        from sobolev_drake.systems.input_affine import cores
+        from sobolev_drake.tiltrotor.input_affine import cores
         self.model, self.n, self.zeta = model, np.asarray(n, float), np.asarray(zeta, float)
         self.prop, self.aero = cores(model.params)
         self._x = self.DeclareVectorInputPort("x", 16)
@@ -138,7 +138,7 @@ class _SpatialForceLoads(_LoadsBase):
                                        self._calc)
 
     def _calc(self, context, output):
-        from sobolev_drake.models.tiltrotor_params import R_IB
+        from sobolev_drake.tiltrotor.params import R_IB
         x = self._x.Eval(context)
         q, qd = x[:8], x[8:]
         R = R_IB(q)
@@ -167,8 +167,8 @@ def force_path_comparison(reps=2000):
     ``scalar_generalized`` (what add_tiltrotor uses), ``vectorized_generalized`` and
     ``vectorized_spatial_list`` (same numpy cores, loads sent as ExternallyAppliedSpatialForce)."""
     from pydrake.systems.primitives import MatrixGain
-    from sobolev_drake.models.tiltrotor import TiltrotorModel, _build_plant
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel, _build_plant
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
     trim = trim_hover(zeta=MEAN_WIND)
     out = {}
     for variant in ("scalar_generalized", "vectorized_generalized", "vectorized_spatial_list"):

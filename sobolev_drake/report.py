@@ -11,14 +11,37 @@ import json
 import math
 import os
 from datetime import datetime, timezone
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
-__all__ = ["fmt", "markdown_table", "write_table", "write_reproduction", "save_result", "load_result"]
+__all__ = ["Claim", "ExperimentResult", "fmt", "markdown_table", "write_table", "write_reproduction",
+           "save_result", "load_result"]
 
 DASH = "—"
+
+
+@dataclass
+class Claim:
+    """One checkable statement of the thesis and whether it held in our run."""
+
+    text: str
+    held: bool
+    detail: str = ""
+
+
+@dataclass
+class ExperimentResult:
+    """What an experiment produced: files, headline numbers and thesis claims."""
+
+    name: str
+    outputs: dict[str, Path] = field(default_factory=dict)  # label -> file (png/html/md/json)
+    metrics: dict = field(default_factory=dict)
+    claims: list[Claim] = field(default_factory=list)
+    table_markdown: str = ""  # our numbers beside the thesis'
+
 
 
 def fmt(x) -> str:
@@ -156,7 +179,6 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
 
 
 def _require_result(name, value):
-    from sobolev_drake.experiments import ExperimentResult
 
     if not isinstance(value, ExperimentResult):
         raise TypeError(f"{name} must be an ExperimentResult, got {type(value).__name__}")
@@ -186,7 +208,6 @@ def _json_bool(value, path, i):
 
 def load_result(path):
     """Inverse of :func:`save_result` (output paths made relative to the current directory)."""
-    from sobolev_drake.experiments import Claim, ExperimentResult
 
     path = Path(path)
     data = json.loads(path.read_text(encoding="utf-8"))

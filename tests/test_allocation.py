@@ -6,11 +6,11 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
-from sobolev_drake.systems import allocation as al
-from sobolev_drake.systems.allocation import (
+from sobolev_drake.tiltrotor import allocation as al
+from sobolev_drake.tiltrotor.allocation import (
     ControlAllocator, UnreachableThrustError, bounded_least_squares, propeller_speed_for_thrust,
     sigmf, tiltrotor_bounds)
-from sobolev_drake.systems.propulsion import PropellerCoefficients
+from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
 
 
 def reference_qp(B, u, lo, hi):
@@ -253,8 +253,8 @@ def test_allocation_and_inversion_reproduce_tiltrotor_trim(speed):
     generalized input u* = C q̇ + g − ϑ_passive must be allocated back to the trim's thrusts,
     servo torques and δ = 0 (hover: B has rank 4, the surface columns vanish), and (7.90) must
     return the trim's propeller speeds."""
-    trim_mod = pytest.importorskip("sobolev_drake.models.tiltrotor_trim")
-    ia = pytest.importorskip("sobolev_drake.systems.input_affine")
+    trim_mod = pytest.importorskip("sobolev_drake.tiltrotor.trim")
+    ia = pytest.importorskip("sobolev_drake.tiltrotor.input_affine")
     model = trim_mod._model(None)
     tr = trim_mod.trim_hover() if speed == 0 else trim_mod.trim_level_flight(speed)
     assert tr.success

@@ -95,3 +95,31 @@ def test_no_import_cycle_between_modules():
 def test_the_checks_see_a_cycle_and_a_private_import():
     # the analysis itself, on a made-up graph: a -> b -> a is found, a -> c is not a cycle
     assert cycles({"a": {"b", "c"}, "b": {"a"}, "c": set()}) == [{"a", "b"}]
+
+
+def package_of(module):
+    parts = module.split(".")
+    return ".".join(parts[:2])
+
+
+def test_no_import_cycle_between_subpackages():
+    # e.g. models -> systems -> models would make either unusable without the other
+    edges, _ = imports(modules())
+    packages = {package_of(m): set() for m in edges}
+    for m, targets in edges.items():
+        for t in targets:
+            if package_of(t) != package_of(m) and package_of(t) != "sobolev_drake":
+                packages[package_of(m)].add(package_of(t))
+    packages.pop("sobolev_drake", None)     # the curated namespace re-exports everything
+    for deps in packages.values():
+        deps.discard("sobolev_drake")
+    assert cycles(packages) == [], {p: sorted(d) for p, d in packages.items()}
+
+
+def test_the_chapter_7_vehicle_stays_in_its_package():
+    edges, _ = imports(modules())
+    outside = {m: sorted(t for t in ts if t.startswith("sobolev_drake.tiltrotor"))
+               for m, ts in edges.items()
+               if package_of(m) in ("sobolev_drake.models", "sobolev_drake.systems",
+                                    "sobolev_drake.synthesis")}
+    assert not any(outside.values()), outside

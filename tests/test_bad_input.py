@@ -17,7 +17,7 @@ from sobolev_drake.models.arm import ArmParams
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.models.quadrotor import QuadrotorParams
 from sobolev_drake.models.two_wheeled import TwoWheeledParams
-from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+from sobolev_drake.tiltrotor.params import TiltrotorParams
 from sobolev_drake.synthesis.galerkin_basis import Box, PolynomialBasis, gauss_legendre, midpoint
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, hinf_mechanical_gains
 from sobolev_drake.systems.references import PiecewiseTrajectory
@@ -28,7 +28,7 @@ from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.synthesis.polytopic import (interval_vertices, random_interior_points,
                                                robust_hinf_state_feedback, robust_winf_state_feedback)
 from sobolev_drake.synthesis.sobolev import winf_output_feedback, winf_plant, winf_state_feedback
-from sobolev_drake.systems.allocation import ControlAllocator, propeller_speed_for_thrust
+from sobolev_drake.tiltrotor.allocation import ControlAllocator, propeller_speed_for_thrust
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.disturbances import TimeProfiledForce, pulses_from_mission
 from sobolev_drake.systems.wind import GustProfile

@@ -107,7 +107,7 @@ def test_smoke_runs_give_finite_tables(module, tmp_path):
 def test_balance_allocation_is_bounded_least_squares():
     """The closed-form single-input allocation equals the general bounded LS solver and, inside
     the limit, the thesis' B†u* (5.118)."""
-    from sobolev_drake.systems.allocation import bounded_least_squares
+    from sobolev_drake.tiltrotor.allocation import bounded_least_squares
 
     B = np.array([[1.0], [-1.0]])
     alloc = bc.make_allocation(5.0)

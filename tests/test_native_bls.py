@@ -21,10 +21,10 @@ import pytest
 
 from sobolev_drake import native
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor import TiltrotorModel
+from sobolev_drake.tiltrotor.plant import TiltrotorModel
 from sobolev_drake.systems import bounded_ls as bl
-from sobolev_drake.systems.allocation import bounded_least_squares, tiltrotor_bounds
-from sobolev_drake.systems.input_affine import input_affine_terms
+from sobolev_drake.tiltrotor.allocation import bounded_least_squares, tiltrotor_bounds
+from sobolev_drake.tiltrotor.input_affine import input_affine_terms
 
 REG = 1e-12          # bounded_least_squares' default regularization
 MAX_ITER = 25        # _bls_fast's default

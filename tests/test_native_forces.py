@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models.tiltrotor import add_tiltrotor
-from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+from sobolev_drake.tiltrotor.plant import add_tiltrotor
+from sobolev_drake.tiltrotor.params import TiltrotorParams
 import sobolev_drake.native as native_pkg
 from sobolev_drake.native import kernel
 from sobolev_drake.native.forces import force_model
-from sobolev_drake.systems import tiltrotor_controller as tc
-from sobolev_drake.systems import tiltrotor_law as tl
-from sobolev_drake.systems.allocation import tiltrotor_bounds
-from sobolev_drake.systems.input_affine import (affine_terms_scalar, affine_terms_scalar_python,
+from sobolev_drake.tiltrotor import controller as tc
+from sobolev_drake.tiltrotor import law as tl
+from sobolev_drake.tiltrotor.allocation import tiltrotor_bounds
+from sobolev_drake.tiltrotor.input_affine import (affine_terms_scalar, affine_terms_scalar_python,
                                                 cores)
-from sobolev_drake.systems.propulsion import body_kinematics_scalar
+from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar
 
 K = importlib.import_module("sobolev_drake.native._forces")   # ImportError: not built
 
@@ -237,8 +237,8 @@ def test_nan_air_data_raises_like_python():
 def test_switching_off_after_first_use_reaches_every_dispatch():
     """native.disabled() after the kernels were used (and their model capsules cached) still
     gives the Python paths: the affine terms, make_law (no fused path) and the plant forces."""
-    from sobolev_drake.models.tiltrotor import TiltrotorModel
-    from sobolev_drake.systems import input_affine
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
+    from sobolev_drake.tiltrotor import input_affine
 
     params = TiltrotorParams()
     ql, qdl, zl = random_case(np.random.default_rng(4), 1)

@@ -17,10 +17,10 @@ from pydrake.multibody.tree import (FixedOffsetFrame, MultibodyForces, Prismatic
                                     SpatialInertia, WeldJoint)
 
 import sobolev_drake.native as native_pkg
-from sobolev_drake.models.tiltrotor import TiltrotorModel
+from sobolev_drake.tiltrotor.plant import TiltrotorModel
 from sobolev_drake.native import kernel
 from sobolev_drake.native.rnea import tree_constants, tree_model, unsupported_reason
-from sobolev_drake.systems.tiltrotor_law import make_law
+from sobolev_drake.tiltrotor.law import make_law
 
 K = importlib.import_module("sobolev_drake.native._rnea")   # ImportError: not built
 

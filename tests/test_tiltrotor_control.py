@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_continuous_are
 
-from sobolev_drake.systems import tiltrotor_controller as tc
+from sobolev_drake.tiltrotor import controller as tc
 
 
 def _chain_gain(weights, R):

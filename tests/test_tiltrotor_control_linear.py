@@ -88,7 +88,7 @@ def test_initial_error_literal_noise_and_bad_options(tmp_path):
         hl.run(tmp_path, smoke=True, regularization="h2")
     with pytest.raises(ValueError, match="crossflow must be one of"):
         hl.run(tmp_path, smoke=True, crossflow="cosine")
-    from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
     with pytest.raises(ValueError, match="initial_state"):
         hl.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
 
@@ -122,7 +122,7 @@ def smoke(tmp_path_factory):
 def test_smoke_design_certified_and_stable(smoke):
     """W∞ state feedback: certificate passed; re-checked here on the linearization itself
     (Hurwitz closed loop, ‖T_ζz‖∞ by Hamiltonian bisection and by a frequency sweep ≤ γ)."""
-    from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.synthesis.certificates import hinf_norm, hinf_norm_sweep
 
@@ -183,7 +183,7 @@ def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
     """‖T_vz‖∞ (augmented plant) = sup_ω σ̄(T_ζz(jω) H_vK(jω)): the series connection evaluated
     pointwise from the un-augmented closed loop and the filter (7.58)–(7.60)."""
     from sobolev_drake.experiments import _tiltrotor_linear_designs as dz
-    from sobolev_drake.models.tiltrotor_trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.systems.wind import von_karman_state_space
 
@@ -222,7 +222,7 @@ def test_thesis_disturbance_model_weight_is_singular():
 def test_flight_monitor_stops_early_and_says_why():
     """The run stops at the first monitor call past the wall-time limit and reports it (the
     same monitor stops lost aircraft, |φ| or |θ| > 90°, and non-finite states)."""
-    from sobolev_drake.models.tiltrotor_trim import trim_hover
+    from sobolev_drake.tiltrotor.trim import trim_hover
 
     d = hl.simulate_design({"kind": "sf", "K": np.zeros((4, 20))}, trim_hover(), 5.0, max_wall_s=0.0)
     assert d["stopped"].startswith("stopped at t = ") and "wall time > 0 s" in d["stopped"]

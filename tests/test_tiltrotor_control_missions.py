@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 
-from sobolev_drake.models.tiltrotor import TiltrotorModel
-from sobolev_drake.systems import tiltrotor_controller as tc
-from sobolev_drake.systems import tiltrotor_law as tl
-from sobolev_drake.systems.input_affine import input_affine, thrust_inputs
+from sobolev_drake.tiltrotor.plant import TiltrotorModel
+from sobolev_drake.tiltrotor import controller as tc
+from sobolev_drake.tiltrotor import law as tl
+from sobolev_drake.tiltrotor.input_affine import input_affine, thrust_inputs
 
 from test_tiltrotor_control import thesis_gains_by_care
 
@@ -85,8 +85,8 @@ def test_thrust_inversion_round_trip(law):
 
 
 def test_newton_speed_matches_bracketing_solver():
-    from sobolev_drake.systems.allocation import propeller_speed_for_thrust
-    from sobolev_drake.systems.propulsion import PropellerCoefficients
+    from sobolev_drake.tiltrotor.allocation import propeller_speed_for_thrust
+    from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
     c = PropellerCoefficients()
     f, v, phi = np.array([20.0, 45.0]), np.array([3.0, 15.0]), np.array([0.2, 1.2])
     n_ref = propeller_speed_for_thrust(f, v, phi, coefficients=c)
@@ -238,7 +238,7 @@ def test_frictionless_flag_is_truthful(law):
 
 def test_mission_params_reach_plant_and_controller_model():
     from sobolev_drake.experiments.tiltrotor_missions import build_mission
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
 
     built = build_mission(1, 1.0, params=TiltrotorParams(reverse_flow="mirrored"))
     assert built["handles"].model.params.reverse_flow == "mirrored"

@@ -6,11 +6,11 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
-from sobolev_drake.systems.aerodynamics import AerodynamicSurfaces, AeroModel
-from sobolev_drake.systems.input_affine import (force_disturbance_generalized, generalized_force,
+from sobolev_drake.tiltrotor.plant import TiltrotorModel, add_tiltrotor
+from sobolev_drake.tiltrotor.aerodynamics import AerodynamicSurfaces, AeroModel
+from sobolev_drake.tiltrotor.input_affine import (force_disturbance_generalized, generalized_force,
                                                 input_affine, thrust_inputs)
-from sobolev_drake.systems.propulsion import PropellerCoefficients, PropellerForces, PropulsionModel
+from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients, PropellerForces, PropulsionModel
 
 RHO, D = 1.21, 0.6096
 
@@ -78,7 +78,7 @@ def test_crossflow_independence_principle():
     """Sideways flight (u = w = 0, β = 90°): only the β tables act with crossflow="independence";
     the thesis form adds α-table terms (wing lift from spanwise flow, flat-plate drag) and jumps
     with the sign of a tiny w, the independence form is continuous there."""
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
     tab = load("tiltrotor_aero_tables")["tables"]
     V = 12.0
     qd = np.zeros(8)
@@ -269,7 +269,7 @@ def test_scalar_input_affine_terms_equal_numpy_formulation(model):
     """The controller's one-pass scalar terms (B, ϑ_passive, surface air speeds, rotor inflow)
     equal the numpy formulation (input_affine_vectorized, AeroModel.terms, surface_air_data,
     rotor_air_velocity) for both torque placements, including stopped rotors."""
-    from sobolev_drake.systems.input_affine import input_affine_terms, input_affine_vectorized
+    from sobolev_drake.tiltrotor.input_affine import input_affine_terms, input_affine_vectorized
     prop, aero = PropulsionModel(model.params), AeroModel(model.params)
     rng = np.random.default_rng(21)
     for i in range(60):
@@ -393,7 +393,7 @@ def test_reverse_flow_models():
     where w changes sign; "mirrored" reads the tables at atan2(w, |u|) with the wind axes along
     the flow: continuous over the whole circle of flow directions, equal in forward flow,
     and its drag opposes the air-relative motion of every surface with positive drag data."""
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
     clipped, mirrored = AeroModel(TiltrotorParams()), AeroModel(TiltrotorParams(reverse_flow="mirrored"))
     V = 10.0
     back = np.radians([179.999, 180.001])                 # w changes sign in reverse flow

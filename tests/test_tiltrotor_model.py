@@ -7,8 +7,8 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models.tiltrotor import TiltrotorModel, _build_plant, thesis_coordinate_map, tiltrotor_urdf
-from sobolev_drake.models.tiltrotor_params import R_IB, W_eta, TiltrotorParams, rot_x, rot_y
+from sobolev_drake.tiltrotor.plant import TiltrotorModel, _build_plant, thesis_coordinate_map, tiltrotor_urdf
+from sobolev_drake.tiltrotor.params import R_IB, W_eta, TiltrotorParams, rot_x, rot_y
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +125,7 @@ def test_gravity_drop_is_half_g_t_squared():
 
 def test_visual_geometry_for_meshcat():
     from pydrake.geometry import Role
-    from sobolev_drake.models.tiltrotor import add_tiltrotor
+    from sobolev_drake.tiltrotor.plant import add_tiltrotor
     b = DiagramBuilder()
     h = add_tiltrotor(b)
     inspector = h.scene_graph.model_inspector()

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from sobolev_drake.models.tiltrotor_trim import (THESIS_HOVER, balance, linearize, tilt_reference_polynomial,
+from sobolev_drake.tiltrotor.trim import (THESIS_HOVER, balance, linearize, tilt_reference_polynomial,
                                                  tilt_schedule, trim_hover, trim_level_flight,
                                                  write_tilt_schedule_report)
-from sobolev_drake.systems.input_affine import generalized_force
+from sobolev_drake.tiltrotor.input_affine import generalized_force
 
 
 @pytest.fixture(scope="module")
@@ -106,9 +106,9 @@ def test_hover_wind_limit_crosswind_vs_thesis_crossflow():
     """Heading-held hover in a steady lateral wind: with the thesis' crossflow form the attitude
     passes 60° at ≈ 12.5 m/s (flat-plate α-table drag in sideways flow); with the independence
     principle the trims exist to ≈ 21 m/s, mirror-symmetric, and headwind is no limit."""
-    from sobolev_drake.models.tiltrotor import TiltrotorModel
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
-    from sobolev_drake.models.tiltrotor_trim import hover_wind_limit
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
+    from sobolev_drake.tiltrotor.trim import hover_wind_limit
 
     right, left = hover_wind_limit(90.0), hover_wind_limit(270.0)
     assert 19.0 < right.limit < 23.0 and abs(right.limit - left.limit) < 0.1

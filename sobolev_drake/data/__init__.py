@@ -7,6 +7,9 @@ from functools import lru_cache
 from importlib import resources
 
 
+__all__ = ["load"]
+
+
 @lru_cache(maxsize=None)
 def load(name: str) -> dict:
     """Load ``sobolev_drake/data/<name>.json`` (e.g. ``load("propeller_coefficients")``)."""

@@ -21,25 +21,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+# the result records live with the code that saves and loads them; re-exported here for the
+# experiment modules
+from sobolev_drake.report import Claim, ExperimentResult
 
-@dataclass
-class Claim:
-    """One checkable statement of the thesis and whether it held in our run."""
-
-    text: str
-    held: bool
-    detail: str = ""
-
-
-@dataclass
-class ExperimentResult:
-    """What an experiment produced: files, headline numbers and thesis claims."""
-
-    name: str
-    outputs: dict[str, Path] = field(default_factory=dict)  # label -> file (png/html/md/json)
-    metrics: dict = field(default_factory=dict)
-    claims: list[Claim] = field(default_factory=list)
-    table_markdown: str = ""  # our numbers beside the thesis'
+__all__ = ["Claim", "ExperimentResult", "Experiment", "UnknownExperimentError", "register",
+           "discover", "get", "flagship", "MAX_DURATION_FACTOR", "MIN_DURATION_FACTOR"]
 
 
 @dataclass

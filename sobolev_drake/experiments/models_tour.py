@@ -60,7 +60,7 @@ def _setups():
         ("quadrotor", add_quadrotor, [0, 0, 0, 0, 0, 2.0], [0, 0, 0.5, 0.5, 0, 0], "hover"),
     ]
     try:  # the tilt-rotor is optional for this tour
-        from sobolev_drake.models.tiltrotor import add_tiltrotor
+        from sobolev_drake.tiltrotor.plant import add_tiltrotor
     except ImportError:
         add_tiltrotor = None
     if add_tiltrotor is not None:
@@ -77,7 +77,7 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
     n = h.model.n
     u_const = None
     if u_mode == "trim":  # tilt-rotor: open-loop hover trim (propeller speeds, servo torques), 2 m up
-        from sobolev_drake.models.tiltrotor_trim import trim_hover
+        from sobolev_drake.tiltrotor.trim import trim_hover
         trim = trim_hover()
         q0 = np.array(trim.q, dtype=float)
         q0[7] = 2.0

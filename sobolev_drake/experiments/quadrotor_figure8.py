@@ -21,7 +21,7 @@ the figure-8 through sin 5°, i.e. rotor commands far outside [0, 4·hover].  Al
 * ``"pinv"``: the thesis' τ = B†u* with no limits (negative Ω² allowed) — the headline
   comparison (``allocation=``), as the thesis ran it;
 * ``"bls"``: bounded least squares min ‖u* − B(q)τ‖ over Ω² ∈ [0, 4·hover]
-  (:func:`~sobolev_drake.systems.allocation.bounded_least_squares`, the law's allocation hook);
+  (:func:`~sobolev_drake.tiltrotor.allocation.bounded_least_squares`, the law's allocation hook);
 * ``"clip"``: τ = B†u* then saturated to the same box (what a speed controller does).
 
 The allocations in ``limited`` (default ``("bls",)``) are run afterwards with the same W2/W∞ law
@@ -47,7 +47,7 @@ from sobolev_drake.experiments._mechanical_common import (build_loop, compare_pl
                                                           run_loop, tracked_errors, tune)
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
 from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
-from sobolev_drake.systems.allocation import bounded_least_squares
+from sobolev_drake.tiltrotor.allocation import bounded_least_squares
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import trajectory

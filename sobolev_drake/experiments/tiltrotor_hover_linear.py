@@ -1,7 +1,7 @@
 """Linear W∞ designs for the tilt-rotor in helicopter mode (thesis §7.3.1, Table 7.2).
 
 The plant (7.57) is the hover linearization of the Drake diagram with the four integral
-states [∫Δψ ∫Δx ∫Δy ∫Δz] (``models.tiltrotor_trim.linearize``), inputs Δu = [ΔnR ΔnL ΔτsR
+states [∫Δψ ∫Δx ∫Δy ∫Δz] (``tiltrotor.trim.linearize``), inputs Δu = [ΔnR ΔnL ΔτsR
 ΔτsL] (surfaces fixed at 0), disturbance the wind ζ.  Designs (all with the thesis Γ0, Γ1;
 synthesis in :mod:`._tiltrotor_linear_designs`):
 
@@ -197,7 +197,7 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     The plant has the parameters of the model ``trim`` was computed on (``crossflow``).
     With a ``meshcat`` the run is recorded (``data["recorder"]``)."""
     from pydrake.systems.analysis import Simulator
-    from sobolev_drake.models.tiltrotor import add_tiltrotor
+    from sobolev_drake.tiltrotor.plant import add_tiltrotor
     from sobolev_drake.systems.wind import mission_wind_sources
 
     b = DiagramBuilder()
@@ -338,7 +338,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     if regularization not in ("transient", "gain"):
         raise ValueError(f"regularization must be 'transient' or 'gain', got {regularization!r}")
     from sobolev_drake.report import write_table
-    from sobolev_drake.models.tiltrotor_trim import hover_wind_limit, linearize, trim_hover
+    from sobolev_drake.tiltrotor.trim import hover_wind_limit, linearize, trim_hover
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -349,8 +349,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     duration = (SMOKE_DURATION if smoke else 200.0) if duration is None else float(duration)
     record_design = record_design or designs[0]
     sensitivity = (not smoke) if sensitivity is None else bool(sensitivity)
-    from sobolev_drake.models.tiltrotor_params import TiltrotorParams
-    from sobolev_drake.models.tiltrotor_trim import tiltrotor_model
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
+    from sobolev_drake.tiltrotor.trim import tiltrotor_model
     # validates the name before minutes of synthesis; the model (and the linearization's
     # diagram) is shared by every run with the same parameters
     model = tiltrotor_model(TiltrotorParams(crossflow=crossflow))

@@ -163,9 +163,9 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     (polynomial of the mission file) for the regulated tilt references.  ``params``:
     TiltrotorParams of the plant and of the controller's model (default: the defaults).
     """
-    from sobolev_drake.models import tiltrotor as tr
-    from sobolev_drake.systems import tiltrotor_controller as tc
-    from sobolev_drake.systems.tiltrotor_law import make_law
+    from sobolev_drake.tiltrotor import plant as tr
+    from sobolev_drake.tiltrotor import controller as tc
+    from sobolev_drake.tiltrotor.law import make_law
 
     spec = load("tiltrotor_missions")[SCENARIOS[scenario]]
     builder = DiagramBuilder()
@@ -351,7 +351,7 @@ def _fmt(v, nd=2):
 
 def schedule_table(out_dir, speeds=(0, 5, 10, 15, 20, 24, 27, 30, 33, 34)):
     """Tilt reference α(V): the plant's level-flight trims beside the mission file's polynomial."""
-    from sobolev_drake.models.tiltrotor_trim import tilt_reference_polynomial, tilt_schedule
+    from sobolev_drake.tiltrotor.trim import tilt_reference_polynomial, tilt_schedule
     rows = []
     for tr in tilt_schedule(np.asarray(speeds, dtype=float)):
         a_poly = float(tilt_reference_polynomial(tr.V))

@@ -14,14 +14,10 @@ from sobolev_drake.models.two_wheeled import (TwoWheeledModel, TwoWheeledParams,
                                               make_two_wheeled_model)
 from sobolev_drake.models.quadrotor import (QuadrotorModel, QuadrotorParams, add_quadrotor,
                                             make_quadrotor_model)
-from sobolev_drake.models.tiltrotor import (TiltrotorHandles, TiltrotorModel, add_tiltrotor,
-                                            tiltrotor_urdf)
-from sobolev_drake.models.tiltrotor_params import TiltrotorParams
 
 __all__ = [
     "MechanicalModel", "PlantModel", "check_vector", "PlantHandles",
     "ArmParams", "TwoLinkArmModel", "add_arm", "make_arm_model",
     "TwoWheeledParams", "TwoWheeledModel", "add_two_wheeled", "make_two_wheeled_model",
     "QuadrotorParams", "QuadrotorModel", "add_quadrotor", "make_quadrotor_model",
-    "TiltrotorParams", "TiltrotorModel", "TiltrotorHandles", "add_tiltrotor", "tiltrotor_urdf",
 ]

@@ -1,7 +1,7 @@
 """Constants of the compiled force kernel (``native/forces.c``) from the Python force model.
 
-:func:`force_model` packs what :class:`~sobolev_drake.systems.propulsion.PropulsionModel` and
-:class:`~sobolev_drake.systems.aerodynamics.AeroModel` hold (geometry, tables, Ct/Cq terms) into
+:func:`force_model` packs what :class:`~sobolev_drake.tiltrotor.propulsion.PropulsionModel` and
+:class:`~sobolev_drake.tiltrotor.aerodynamics.AeroModel` hold (geometry, tables, Ct/Cq terms) into
 the kernel's model capsule, so the parameters, the data files and their validation stay in
 Python; None when the kernel is not available.
 """

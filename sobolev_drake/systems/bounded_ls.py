@@ -1,6 +1,6 @@
 """Bounded least squares min ‖u − Bτ̄‖² s.t. lo ≤ τ̄ ≤ hi (thesis (7.84)–(7.86)).
 
-The solver behind :func:`sobolev_drake.systems.allocation.bounded_least_squares` (re-exported
+The solver behind :func:`sobolev_drake.tiltrotor.allocation.bounded_least_squares` (re-exported
 there, which is where to import it from): a primal–dual active-set method on the small box QP
 with a primal active-set and scipy BVLS fallbacks, and a fast path for the default call (the
 controller allocates at every sample): the compiled kernel ``sobolev_drake/native/bls.c`` when

@@ -51,6 +51,7 @@ from scipy.optimize import lsq_linear
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native.rnea import cached_tree_kernel
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
+from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.partition import Partition, check_actuation
 from sobolev_drake.validation import bounds_pair, real_matrix
 
@@ -614,11 +615,8 @@ class MechanicalLaw:
             if np.all(tau >= lo) and np.all(tau <= hi):  # unconstrained optimum is feasible
                 return tau
             if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
-                try:  # the team's primal-dual active-set solver (pure numpy, faster than BVLS)
-                    from sobolev_drake.systems.allocation import bounded_least_squares
-                    return bounded_least_squares(Bmat, u_star, lo, hi)
-                except ImportError:  # pragma: no cover
-                    pass
+                # our active-set solver (pure numpy, faster than BVLS on these sizes)
+                return bounded_least_squares(Bmat, u_star, lo, hi)
             return lsq_linear(Bmat, u_star, bounds=(lo, hi), method="bvls").x
         if Bmat.shape[0] == Bmat.shape[1]:
             return np.linalg.solve(Bmat, u_star)

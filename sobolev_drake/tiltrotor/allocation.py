@@ -241,7 +241,7 @@ def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, 
     :class:`UnreachableThrustError` (``on_unreachable="raise"``) or is saturated to n = 0 /
     n_max (``"clip"``).
     """
-    from sobolev_drake.systems.propulsion import PropellerCoefficients
+    from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
 
     real_scalar("tol", tol, low=0.0, low_open=True)
     coef = coefficients if coefficients is not None else PropellerCoefficients()

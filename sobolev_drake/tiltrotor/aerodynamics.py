@@ -28,7 +28,7 @@ u, w → 0) the angle of attack is undefined: (7.39) gives α = ±90° for any s
 α tables then add a flat-plate drag (c_d^xz(90°) ≈ 1.0–1.4 for wing, fuselage, tail) to the
 β tables' measured crossflow drag (0.02–0.27).  Measured: a 12 m/s lateral wind pushes the
 hovering aircraft with 33 N instead of the 4.3 N of the β tables, and with the heading held no
-hover trim within ±60° of attitude exists beyond 12.5 m/s (``models.tiltrotor_trim.
+hover trim within ±60° of attitude exists beyond 12.5 m/s (``tiltrotor.trim.
 hover_wind_limit``).  ``"independence"`` (default) applies the independence (sweep) principle:
 the α-table terms (lift, c_d^xz, pitch moment, and the aileron / elevator lift of the
 deflections) act on the dynamic pressure of the flow in the surface's x–z plane,
@@ -62,8 +62,8 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor_params import SURFACES, R_W, TiltrotorParams, cross_rows
-from sobolev_drake.systems.propulsion import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.params import SURFACES, R_W, TiltrotorParams, cross_rows
+from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar, body_wrench_scalar
 
 __all__ = ["AeroTables", "AeroModel", "AerodynamicSurfaces"]
 
@@ -231,7 +231,7 @@ class AeroModel:
     def loads_scalar(self, kin, delta, columns=False):
         """Scalar core of the aerodynamic generalized force (thesis order).
 
-        ``kin``: :func:`~sobolev_drake.systems.propulsion.body_kinematics_scalar`; ``delta``:
+        ``kin``: :func:`~sobolev_drake.tiltrotor.propulsion.body_kinematics_scalar`; ``delta``:
         four floats [δWR δWL δTR δTL].  Returns ``(ϑ_aero (list of 8), V (list of 6 surface air
         speeds), cols)`` where ``cols`` is None unless ``columns``: then the four deflection
         columns [δWR δWL δTR δTL] of (B.12)–(B.15), each as a tuple of its rows 2..7 (rows 0, 1

@@ -141,7 +141,7 @@ class TiltrotorParams:
     c_delta_r: float = -0.0730
     # "independence": α-table terms on the x–z-plane dynamic pressure ½ρ(u² + w²) = κ cos²β;
     # "thesis": on κ = ½ρV² as (7.41)–(7.45) are written (7× the measured side force in a
-    # pure crossflow, see systems/aerodynamics.py)
+    # pure crossflow, see tiltrotor/aerodynamics.py)
     crossflow: str = "independence"
     # "clipped": α = atan2(w, max(u, 0)) (loads jump where w changes sign in reverse flow);
     # "mirrored": tables at atan2(w, |u|), axes along the flow (continuous; see aerodynamics)

@@ -1,6 +1,6 @@
 """Composition of the tilt-rotor W∞ law with the plant model, the allocation and the propeller
-data (thesis §7.3.2): :func:`make_law` builds a :class:`~sobolev_drake.systems.
-tiltrotor_controller.TiltrotorWInfLaw` from a ``TiltrotorModel``; the tilt reference schedule
+data (thesis §7.3.2): :func:`make_law` builds a :class:`~sobolev_drake.tiltrotor.
+controller.TiltrotorWInfLaw` from a ``TiltrotorModel``; the tilt reference schedule
 from the plant's own level-flight trims (:func:`plant_trim_schedule`) and the warm-started
 Newton inversion of the thrust (7.90) (:func:`newton_speed_for_thrust`) live here too.
 
@@ -16,7 +16,7 @@ from bisect import bisect_right
 import numpy as np
 
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw
-from sobolev_drake.systems.tiltrotor_controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
+from sobolev_drake.tiltrotor.controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
                                                        checked_vector, thesis_inner_law,
                                                        tilt_schedule_polynomial)
 
@@ -31,7 +31,7 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     (:func:`plant_trim_schedule`); ``"data"`` — tilt polynomial of ``tiltrotor_missions.json``
     (the thesis author's simulator; it rises much faster above 24 m/s than our trims); or a
     callable ``U -> (α, α', α'')``.  ``allocate`` defaults to
-    ``systems.allocation.bounded_least_squares`` warm-started from the previous sample's active
+    ``tiltrotor.allocation.bounded_least_squares`` warm-started from the previous sample's active
     set (same solution, fewer iterations).
 
     Bounds (7.85)–(7.89) use the air speed of each surface [WR WL TR TL] from the aerodynamic
@@ -40,9 +40,9 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     per sample (``input_affine.input_affine_terms``), shared by the composed callables.
     """
     from sobolev_drake.data import load
-    from sobolev_drake.systems.allocation import (bounded_least_squares, propeller_speed_for_thrust,
+    from sobolev_drake.tiltrotor.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.systems.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
+    from sobolev_drake.tiltrotor.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
                                                     input_affine)
 
     prop, aero = cores(model.params)
@@ -137,8 +137,8 @@ def _fused_sample(law, native, speeds, parts):
     checks and array conversions (which cost more than the arithmetic).  The allocation is the
     law's own ``allocate`` and the inversion make_law's ``speeds``, so the numbers are the same
     (tested against the composed path)."""
-    from sobolev_drake.systems.allocation import thesis_bounds_constants
-    from sobolev_drake.systems.input_affine import N_REF
+    from sobolev_drake.tiltrotor.allocation import thesis_bounds_constants
+    from sobolev_drake.tiltrotor.input_affine import N_REF
 
     forces, capsule = native
     limits = thesis_bounds_constants()
@@ -169,7 +169,7 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
 
     The previous sample's speeds are an excellent start (the demand changes little over one
     sample), so 2–3 Newton steps reach machine-level thrust residuals; the caller falls back to
-    the bracketing solver of ``systems.allocation`` when this returns None (no warm start,
+    the bracketing solver of ``tiltrotor.allocation`` when this returns None (no warm start,
     zero thrust, non-increasing thrust, or no convergence).  All rotors iterate together
     (Python floats: a handful of scalars is far cheaper than numpy calls).
     """
@@ -206,12 +206,12 @@ _TRIM_SCHEDULES: dict = {}
 
 
 def plant_trim_schedule(model=None):
-    """α(U) from the plant's level-flight trims (``models.tiltrotor_trim.tilt_schedule``,
+    """α(U) from the plant's level-flight trims (``tiltrotor.trim.tilt_schedule``,
     0–34 m/s every 1 m/s) as a cubic spline ``U -> (α, α', α'')``, clamped like the polynomial.
 
     The trims are computed once per process (a few seconds) and cached."""
     from scipy.interpolate import CubicSpline
-    from sobolev_drake.models import tiltrotor_trim as tt
+    from sobolev_drake.tiltrotor import trim as tt
 
     key = repr(getattr(model, "params", None))      # parameter values, not object identity
     if key not in _TRIM_SCHEDULES:

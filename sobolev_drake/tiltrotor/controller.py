@@ -31,7 +31,7 @@ law, the allocation and the thrust inversion once and stores the result in discr
 the outputs depend on state only (no algebraic loop) and the expensive allocation runs at the
 sampling rate instead of at every integrator stage.
 
-:func:`sobolev_drake.systems.tiltrotor_law.make_law` composes the law from the plant model,
+:func:`sobolev_drake.tiltrotor.law.make_law` composes the law from the plant model,
 the allocation and the propeller data.
 """
 

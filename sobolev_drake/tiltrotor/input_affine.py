@@ -22,9 +22,9 @@ from typing import NamedTuple
 import numpy as np
 
 from sobolev_drake.models.base import check_vector
-from sobolev_drake.models.tiltrotor_params import TiltrotorParams, body_generalized_force, R_IB
-from sobolev_drake.systems.aerodynamics import AeroModel
-from sobolev_drake.systems.propulsion import PropulsionModel, body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.params import TiltrotorParams, body_generalized_force, R_IB
+from sobolev_drake.tiltrotor.aerodynamics import AeroModel
+from sobolev_drake.tiltrotor.propulsion import PropulsionModel, body_kinematics_scalar, body_wrench_scalar
 
 __all__ = [
     "N_REF", "cores", "input_affine", "AffineTerms", "input_affine_terms", "affine_terms_scalar",

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from sobolev_drake.models.tiltrotor import TiltrotorModel, add_tiltrotor
-from sobolev_drake.models.tiltrotor_params import TiltrotorParams
-from sobolev_drake.systems.input_affine import generalized_force
+from sobolev_drake.tiltrotor.plant import TiltrotorModel, add_tiltrotor
+from sobolev_drake.tiltrotor.params import TiltrotorParams
+from sobolev_drake.tiltrotor.input_affine import generalized_force
 
 __all__ = [
     "THESIS_HOVER", "tiltrotor_model", "Trim", "balance", "trim_level_flight", "trim_hover",
@@ -85,7 +85,7 @@ class Trim:
 
     @property
     def thrust(self) -> np.ndarray:
-        from sobolev_drake.systems.input_affine import thrust_inputs
+        from sobolev_drake.tiltrotor.input_affine import thrust_inputs
         return thrust_inputs(self.info["model"].params, self.q, self.qdot, self.zeta, self.n)
 
 
@@ -424,13 +424,13 @@ def linearize(trim: Trim | None = None, *, params=None, include_surfaces=False, 
     B[:16] = B16
     D = np.zeros((20, 3))
     D[:16] = D16
-    from sobolev_drake.models.tiltrotor_params import ACTUATOR_NAMES, DOF_NAMES
+    from sobolev_drake.tiltrotor.params import ACTUATOR_NAMES, DOF_NAMES
     states = list(DOF_NAMES) + [f"d{n}" for n in DOF_NAMES] + ["int_psi", "int_x", "int_y", "int_z"]
     inputs = ["n_PR", "n_PL", "tau_sR", "tau_sL"] + (list(ACTUATOR_NAMES[4:]) if include_surfaces else [])
     return Linearization(A=A, B=B, D=D, trim=trim, state_names=states, input_names=inputs)
 
 
-if __name__ == "__main__":  # python -m sobolev_drake.models.tiltrotor_trim OUT_DIR
+if __name__ == "__main__":  # python -m sobolev_drake.tiltrotor.trim OUT_DIR
     import sys
 
     _trims = tilt_schedule()

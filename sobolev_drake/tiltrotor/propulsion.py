@@ -15,7 +15,7 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.data import load
-from sobolev_drake.models.tiltrotor_params import R_W, TiltrotorParams, cross_rows
+from sobolev_drake.tiltrotor.params import R_W, TiltrotorParams, cross_rows
 
 __all__ = [
     "body_kinematics_scalar", "body_wrench_scalar", "PropellerCoefficients", "PropulsionModel",

@@ -1,0 +1,26 @@
+"""The convertible tilt-rotor UAV of thesis chapter 7, in one place.
+
+Modules, from the plant up to the controller:
+
+params        TiltrotorParams (Table B.1) and the rigid-body kinematics of section 7.2
+plant         URDF, MultibodyPlant and TiltrotorModel (section 7.2), add_tiltrotor
+propulsion    propellers and servomotors, (7.19)–(7.33)
+aerodynamics  fuselage, wings, V-tail and interference loads, (7.34)–(7.56)
+input_affine  the input-affine form (7.62) of the generalized forces
+trim          trims, the tilt schedule and linearization (7.3.1, (7.57))
+allocation    control allocation (7.84)–(7.89) and the thrust → propeller-speed inversion (7.90)
+law           the W∞ law composed with the model, allocation and propeller data (7.3.2)
+controller    the nonlinear W∞ controller LeafSystem of the missions (7.3.2)
+
+Nothing outside this package depends on it except the experiments, benchmarks and tests.
+"""
+
+from sobolev_drake.tiltrotor.controller import TiltrotorWInfController
+from sobolev_drake.tiltrotor.params import TiltrotorParams
+from sobolev_drake.tiltrotor.plant import TiltrotorHandles, TiltrotorModel, add_tiltrotor, tiltrotor_urdf
+from sobolev_drake.tiltrotor.trim import Trim, linearize, trim_hover, trim_level_flight
+
+__all__ = [
+    "TiltrotorParams", "TiltrotorModel", "TiltrotorHandles", "add_tiltrotor", "tiltrotor_urdf",
+    "TiltrotorWInfController", "Trim", "trim_hover", "trim_level_flight", "linearize",
+]
