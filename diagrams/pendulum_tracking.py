@@ -14,7 +14,7 @@ W2 weights Y0..Y3 = 100, 50, 1, 0.01 give ë = −16.8 ė − 91.4 e − 100 ∫
 acceleration fed forward) gets a critically damped triple pole at ω = 100^(1/3) = 4.64 rad/s,
 the same mean bandwidth: kp = 3ω² = 64.6, ki = ω³ = 100, kd = 3ω = 13.9.  On an exact model
 both turn the error into the same kind of linear chain and differ only in the poles; given
-the W2 gains, Drake's controller reproduces the W2 run (tests/test_diagrams.py).  Table
+the W2 gains, Drake's controller reproduces the W2 run (tests/examples/test_diagrams.py).  Table
 columns: ISE = ∫e² dt, max and final |e|, control effort ∫u² dt and IADU = Σ|Δu| on the
 5 ms log grid.
 

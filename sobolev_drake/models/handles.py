@@ -32,7 +32,7 @@ __all__ = [
 
 @dataclass
 class PlantHandles:
-    """What ``add_<name>`` hands back (shared contract, see the team brief).
+    """What ``add_<name>`` hands back (the contract every plant builder keeps, docs/design.md §5).
 
     ``u`` and ``disturbance`` read as zero when left unconnected.
 

@@ -40,7 +40,7 @@ def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, 
     state feedback: the Lyapunov variables are those of the gamma^2 form divided by gamma,
     which balances X (from P^-1) against Y (from P).  On problems whose
     infimum is approached with Y growing without bound, this measured 10x closer agreement
-    between solvers on gamma_opt (tests/test_synthesis.py random plants: worst 1.3e-4 -> 1.5e-5).
+    between solvers on gamma_opt (tests/synthesis/test_synthesis.py random plants: worst 1.3e-4 -> 1.5e-5).
     """
     p = compress_performance(p)
     n, nu, ny = p.n, p.nu, p.ny

@@ -12,7 +12,7 @@ holding the dense cone Hessians of size (n(n+1)/2)^2 (what Clarabel factors).  E
 dense numpy except the sparse A_i in the Schur-complement product; results are certified
 independently by the callers like any other backend.
 
-Measured behaviour (tests/test_synthesis.py plants, benchmarks/synthesis.py):
+Measured behaviour (tests/synthesis/test_synthesis.py plants, benchmarks/synthesis.py):
 * near the optimum M has cond ~ 1/mu^2; without iterative refinement the dual residual grew
   from 1e-10 to 1e-4 below mu ~ 1e-8 ("AlmostSolved" on most problems); one refinement step
   against the true operator keeps it at ~1e-10;

@@ -2,7 +2,7 @@
 
 Every entry is available as a pure :class:`PiecewiseTrajectory` (``trajectory(name)``) and as a
 :class:`TrajectoryReference` LeafSystem (``table_5_2()`` …).  Each documents its coordinate
-names and the smoothness at its breakpoints (verified in ``tests/test_references.py``); the
+names and the smoothness at its breakpoints (verified in ``tests/systems/test_references.py``); the
 thesis tables are partly garbled in the PDF text, the reconstructions are stated below.
 """
 

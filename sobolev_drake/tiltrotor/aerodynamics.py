@@ -111,7 +111,7 @@ class AeroModel:
     """Numpy core of the aerodynamic generalized forces (affine in the surface deflections).
 
     Written for speed (it runs at every derivative evaluation): scalar-math rotations, hand-
-    written cross products, flattened tables; ``tests/test_tiltrotor_forces.py`` checks it
+    written cross products, flattened tables; ``tests/tiltrotor/test_tiltrotor_forces.py`` checks it
     against Drake's Jacobians and a hand computation."""
 
     def __init__(self, params: TiltrotorParams | None = None, tables: AeroTables | None = None):

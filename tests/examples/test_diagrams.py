@@ -20,7 +20,7 @@ from scipy.linalg import expm
 
 import sobolev_drake as sd
 
-DIAGRAMS = Path(__file__).resolve().parents[1] / "diagrams"
+DIAGRAMS = Path(__file__).resolve().parents[2] / "diagrams"
 DURATION = 2.0
 TOL = 1e-5
 

@@ -95,7 +95,7 @@ def test_explicit_scaling_and_bad_input():
 
 # --------------------------------------------------------------------------- output feedback
 def _of_plant(seed, n=5, sensor_noise=0.1):
-    """W-infinity plant with measurement noise (as tests/test_synthesis.py's random plants)."""
+    """W-infinity plant with measurement noise (as tests/synthesis/test_synthesis.py's random plants)."""
     from sobolev_drake.synthesis.sobolev import winf_plant
     rng = np.random.default_rng(seed)
     nu, nw, ny = 1 + n % 2, 1 + (n // 2) % 2, max(1, n // 2)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "diagrams" / "acrobot_upright.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "diagrams" / "acrobot_upright.py"
 
 
 @pytest.fixture(scope="module")
