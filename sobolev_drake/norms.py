@@ -33,7 +33,7 @@ from typing import Sequence
 
 import numpy as np
 
-from sobolev_drake.validation import real_array, real_scalar
+from sobolev_drake.validation import one_of, positive_scalar, real_array, real_scalar, real_vector
 
 __all__ = [
     "check_time",
@@ -46,6 +46,7 @@ __all__ = [
     "iadu",
     "l2_norm",
     "empirical_gain",
+    "settling_time",
 ]
 
 
@@ -371,3 +372,52 @@ def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | N
     if nw <= 0.0:
         raise ValueError("w has zero L2 norm: the empirical gain is undefined")
     return float(np.sqrt(max(nz2, 0.0)) / nw)
+
+
+SETTLING_CROSSINGS = ("interpolated", "next_sample")
+
+
+def settling_time(t, y, *, fraction, reference=None, until=None, crossing="interpolated") -> float:
+    """Time after which |y| stays within ``fraction`` × ``reference``.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Strictly increasing sample times.
+    y : array_like, shape (N,)
+        The signal, e.g. an angle converging to 0.
+    fraction : float
+        Band half-width relative to ``reference`` (0.02 for the 2 % criterion).
+    reference : float, optional
+        Scale of the band; ``|y(t[0])|`` by default.
+    until : float, optional
+        Only samples with t ≤ ``until`` count (e.g. before a disturbance starts).
+    crossing : {"interpolated", "next_sample"}
+        How the last exit from the band is timed: the linear interpolation of the crossing
+        between the last sample outside and the next one, or the time of the next sample
+        (the first sample back inside).
+
+    Returns
+    -------
+    float
+        The settling time; ``t[0]`` if |y| is never outside the band, the last time considered
+        if it never returns inside.
+    """
+    t = check_time(t)
+    y = real_vector("y", y, t.size)
+    fraction = positive_scalar("fraction", fraction)
+    one_of("crossing", crossing, SETTLING_CROSSINGS)
+    scale = abs(y[0]) if reference is None else abs(real_scalar("reference", reference))
+    if until is not None:
+        keep = t <= real_scalar("until", until)
+        t, y = t[keep], y[keep]
+    excess = np.abs(y) - fraction * scale
+    outside = np.flatnonzero(excess > 0)
+    if not outside.size:
+        return float(t[0]) if t.size else 0.0
+    k = outside[-1]
+    if k + 1 >= t.size:
+        return float(t[k])
+    if crossing == "next_sample":
+        return float(t[k + 1])
+    return float(t[k] + (t[k + 1] - t[k]) * excess[k] / (excess[k] - excess[k + 1]))

@@ -110,3 +110,25 @@ def test_bad_weights_and_derivatives():
         norms.ise(t, z.T)
     with pytest.raises(ValueError, match="sequence"):
         norms.sobolev_norm(t, z, 1.0)
+
+
+def test_settling_time_of_an_exponential_decay():
+    # y = e^{-t}: |y| leaves the 2 % band for good at t* = ln 50.  The interpolated crossing is
+    # exact to the chord error of e^{-t} over one step, ≤ dt² max|y''| / 8 / |y'| ~ dt²/8;
+    # the next-sample criterion lands on the first sample after t*, within one step.
+    from sobolev_drake.norms import settling_time
+    dt = 1e-3
+    t = np.arange(0.0, 10.0, dt)
+    y = np.exp(-t)
+    exact = np.log(50.0)
+    assert abs(settling_time(t, y, fraction=0.02) - exact) <= dt ** 2
+    nxt = settling_time(t, y, fraction=0.02, crossing="next_sample")
+    assert exact < nxt <= exact + dt
+    # band relative to a given reference, counted only up to ``until``
+    assert abs(settling_time(t, y, fraction=0.01, reference=2.0) - np.log(50.0)) <= dt ** 2
+    assert settling_time(t, y, fraction=0.02, until=2.0) == pytest.approx(2.0, abs=dt)
+    assert settling_time(t, 0.001 * y, fraction=0.5, reference=1.0) == 0.0   # never outside
+    with pytest.raises(ValueError, match="crossing"):
+        settling_time(t, y, fraction=0.02, crossing="last")
+    with pytest.raises(ValueError, match="fraction"):
+        settling_time(t, y, fraction=-0.1)

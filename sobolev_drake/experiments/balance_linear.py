@@ -50,6 +50,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
+from sobolev_drake import norms
 from sobolev_drake.experiments import ExperimentResult, register
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
@@ -310,16 +311,9 @@ class Rig(LoggedRig):
 
 
 def settling_time(t, theta, fraction=SETTLE_FRACTION, theta0=THETA0, t_max=SETTLE_WINDOW):
-    """Last time in [0, t_max] with |θ| > fraction·|θ0| (2 % criterion of Figure 6.2)."""
-    sel = t <= t_max
-    t, a = t[sel], np.abs(theta[sel]) - fraction * abs(theta0)
-    out = np.nonzero(a > 0)[0]
-    if not out.size:
-        return 0.0
-    k = out[-1]
-    if k + 1 >= t.size:
-        return float(t[k])
-    return float(t[k] + (t[k + 1] - t[k]) * a[k] / (a[k] - a[k + 1]))  # linear crossing
+    """Last time in [0, t_max] with |θ| > fraction·|θ0|, crossing interpolated (2 % criterion of
+    Figure 6.2)."""
+    return norms.settling_time(t, theta, fraction=fraction, reference=theta0, until=t_max)
 
 
 def indices(d):
