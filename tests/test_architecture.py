@@ -6,12 +6,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "sobolev_drake"
 
-# the one cycle left, between the balance-linear experiment and its three helper modules,
-# goes with the reorganization of the experiments into short compositions
-KNOWN_CYCLES = [{"sobolev_drake.experiments.balance_linear",
-                 "sobolev_drake.experiments._balance_linear_posedness",
-                 "sobolev_drake.experiments._balance_linear_report",
-                 "sobolev_drake.experiments._balance_linear_variants"}]
+KNOWN_CYCLES = []
 
 
 def modules():

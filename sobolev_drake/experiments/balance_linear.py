@@ -41,17 +41,14 @@ empirical gain ‖x‖_L2/‖w‖_L2 over the whole run (Table 6.2's "H∞" row)
 
 from __future__ import annotations
 
-import json
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import norms
-from sobolev_drake.experiments import ExperimentResult, register
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
@@ -373,78 +370,3 @@ def synthesize_all(lin, rigs, *, search=True, log=print):
 
 def _ts_args(d):
     return {"t": d["t"], "theta": d["x"][1]}
-
-
-@register("balance-linear", "Two-wheeled vehicle: linear W∞ vs H∞ (state and output feedback, "
-          "disk regions) on the nonlinear Drake model (Table 6.2)", default_duration=25.0,
-          thesis_ref="6.5.2, Table 6.2")
-def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
-    """Table 6.2.  ``smoke``: no ρ search (:data:`RHO_TUNED`), 5 s runs (long enough for the
-    settling times, before the disturbances), no diagnostics.  ``diagnose`` (default: not
-    smoke): O.F. well-posedness table (backend spread, gain growth towards γ*) and, for runs
-    of ≥ 20 s, the variant pairs of :mod:`._balance_linear_variants`."""
-    from sobolev_drake import viz
-    from sobolev_drake.report import write_table
-    from ._balance_linear_report import add_claims, plot_runs
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    duration = (SETTLE_WINDOW if smoke else 25.0) if duration is None else float(duration)
-    diagnose = (not smoke) if diagnose is None else bool(diagnose)
-    lin = linearize()
-    rigs = {"sf": Rig("sf"), "of": Rig("of")}
-    designs = synthesize_all(lin, rigs, search=not smoke)
-    runs, metrics, rows, th_rows = {}, {}, [], []
-    for name in DESIGNS:
-        dz = designs[name]
-        r = dz["res"]
-        kind = "of" if name.endswith("O.F.") else "sf"
-        d = rigs[kind].run(result_gains(r), duration)
-        runs[name] = d
-        idx = indices(d)
-        cert = r.certificate
-        ev = cert.eigenvalues
-        m = {"gamma": float(r.gamma), "gamma_opt": float(r.gamma_opt), "achieved": float(cert.achieved),
-             "certified": bool(cert.ok), "regularized": bool(r.regularized),
-             "norm_Y": float(np.linalg.norm(r.Y, 2)) if r.Y is not None else None,
-             "max_abs_eig": float(np.abs(ev).max()), "max_real_eig": float(ev.real.max()),
-             "radius": RADIUS[kind], "solver": r.solver, "solve_s": dz["solve_s"], "notes": dz["notes"],
-             "rho": dz.get("rho"), "settling_target_s": dz["settling_target"],
-             "settling_search": dz.get("search", []), "sim_wall_s": d["wall_s"], **idx}
-        if r.K is not None:
-            m["K"] = np.asarray(r.K).tolist()
-        else:
-            m["controller"] = {k: np.asarray(v).tolist() for k, v in zip(("AK", "BK", "CK", "DK"), r.controller)}
-        metrics[name] = m
-        reg = (f"γ*(1+{(r.gamma / r.gamma_opt - 1):.2g})" if r.regularized else "γ*")
-        rows.append([name, dz.get("rho", "—"), f"{r.gamma:.4g} ({reg})", f"{idx['settling_s']:.3f}",
-                     idx["ise_theta"], idx["ise_phidot"], idx["iadu"], idx["gain"], f"{idx['max_abs_u']:.0f}",
-                     f"{np.abs(ev).max():.1f} ≤ {RADIUS[kind]:g}"])
-        th = THESIS_TABLE_6_2[name]
-        th_rows.append([name, "—", "—", "similar", *th, "—", f"≤ {RADIUS[kind]:g}"])
-    # relative numbers as in the thesis (H∞ = 100 %)
-    for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
-        for k in ("ise_theta", "ise_phidot", "iadu", "gain"):
-            metrics[b][f"{k}_rel_to_{a}"] = metrics[b][k] / metrics[a][k] if metrics[a][k] else float("nan")
-    cols = ["design", "H∞ input weight ρ", "certified γ", "θ settling [s]", "ISE θ", "ISE ϕ̇", "IADU",
-            "‖x‖/‖w‖", "max |u| [N m]", "max |eig| ≤ r"]
-    md, js, text = write_table(out_dir, "balance-linear_table", cols, rows, thesis_rows=th_rows,
-                               title=f"Table 6.2 beside ours (nonlinear plant, {duration:g} s)")
-    res = ExperimentResult(name="balance-linear", metrics=metrics, table_markdown=text)
-    res.outputs.update({"table_md": md, "table_json": js})
-    res.outputs.update(plot_runs(runs, out_dir))
-    add_claims(res, metrics, full=duration >= 20.0)
-    if diagnose:
-        from ._balance_linear_posedness import diagnose as _diagnose
-        _diagnose(res, lin, rigs["of"], designs, out_dir)
-        if duration >= 20.0:
-            from ._balance_linear_variants import add_variants
-            add_variants(res, lin, rigs, designs, duration, out_dir)
-    mpath = out_dir / "balance-linear_metrics.json"
-    mpath.write_text(json.dumps(metrics, indent=1, default=str), encoding="utf-8")
-    res.outputs["metrics_json"] = mpath
-    if record:
-        rig = Rig("sf", record=True)
-        rig.run(result_gains(designs["W∞"]["res"]), duration)
-        res.outputs["meshcat_html"] = viz.save_recording_html(rig.meshcat, rig.recorder,
-                                                              out_dir / "balance-linear_Winf.html")
-    return res

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from sobolev_drake.experiments import balance_linear as bl
+from sobolev_drake.experiments import balance_linear_table as blt
 from sobolev_drake.experiments import quadrotor_polytopic as qp
 
 
@@ -113,7 +114,7 @@ def test_settling_time_of_an_exponential():
 @pytest.fixture(scope="module")
 def balance_smoke(tmp_path_factory):
     out = tmp_path_factory.mktemp("balance_linear")
-    return out, bl.run(out, smoke=True)
+    return out, blt.run(out, smoke=True)
 
 
 @pytest.fixture(scope="module")
