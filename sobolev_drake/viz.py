@@ -60,7 +60,7 @@ from pydrake.math import RigidTransform  # noqa: E402
 
 __all__ = [
     "start_meshcat", "add_meshcat_recorder", "save_recording_html", "external_script_sources",
-    "save_figure", "plot_time_series", "draw_path",
+    "save_figure", "plot_time_series", "draw_path", "draw_reference_and_flown",
     "frame_camera", "camera_position", "follow_camera", "trajectory_from_log", "meshcat_commands",
     "animation_keyframes", "FOLLOW_CAMERA_PATH", "FOLLOW_CAMERA_JS",
 ]
@@ -648,3 +648,22 @@ def _inject_follow_script(html: str) -> str:
     if anchor < 0:
         raise RuntimeError("Meshcat StaticHtml has no </body>: cannot add the follow-camera script")
     return html[:anchor] + FOLLOW_CAMERA_JS + html[anchor:]
+
+
+def draw_reference_and_flown(meshcat, traj_ref, duration, flown):
+    """Draw a reference path (black) and the flown path (blue) in Meshcat.
+
+    Parameters
+    ----------
+    meshcat : Meshcat
+    traj_ref : TrajectoryReference
+        Its first three coordinates are the reference position.
+    duration : float
+        Time span of the reference to draw (s).
+    flown : array_like, shape (3, N)
+        Flown positions.
+    """
+    ts = np.linspace(0.0, duration, max(int(duration * 5), 50))
+    pts = np.array([traj_ref.evaluate(t)[0][:3] for t in ts])
+    draw_path(meshcat, "reference", pts, rgba=(0.05, 0.05, 0.05, 1.0))
+    draw_path(meshcat, "flown", np.asarray(flown).T, rgba=(0.1, 0.4, 1.0, 1.0))

@@ -118,3 +118,14 @@ def test_the_chapter_7_vehicle_stays_in_its_package():
                if package_of(m) in ("sobolev_drake.models", "sobolev_drake.systems",
                                     "sobolev_drake.synthesis")}
     assert not any(outside.values()), outside
+
+
+def test_no_module_imports_an_experiment():
+    # an experiment (a module that registers one) is a composition, not a library: what two
+    # experiments share lives in the library or in a private helper module
+    mods = modules()
+    registered = {m for m, p in mods.items() if "@register(" in p.read_text(encoding="utf-8")}
+    assert len(registered) >= 10
+    edges, _ = imports(mods)
+    offenders = {m: sorted(ts & registered) for m, ts in edges.items() if ts & registered}
+    assert offenders == {}, offenders

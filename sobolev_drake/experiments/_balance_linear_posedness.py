@@ -52,7 +52,7 @@ def gain_growth(plant, region, gamma_opt, deltas=(0.2, 0.1, 0.05, 0.02), *, back
     Returns a list of dicts (delta, gamma, norm_Y (γ² normalization), DK, peak_gain,
     certified) or (delta, error) when the solver fails (it does close to a non-attained
     infimum: the problem becomes ill-conditioned)."""
-    from sobolev_drake.experiments.balance_linear import quiet
+    from sobolev_drake.harness import quiet
     from sobolev_drake.synthesis.hinf import output_feedback
     from sobolev_drake.synthesis.lmi import SynthesisError
     if not gamma_opt > 0:
@@ -79,6 +79,7 @@ def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), 
     least-gain controller at that fixed γ.  Per row: γ, γ*, ‖Y‖, D_K, controller peak gain
     and the θ settling time on the nonlinear rig (or ``error``)."""
     from sobolev_drake.experiments import balance_linear as bl
+    from sobolev_drake.harness import quiet
     from sobolev_drake.synthesis.hinf import output_feedback
     from sobolev_drake.synthesis.lmi import SynthesisError
     modes = ["LMI optimum", "regularized δ"] + (["fixed γ"] if gamma is not None else [])
@@ -88,7 +89,7 @@ def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), 
             row = {"design": which, "rho": rho, "backend": be, "mode": mode}
             try:
                 if mode == "fixed γ":
-                    r, _ = bl.quiet(output_feedback, plant, region=region, gamma=gamma, backend=be)
+                    r, _ = quiet(output_feedback, plant, region=region, gamma=gamma, backend=be)
                 else:
                     r, _, _ = bl.design(which, lin, rho=rho, backend=be, regularize=mode != "LMI optimum")
             except SynthesisError as e:

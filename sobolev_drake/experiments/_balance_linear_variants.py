@@ -15,6 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from sobolev_drake.harness import quiet
+from sobolev_drake.tuning import match_parameter
+
 KEYS = ("settling_s", "ise_theta", "ise_phidot", "iadu", "gain", "max_abs_u")
 
 
@@ -38,7 +41,7 @@ def variant_pair(label, w_res, h_of_rho, rig, grid, duration):
         return settle(cache[rho])
 
     target = settle(w_res)
-    rho, ts, hist = bl.match_parameter(f, target, grid, refine=3)
+    rho, ts, hist = match_parameter(f, target, grid, refine=3)
     iw = bl.indices(rig.run(bl.result_gains(w_res), duration))
     ih = bl.indices(rig.run(bl.result_gains(cache[rho]), duration))
     return {"label": label, "rho": float(rho), "search": [(float(p), float(v)) for p, v in hist],
@@ -57,7 +60,7 @@ def run_variants(lin, rigs, designs, duration):
                         rigs["of"], bl.RHO_GRID["of"], duration)]
     disk = regions.disk(bl.RADIUS["sf"])
     out.append(variant_pair("S.F., H∞ with Q = I", designs["W∞"]["res"],
-                            lambda rho: bl.quiet(sb.hinf_state_feedback_qr, A, B, D, np.eye(3),
+                            lambda rho: quiet(sb.hinf_state_feedback_qr, A, B, D, np.eye(3),
                                                  np.array([[rho]]), region=disk)[0],
                             rigs["sf"], bl.RHO_GRID["sf"], duration))
     return out

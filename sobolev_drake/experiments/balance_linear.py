@@ -49,6 +49,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import norms
+from sobolev_drake.harness import LoggedLoop, quiet
+from sobolev_drake.tuning import match_parameter
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
@@ -94,65 +96,6 @@ def result_gains(res):
     if res.K is not None:
         return {"K": np.asarray(res.K)}
     return {"controller": tuple(np.asarray(m) for m in res.controller)}
-
-
-def quiet(fn, *args, **kw):
-    """Call a synthesis, returning (result, list of warning texts).  The thesis designs are
-    offline computations: no time budget unless the caller sets one."""
-    kw.setdefault("time_limit", None)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        res = fn(*args, **kw)
-    return res, sorted({str(w.message) for w in caught})
-
-
-def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
-    """Find p with f(p) ≈ target: scan ``grid`` (ascending, > 0), then bisect on log p.
-
-    f may fail (return nan) or be non-monotone: every interval between neighbouring evaluated
-    points where f - target changes sign brackets a solution; the one with the LARGEST p is
-    refined (for an input weight ρ that is the least aggressive controller meeting the
-    target, i.e. the choice most favourable to the baseline's control effort).  Without a
-    bracket — e.g. a V-shaped f whose minimum dips below the target between two grid points,
-    as the O.F. settling time does — the intervals next to the point closest to the target
-    are halved (geometric midpoints) up to ``refine`` times; if still no bracket, that point
-    is returned.  Returns (p, f(p), history [(p, f(p)), ...]).
-    """
-    grid = sorted(float(g) for g in grid)
-    if len(grid) < 2 or grid[0] <= 0:
-        raise ValueError(f"grid must hold >= 2 positive values, got {grid}")
-    hist = [(g, float(f(g))) for g in grid]
-    if not any(np.isfinite(v) for _, v in hist):
-        raise RuntimeError("match_parameter: f failed on the whole grid")
-    for level in range(refine + 1):
-        pts = sorted(dict(hist).items())
-        brackets = [(a, b) for a, b in zip(pts[:-1], pts[1:])
-                    if np.isfinite(a[1]) and np.isfinite(b[1]) and (a[1] - target) * (b[1] - target) <= 0]
-        if brackets or level == refine:
-            break
-        i = min((k for k, (_, v) in enumerate(pts) if np.isfinite(v)), key=lambda k: abs(pts[k][1] - target))
-        for j in (i - 1, i + 1):
-            if 0 <= j < len(pts):
-                q = float(np.sqrt(pts[i][0] * pts[j][0]))
-                hist.append((q, float(f(q))))
-    if not brackets:
-        p, v = min(((p, v) for p, v in hist if np.isfinite(v)), key=lambda h: abs(h[1] - target))
-        return p, v, hist
-    (lo, flo), (hi, fhi) = brackets[-1]
-    for _ in range(iters):
-        if min(abs(flo - target), abs(fhi - target)) <= rtol * abs(target):
-            break
-        mid = float(np.sqrt(lo * hi))
-        v = float(f(mid))
-        hist.append((mid, v))
-        if not np.isfinite(v):
-            break
-        if (flo - target) * (v - target) <= 0:
-            hi, fhi = mid, v
-        else:
-            lo, flo = mid, v
-    p, v = min(((lo, flo), (hi, fhi)), key=lambda h: abs(h[1] - target))
-    return p, v, hist
 
 
 # --------------------------------------------------------------------------- linear model
@@ -226,46 +169,7 @@ def design(which, lin, *, rho=None, backend=None, regularize=None):
 
 
 # --------------------------------------------------------------------------- simulation
-class LoggedRig:
-    """Plumbing shared by the reusable closed-loop rigs (here and in quadrotor-polytopic).
-
-    A subclass adds its plant handles ``self.h`` and systems to a builder, then calls
-    :meth:`_build` with the ports to log; each run clears the logs (:meth:`_clear_logs`) and
-    collects them trimmed to a common length (:meth:`_collect`).
-    """
-
-    def _build(self, b, ports, log_period, record):
-        """Log ``ports`` ((label, port) pairs), add the optional Meshcat recorder, build."""
-        from pydrake.systems.analysis import Simulator
-        self.sinks = {}
-        for label, port in ports:
-            s = b.AddSystem(VectorLogSink(port.size(), log_period))
-            b.Connect(port, s.get_input_port())
-            self.sinks[label] = s
-        self.meshcat = self.recorder = None
-        if record:
-            from sobolev_drake import viz
-            self.meshcat = viz.start_meshcat()
-            self.recorder = viz.add_meshcat_recorder(b, self.h.scene_graph, self.meshcat)
-        self.diagram = b.Build()
-        self.sim = Simulator(self.diagram)
-        self.context = self.sim.get_mutable_context()
-
-    def _clear_logs(self, ctx):
-        for s in self.sinks.values():
-            s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
-
-    def _collect(self, ctx, t0):
-        """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length."""
-        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
-        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
-        n = min(v.shape[-1] for v in data.values())
-        data = {k: v[..., :n] for k, v in data.items()}
-        data["wall_s"] = time.perf_counter() - t0
-        return data
-
-
-class Rig(LoggedRig):
+class Rig(LoggedLoop):
     """One nonlinear closed-loop diagram per controller kind ("sf"/"of"), reused for all runs."""
 
     def __init__(self, kind, *, disturbances=True, record=False, log_period=0.01):
@@ -289,7 +193,7 @@ class Rig(LoggedRig):
         b.Connect(self.h.x, ctrl_in)
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
-        self._build(b, (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())),
+        self.build(b, (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())),
                     log_period, record)
 
     def run(self, gains, duration, *, theta0=THETA0):
@@ -300,10 +204,10 @@ class Rig(LoggedRig):
             np.zeros(ctx.get_continuous_state_vector().size()))
         self.h.set_state(ctx, self.diagram, [0.0, theta0], [0.0, 0.0])
         self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), **gains)
-        self._clear_logs(ctx)
+        self.clear_logs(ctx)
         t0 = time.perf_counter()
         simulate(self.diagram, ctx, duration, progress=False, simulator=self.sim, accuracy=1e-4, max_step=0.02)
-        data = self._collect(ctx, t0)
+        data = self.collect(ctx, t0)
         return data
 
 

@@ -52,7 +52,8 @@ from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import MatrixGain
 
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments.balance_linear import LoggedRig, match_parameter, quiet
+from sobolev_drake.harness import LoggedLoop, quiet
+from sobolev_drake.tuning import match_parameter
 from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 
 GAMMA0 = np.diag([0.3183, 0.3183, 5.093, 10, 10, 10, 0.159, 0.159, 1.91, 0.05, 0.05, 0.5])
@@ -153,7 +154,7 @@ def design(which, verts, *, rho=None, backend=None):
     return res, notes, time.perf_counter() - t0
 
 
-class Rig(LoggedRig):
+class Rig(LoggedLoop):
     """The nonlinear closed loop (one diagram, reused for every run of a sweep)."""
 
     def __init__(self, *, record=False, log_period=0.01, params=None):
@@ -180,7 +181,7 @@ class Rig(LoggedRig):
         b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
         b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
         b.Connect(self.w.get_output_port(), self.h.disturbance)
-        self._build(b, (("x", self.h.x), ("x_ref", to_x.get_output_port()), ("u", self.ctrl.GetOutputPort("u")),
+        self.build(b, (("x", self.h.x), ("x_ref", to_x.get_output_port()), ("u", self.ctrl.GetOutputPort("u")),
                         ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
                     log_period, record)
 
@@ -191,7 +192,7 @@ class Rig(LoggedRig):
         ctx.SetTime(0.0)
         self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
         self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), np.asarray(K))
-        self._clear_logs(ctx)
+        self.clear_logs(ctx)
         t0 = time.perf_counter()
         self.sim.set_monitor(self._monitor)  # stops diverging runs (saturated, tumbling) early
         try:
@@ -199,7 +200,7 @@ class Rig(LoggedRig):
                      max_step=0.02)
         finally:
             self.sim.clear_monitor()
-        data = self._collect(ctx, t0)
+        data = self.collect(ctx, t0)
         data["hover"] = self.hover
         data["diverged"] = bool(ctx.get_time() < duration - 1e-9)
         return data

@@ -179,7 +179,7 @@ def literal_noise_turbulence():
 
 
 def _reference_xyz_psi():
-    from sobolev_drake.experiments.tiltrotor_missions import mission_reference
+    from sobolev_drake.systems.reference_catalogue import tiltrotor_mission_reference as mission_reference
     return mission_reference(1)
 
 
@@ -412,7 +412,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
             srows.append(sensitivity_row(name, m["literal_noise"]))
         if record and name == record_design and d["recorder"] is not None:
             from sobolev_drake import viz
-            from sobolev_drake.experiments.tiltrotor_missions import draw_paths
+            from sobolev_drake.viz import draw_reference_and_flown as draw_paths
             draw_paths(meshcat, _reference_xyz_psi(), duration, d["x"][5:8])
             html = out_dir / "tiltrotor-hover-linear.html"
             viz.save_recording_html(meshcat, d["recorder"], html)

@@ -29,6 +29,8 @@ from pydrake.trajectories import PiecewisePolynomial
 from sobolev_drake.data import load
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.report import write_table
+from sobolev_drake.systems.reference_catalogue import tiltrotor_mission_reference as mission_reference
+from sobolev_drake.viz import draw_reference_and_flown as draw_paths
 
 # --- mission bookkeeping -------------------------------------------------------------------------
 HOVER, TRANSITION, CRUISE = "hover", "transition", "cruise"
@@ -134,25 +136,6 @@ def _plant_port(handles, name):
         if sys is not None and sys.HasInputPort(name):
             return sys.GetInputPort(name)
     raise KeyError(f"tilt-rotor plant handles expose no input port {name!r}")
-
-
-def mission_reference(scenario):
-    """TrajectoryReference of [x y z ψ] for scenario 1 (Table 7.1) or 2 (envelope mission)."""
-    from sobolev_drake.systems import reference_catalogue as refs
-    from sobolev_drake.systems.references import Coordinate, PiecewiseTrajectory, TrajectoryReference
-
-    base = refs.table_7_1() if scenario == 1 else refs.envelope_mission()
-    traj = base.trajectory
-    names = ["x", "y", "z", "psi"]
-    if all(n in traj.names for n in names):
-        return TrajectoryReference(traj.subset(names))
-    if scenario == 1 and all(n in traj.names for n in names[:3]):  # ψ_r = 0 in scenario 1
-        zero = Coordinate(lambda t: (0.0 * np.asarray(t),) * 3, "0")
-        sub = traj.subset(names[:3])
-        pieces = [list(p) + [zero] for p in sub.pieces]
-        return TrajectoryReference(PiecewiseTrajectory(names, pieces, sub.breakpoints,
-                                                       sub.description))
-    raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")
 
 
 def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None):
@@ -306,15 +289,6 @@ def plot_mission(data, out_dir, stem):
                            ("‖u*−Bτ̄‖", [(data["allocation_residual"][0], "C3", "residual")])],
                           "tracking error and allocation residual", "errors")
     return out
-
-
-def draw_paths(meshcat, traj_ref, duration, flown):
-    """Draw the mission's reference path (black) and the flown path (blue) in Meshcat."""
-    from sobolev_drake.viz import draw_path
-    ts = np.linspace(0.0, duration, max(int(duration * 5), 50))
-    pts = np.array([traj_ref.evaluate(t)[0][:3] for t in ts])
-    draw_path(meshcat, "reference", pts, rgba=(0.05, 0.05, 0.05, 1.0))
-    draw_path(meshcat, "flown", np.asarray(flown).T, rgba=(0.1, 0.4, 1.0, 1.0))
 
 
 def score(data, scenario, duration):

@@ -11,12 +11,13 @@ from __future__ import annotations
 import numpy as np
 
 from sobolev_drake.systems.references import (
-    PiecewiseTrajectory, TrajectoryReference, const, poly, sine,
+    Coordinate, PiecewiseTrajectory, TrajectoryReference, const, poly, sine,
 )
 
 __all__ = [
     "TRAJECTORIES", "trajectory", "table_5_2", "table_5_5", "table_5_8", "table_6_3", "table_7_1",
     "envelope_mission",
+    "tiltrotor_mission_reference",
 ]
 
 PI = np.pi
@@ -241,3 +242,29 @@ def envelope_mission() -> TrajectoryReference:
 for _f, _src in ((table_5_2, _t52), (table_5_5, _t55), (table_5_8, _t58), (table_6_3, _t63),
                  (table_7_1, _t71), (envelope_mission, _envelope)):
     _f.__doc__ = _src.__doc__
+
+
+def tiltrotor_mission_reference(scenario):
+    """TrajectoryReference of [x y z ψ] for the tilt-rotor missions.
+
+    Parameters
+    ----------
+    scenario : {1, 2}
+        1: Table 7.1 (ψ_r = 0 added when the table has no ψ); 2: the envelope mission.
+
+    Returns
+    -------
+    TrajectoryReference
+    """
+    base = table_7_1() if scenario == 1 else envelope_mission()
+    traj = base.trajectory
+    names = ["x", "y", "z", "psi"]
+    if all(n in traj.names for n in names):
+        return TrajectoryReference(traj.subset(names))
+    if scenario == 1 and all(n in traj.names for n in names[:3]):  # ψ_r = 0 in scenario 1
+        zero = Coordinate(lambda t: (0.0 * np.asarray(t),) * 3, "0")
+        sub = traj.subset(names[:3])
+        pieces = [list(p) + [zero] for p in sub.pieces]
+        return TrajectoryReference(PiecewiseTrajectory(names, pieces, sub.breakpoints,
+                                                       sub.description))
+    raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")

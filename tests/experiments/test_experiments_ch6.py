@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from sobolev_drake.experiments import balance_linear as bl
+from sobolev_drake.tuning import match_parameter
 from sobolev_drake.experiments import balance_linear_table as blt
 from sobolev_drake.experiments import quadrotor_polytopic as qp
 
@@ -70,18 +71,18 @@ def test_quadrotor_vertices_are_the_thesis_box():
 
 # ----------------------------------------------------------------------------- helpers
 def test_match_parameter_monotone_and_largest_bracket():
-    p, v, hist = bl.match_parameter(np.log10, 0.5, [0.1, 1.0, 10.0], iters=30, rtol=1e-6)
+    p, v, hist = match_parameter(np.log10, 0.5, [0.1, 1.0, 10.0], iters=30, rtol=1e-6)
     assert p == pytest.approx(10 ** 0.5, rel=1e-4)
     # non-monotone: f crosses 0.5 near p = 0.3 and near p = 30; the largest p is refined
     f = lambda q: (np.log10(q) - 0.5) ** 2 * 0.5  # noqa: E731  zero at √10, 0.5 at 10^(0.5±1)
-    p, v, _ = bl.match_parameter(f, 0.5, np.logspace(-2, 3, 6), iters=40, rtol=1e-8)
+    p, v, _ = match_parameter(f, 0.5, np.logspace(-2, 3, 6), iters=40, rtol=1e-8)
     assert p == pytest.approx(10 ** 1.5, rel=1e-4)
     # failures (nan) are skipped; without a bracket (and no refinement) the closest grid point
     g = lambda q: float("nan") if q > 5 else q  # noqa: E731
-    p, v, _ = bl.match_parameter(g, 100.0, [1.0, 2.0, 10.0])
+    p, v, _ = match_parameter(g, 100.0, [1.0, 2.0, 10.0])
     assert p == 2.0
     with pytest.raises(ValueError, match="grid"):
-        bl.match_parameter(np.log10, 0.0, [1.0])
+        match_parameter(np.log10, 0.0, [1.0])
 
 
 def test_match_parameter_finds_dip_between_grid_points():
@@ -89,9 +90,9 @@ def test_match_parameter_finds_dip_between_grid_points():
     target; refinement halves the intervals around the closest point and finds the crossing
     on the large-p side of the dip."""
     f = lambda q: abs(np.log10(q) - 0.5) + 0.1  # noqa: E731  minimum 0.1 at p = 10^0.5
-    p, v, _ = bl.match_parameter(f, 0.15, [1.0, 10.0, 100.0])
+    p, v, _ = match_parameter(f, 0.15, [1.0, 10.0, 100.0])
     assert p in (1.0, 10.0)  # no refinement: a grid point, target missed
-    p, v, hist = bl.match_parameter(f, 0.15, [1.0, 10.0, 100.0], refine=3, iters=40, rtol=1e-8)
+    p, v, hist = match_parameter(f, 0.15, [1.0, 10.0, 100.0], refine=3, iters=40, rtol=1e-8)
     assert p == pytest.approx(10 ** 0.55, rel=1e-5) and v == pytest.approx(0.15, abs=1e-6)
 
 

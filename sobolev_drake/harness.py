@@ -1,0 +1,89 @@
+"""Closed-loop harness pieces the experiments share: a logged diagram run many times, and a
+synthesis call that keeps its warnings."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.primitives import VectorLogSink
+
+from sobolev_drake import viz
+
+__all__ = ["LoggedLoop", "quiet"]
+
+
+def quiet(fn, *args, **kw):
+    """Call a synthesis, returning (result, sorted list of its warning texts).
+
+    The thesis designs are offline computations: no time budget unless the caller sets one
+    (``time_limit`` defaults to None here).
+
+    Parameters
+    ----------
+    fn : callable
+        A synthesis function.
+    *args, **kw
+        Its arguments.
+
+    Returns
+    -------
+    (result, list of str)
+    """
+    kw.setdefault("time_limit", None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = fn(*args, **kw)
+    return res, sorted({str(w.message) for w in caught})
+
+
+class LoggedLoop:
+    """A closed-loop diagram built once and run many times (a tuning search, several designs).
+
+    A subclass adds its plant handles ``self.h`` (with ``scene_graph``) and its systems to a
+    builder, then calls :meth:`build` with the ports to log; each run clears the logs
+    (:meth:`clear_logs`), simulates, and collects them trimmed to a common length
+    (:meth:`collect`).  Reusing one diagram matters: Python LeafSystems are never freed
+    (docs/design.md §8.6).
+    """
+
+    def build(self, b, ports, log_period, record):
+        """Log ``ports`` ((label, port) pairs; one labelled "x" gives the time base), add the
+        optional Meshcat recorder, build the diagram and its simulator.
+
+        Parameters
+        ----------
+        b : DiagramBuilder
+        ports : sequence of (str, OutputPort)
+        log_period : float
+            Sampling period of the logs (s).
+        record : bool
+            Add a Meshcat recorder (``self.meshcat``, ``self.recorder``).
+        """
+        self.sinks = {}
+        for label, port in ports:
+            s = b.AddSystem(VectorLogSink(port.size(), log_period))
+            b.Connect(port, s.get_input_port())
+            self.sinks[label] = s
+        self.meshcat = self.recorder = None
+        if record:
+            self.meshcat = viz.start_meshcat()
+            self.recorder = viz.add_meshcat_recorder(b, self.h.scene_graph, self.meshcat)
+        self.diagram = b.Build()
+        self.sim = Simulator(self.diagram)
+        self.context = self.sim.get_mutable_context()
+
+    def clear_logs(self, ctx):
+        """Empty every log in the root context ``ctx`` before a new run."""
+        for s in self.sinks.values():
+            s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
+
+    def collect(self, ctx, t0):
+        """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length."""
+        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
+        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
+        n = min(v.shape[-1] for v in data.values())
+        data = {k: v[..., :n] for k, v in data.items()}
+        data["wall_s"] = time.perf_counter() - t0
+        return data
