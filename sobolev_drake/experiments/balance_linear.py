@@ -42,11 +42,9 @@ empirical gain ‖x‖_L2/‖w‖_L2 over the whole run (Table 6.2's "H∞" row)
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import norms
 from sobolev_drake.harness import LoggedLoop, quiet

@@ -27,7 +27,6 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
 from sobolev_drake.native import kernel
-from sobolev_drake.systems.bounded_ls import box_qp_active_set, bvls_with_regularization  # noqa: F401  (tests)
 from sobolev_drake.systems.bounded_ls import check_problem, bounded_least_squares
 from sobolev_drake.validation import bounds_pair, one_of, real_scalar
 

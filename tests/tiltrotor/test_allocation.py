@@ -6,6 +6,7 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
+from sobolev_drake.systems import bounded_ls as bls
 from sobolev_drake.tiltrotor import allocation as al
 from sobolev_drake.tiltrotor.allocation import (
     ControlAllocator, UnreachableThrustError, bounded_least_squares, propeller_speed_for_thrust,
@@ -52,9 +53,9 @@ def test_methods_and_fallbacks_agree():
         assert np.max(np.abs(bounded_least_squares(B, u, lo, hi, method="osqp") - ref)) < 1e-6
         # primal active-set method on the unscaled problem
         H, g = B.T @ B, B.T @ u
-        s, *_ = al.box_qp_active_set(H, g, lo, hi, max_iter=100)
+        s, *_ = bls.box_qp_active_set(H, g, lo, hi, max_iter=100)
         assert np.max(np.abs(s - ref)) < 1e-6
-        assert np.max(np.abs(al.bvls_with_regularization(B, u, lo, hi, 0.0) - ref)) < 1e-6
+        assert np.max(np.abs(bls.bvls_with_regularization(B, u, lo, hi, 0.0) - ref)) < 1e-6
 
 
 def test_unconstrained_solution_when_no_bound_is_active():

@@ -1,0 +1,628 @@
+"""The mechanical W2/W∞ and classic H∞ control laws as pure maths (no LeafSystem).
+
+:class:`MechanicalLaw` computes, from the plant model, a :class:`Partition` of the DOF and an
+inner law (:class:`SobolevLaw` or :class:`HinfLaw`), the desired accelerations, the
+generalized input u* and the actuator command; see :mod:`.mechanical_controller` for the
+equations and the LeafSystem that wraps it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.native.rnea import cached_tree_kernel
+from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
+from sobolev_drake.systems.bounded_ls import bounded_least_squares
+from sobolev_drake.systems.partition import Partition, check_actuation
+from sobolev_drake.validation import bounds_pair, real_matrix
+
+__all__ = ["SobolevLaw", "HinfLaw", "MechanicalLaw"]
+
+
+@dataclass
+class SobolevLaw:
+    """W2/W∞ inner law: gains per group (identical for W2 and W∞, Remarks 30/36).
+
+    Parameters
+    ----------
+    controlled : SobolevGains
+        Gains of the controlled DOF, from ``controlled_gains`` (required).
+    regulated : SobolevGains, optional
+        Gains of the regulated DOF, from ``regulated_gains``.
+    stabilized : SobolevGains, optional
+        Gains of the stabilized DOF, from ``stabilized_gains``.
+
+    Notes
+    -----
+    Each group's gains must come from the matching ``*_gains`` function (``TypeError`` /
+    ``ValueError`` otherwise); their sizes are checked against the partition by
+    :class:`MechanicalLaw`.
+    """
+
+    controlled: SobolevGains
+    regulated: SobolevGains | None = None
+    stabilized: SobolevGains | None = None
+
+    def __post_init__(self):
+        if self.controlled is None:
+            raise TypeError("SobolevLaw.controlled is required: SobolevGains from controlled_gains(...)")
+        for name, grp in (("controlled", self.controlled), ("regulated", self.regulated),
+                          ("stabilized", self.stabilized)):
+            if grp is not None and not isinstance(grp, SobolevGains):
+                raise TypeError(f"SobolevLaw.{name} must be SobolevGains ({name}_gains(...)), "
+                                f"got {type(grp).__name__}")
+            if grp is not None and grp.group != name:
+                raise ValueError(f"SobolevLaw.{name} must be {name} gains, got {grp.group!r}")
+
+    @property
+    def name(self) -> str:
+        """Display name of the law, ``"W2/W∞"``."""
+        return "W2/W∞"
+
+
+@dataclass
+class HinfLaw:
+    """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action).
+
+    Parameters
+    ----------
+    gains : HinfMechanicalGains
+        From :func:`~sobolev_drake.synthesis.mechanical.hinf_mechanical_gains`.
+    """
+
+    gains: HinfMechanicalGains
+
+    def __post_init__(self):
+        if not isinstance(self.gains, HinfMechanicalGains):
+            raise TypeError("HinfLaw.gains must be HinfMechanicalGains (hinf_mechanical_gains(...)), "
+                            f"got {type(self.gains).__name__}")
+
+    @property
+    def name(self) -> str:
+        """Display name of the law, ``"H∞"``."""
+        return "H∞"
+
+
+class MechanicalLaw:
+    """Pure control law (see module docstring).
+
+    Parameters
+    ----------
+    model : MechanicalModel
+        Model used by the controller (M, C q̇, g, C(q,q̇)v, B, friction).
+    partition : Partition
+        DOF groups; must cover the model's n DOF.
+    law : SobolevLaw or HinfLaw
+        The inner law (the H∞ law has no regulated-DOF form).
+    allocation : callable, optional
+        ``allocation(u_star, q, qdot) -> tau``; None uses B⁻¹ (square B), B̄⁻¹ (reduced model)
+        or B† (input coupling).
+    lower, upper : array_like, optional
+        Actuator bounds (size n_τ) enforced by bounded least squares when no ``allocation``
+        callable is given.
+    operating_points : array_like, optional
+        Configurations q (rows, thesis order) along the expected operating range at which the
+        partition's actuation assumptions are checked (:func:`~sobolev_drake.systems.partition.
+        check_actuation`; Assumptions 5–7); default q = 0.  A partition the inputs cannot
+        serve there raises ``ValueError``.  Skipped with an ``allocation`` callable, which
+        then owns the mapping from u* to the inputs.
+    """
+
+    def __init__(self, model, partition: Partition, law, *, allocation: Callable | None = None,
+                 lower=None, upper=None, operating_points=None):
+        if not all(hasattr(model, k) for k in ("n", "M", "Cqdot", "g")):
+            raise TypeError("model must be a MechanicalModel (M(q), C(q,q̇)q̇, g(q) of a plant), "
+                            f"got {type(model).__name__}")
+        if not isinstance(partition, Partition):
+            raise TypeError(f"partition must be a Partition, got {type(partition).__name__}")
+        partition.check(model.n)
+        if not isinstance(law, (SobolevLaw, HinfLaw)):
+            raise TypeError(f"law must be a SobolevLaw or an HinfLaw, got {type(law).__name__}")
+        if allocation is not None and not callable(allocation):
+            raise TypeError("allocation must be None or a callable(u_star, q, qdot) -> tau, "
+                            f"got {allocation!r}")
+        self.model, self.partition, self.law = model, partition, law
+        self.n = model.n
+        self.allocation = allocation
+        cls = type(model)
+        self._fast = all(getattr(cls, k) is getattr(MechanicalModel, k) for k in ("M", "Cqdot", "g"))
+        self._perm = self._permutation(getattr(model, "T", None)) if self._fast else None
+        self._cache = {}
+        p = partition
+        self.ic = np.array(p.controlled, dtype=int)
+        self.ir = np.array(p.regulated, dtype=int)
+        self.is_ = np.array(p.stabilized, dtype=int)
+        self.iu = np.array(p.uncontrolled, dtype=int)
+        self.nc, self.nr, self.ns = len(self.ic), len(self.ir), len(self.is_)
+        self.n_ref = self.nc + self.nr
+        self._tracked = np.array(p.tracked, dtype=int)
+        if isinstance(law, HinfLaw) and self.nr:
+            raise ValueError("the classic H∞ law (Chen, Lee & Feng) has no regulated-DOF form: "
+                             "use controlled or stabilized DOF, or the SobolevLaw")
+        if isinstance(law, SobolevLaw):
+            self._check_group("controlled", law.controlled, self.nc)
+            self._check_group("regulated", law.regulated, self.nr)
+            self._check_group("stabilized", law.stabilized, self.ns)
+        q0 = np.zeros(self.n)
+        try:
+            self.num_inputs = int(np.asarray(model.B(q0)).shape[1])
+        except NotImplementedError:
+            if allocation is None:
+                raise ValueError("model has no B(q): give an allocation callable") from None
+            self.num_inputs = int(getattr(model, "num_inputs", self.n))
+        points = (np.zeros((1, self.n)) if operating_points is None else
+                  real_matrix("operating_points", np.atleast_2d(operating_points), (None, self.n)))
+        self.operating_points = points
+        if allocation is None:
+            check_actuation(model, p, self._B, points)
+        if p.mode == "reduced" and self.num_inputs != self.nc:
+            raise ValueError(f"reduced model needs as many inputs as controlled DOF (Assumption 5):"
+                             f" {self.num_inputs} inputs, {self.nc} controlled DOF")
+        self.lower = None if lower is None else check_vector("lower", lower, self.num_inputs)
+        self.upper = None if upper is None else check_vector("upper", upper, self.num_inputs)
+        if self.lower is not None and self.upper is not None:
+            bounds_pair("lower", self.lower, "upper", self.upper, self.num_inputs)
+
+    @staticmethod
+    def _check_group(name, gains, size):
+        if size and gains is None:
+            raise ValueError(f"partition has {size} {name} DOF but the law has no {name} gains")
+        if gains is not None and gains.n != size:
+            raise ValueError(f"{name} gains are for {gains.n} DOF, partition has {size}")
+
+    # --- errors ----------------------------------------------------------------------------
+    def split_reference(self, reference):
+        """Split the stacked reference of the tracked DOF.
+
+        Parameters
+        ----------
+        reference : array_like, shape (3 n_ref,)
+            [q_r; q̇_r; q̈_r] of ``partition.tracked`` (controlled then regulated DOF).
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : ndarray, shape (n_ref,)
+        """
+        r = check_vector("reference", reference, 3 * self.n_ref)
+        return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
+
+    def integral_derivative(self, q, reference) -> np.ndarray:
+        """d/dt ∫q̃c = q_c − q_cr.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Generalized coordinates, thesis order.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        ndarray, shape (n_c,)
+            Position error of the controlled DOF.
+        """
+        qr, _, _ = self.split_reference(reference)
+        return np.asarray(q, dtype=float)[self.ic] - qr[:self.nc]
+
+    def _errors(self, q, qdot, reference):
+        qr, qdr, qddr = self.split_reference(reference)
+        tr = self._tracked
+        return q[tr] - qr, qdot[tr] - qdr, qddr
+
+    def _h(self, q, qdot):
+        return self._dynamics(q, qdot)[1]
+
+    def _dynamics(self, q, qdot):
+        """(M(q), h = C q̇ + g + friction): one context update when the model uses the base
+        class' Drake evaluations (the common case), else the model's own methods.  The last
+        result is cached (the LeafSystem asks for u and u* at the same state); callers must not
+        mutate the returned arrays."""
+        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
+        if self._cache.get("dyn_key") == key:
+            return self._cache["dyn"]
+        out = self._dynamics_eval(q, qdot)
+        self._cache["dyn_key"], self._cache["dyn"] = key, out
+        return out
+
+    def inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
+        """M(q) acc + C(q, q̇) q̇ + g(q) (+ friction): the generalized force for a desired
+        acceleration (full-state form of (5.26)); M, h cached per (q, q̇).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        acc : array_like, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order.
+        """
+        M, h = self._dynamics(q, qdot)
+        return M @ acc + h
+
+    def recursive_inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
+        """:meth:`inverse_dynamics` by a recursive Newton–Euler pass (gravity through the
+        plant's force elements, no mass matrix): equal to rounding, much cheaper when only the
+        force is needed once per state (the tilt-rotor law's u* per sample).  Models without the
+        permutation fast path (own M, C q̇, g) use :meth:`inverse_dynamics`.  A per-sample path:
+        the caller validates q, q̇ and ``acc`` (the laws do, once per sample).
+
+        The pass is the compiled kernel ``native/rnea.c`` (≈ 3 µs a call hot, 5–8 µs in the
+        mission loop) when it is built and switched on and covers the plant (see
+        ``sobolev_drake.native.rnea``), else Drake's CalcInverseDynamics
+        (:meth:`recursive_inverse_dynamics_python`: ≈ 12 µs hot, 30–45 µs in the loop, still
+        ≈ 3× cheaper than the mass-matrix path).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (n,)
+            Generalized coordinates and velocities, thesis order (validated by the caller).
+        acc : ndarray, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order (friction included).
+        """
+        if self._perm is None:
+            return self.inverse_dynamics(q, qdot, acc)
+        compiled = cached_tree_kernel(self._cache, self.model, self._perm[0][:self.n])
+        if compiled is None:
+            return self.recursive_inverse_dynamics_python(q, qdot, acc)
+        tau = np.array(compiled[0].inverse_dynamics(compiled[1], q, qdot, acc))   # thesis order
+        return tau if self.model.frictionless else tau + self.model.friction(qdot)
+
+    def recursive_inverse_dynamics_python(self, q, qdot, acc) -> np.ndarray:
+        """:meth:`recursive_inverse_dynamics` by Drake (the compiled kernel's reference).
+
+        Requires a permutation coordinate map (``ValueError`` otherwise).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        acc : array_like, shape (n,)
+            Desired acceleration q̈.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized force, thesis order (friction included).
+        """
+        if self._perm is None:
+            raise ValueError("recursive_inverse_dynamics_python needs a permutation coordinate map")
+        m = self.model
+        plant, ctx = m.plant, m.context
+        to_drake, to_thesis, _ = self._perm
+        plant.SetPositionsAndVelocities(ctx, np.concatenate([q, qdot])[to_drake])
+        forces = self._cache.get("mbf")
+        if forces is None:
+            from pydrake.multibody.tree import MultibodyForces
+            forces = self._cache["mbf"] = MultibodyForces(plant)
+        plant.CalcForceElementsContribution(ctx, forces)     # gravity (and any force elements)
+        tau = plant.CalcInverseDynamics(ctx, np.asarray(acc, float)[to_drake[:self.n]], forces)
+        return tau[to_thesis] if m.frictionless else tau[to_thesis] + m.friction(qdot)
+
+    def _B(self, q):
+        key = np.asarray(q, float).tobytes()
+        if self._cache.get("B_key") != key:
+            self._cache["B_key"], self._cache["B"] = key, np.asarray(self.model.B(q), dtype=float)
+        return self._cache["B"]
+
+    @staticmethod
+    def _permutation(T):
+        """(index of [q; q̇] in Drake order, index of thesis order into Drake vectors, np.ix_
+        of the thesis-order mass matrix) when ``T`` (q_drake = T q_thesis) is a permutation
+        matrix with q̇ = v, else None."""
+        if T is None:
+            return None
+        T = np.asarray(T, dtype=float)
+        n = T.shape[0]
+        if (T.ndim != 2 or T.shape != (n, n) or not np.all((T == 0.0) | (T == 1.0))
+                or not np.all(T.sum(axis=0) == 1.0) or not np.all(T.sum(axis=1) == 1.0)):
+            return None
+        to_thesis = np.argmax(T, axis=0)          # q_thesis[j] = q_drake[to_thesis[j]]
+        to_drake = np.argsort(to_thesis)          # q_drake[i] = q_thesis[to_drake[i]]
+        return (np.concatenate([to_drake, to_drake + n]), to_thesis, np.ix_(to_thesis, to_thesis))
+
+    def _dynamics_eval(self, q, qdot):
+        m = self.model
+        if self._perm is not None:
+            # T is a permutation: index arrays give bit-identical results to the products
+            # below at a fraction of the per-sample cost (one state write, no 8×8 matmuls)
+            plant, ctx = m.plant, m.context
+            to_drake, to_thesis, ix = self._perm
+            plant.SetPositionsAndVelocities(ctx, np.concatenate([q, qdot])[to_drake])
+            M = plant.CalcMassMatrix(ctx)[ix]
+            h = (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))[to_thesis]
+        elif self._fast:
+            plant, ctx, T = m.plant, m.context, m.T
+            plant.SetPositions(ctx, T @ q)
+            plant.SetVelocities(ctx, T @ qdot)
+            M = T.T @ plant.CalcMassMatrix(ctx) @ T
+            h = T.T @ (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))
+        else:
+            M, h = m.M(q), m.Cqdot(q, qdot) + m.g(q)
+        return M, h + m.friction(qdot)
+
+    def _parse(self, q, qdot, e_int):
+        return check_vector("q", q, self.n), check_vector("qdot", qdot, self.n), check_vector("e_int", e_int, self.nc)
+
+    # --- W laws ------------------------------------------------------------------------------
+    def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
+        """q̈_des (thesis order, size n; uncontrolled entries are NaN) of the Sobolev law.
+
+        ``TypeError`` for the H∞ law.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        e_int : array_like, shape (n_c,)
+            Error integral ∫q̃c of the controlled DOF.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            q̈_r − K[ė; e; ∫e] on the controlled DOF, q̈_r − K[ė; e] on the regulated DOF,
+            −K q̇s on the stabilized DOF, NaN on the uncontrolled DOF.
+        """
+        if not isinstance(self.law, SobolevLaw):
+            raise TypeError("desired_acceleration is defined for the Sobolev law only")
+        q, qdot, e_int = self._parse(q, qdot, e_int)
+        return self._desired_acceleration_core(q, qdot, e_int, reference)
+
+    def _desired_acceleration_core(self, q, qdot, e_int, reference) -> np.ndarray:
+        """:meth:`desired_acceleration` without the checks of q, q̇ and ∫e (float vectors of
+        the right size, already validated by the caller, e.g. the tilt-rotor law per sample)."""
+        e, ed, qddr = self._errors(q, qdot, reference)
+        acc = np.full(self.n, np.nan)
+        nc = self.nc
+        acc[self.ic] = qddr[:nc] - self.law.controlled.K @ np.concatenate([ed[:nc], e[:nc], e_int])
+        if self.nr:
+            acc[self.ir] = qddr[nc:] - self.law.regulated.K @ np.concatenate([ed[nc:], e[nc:]])
+        if self.ns:
+            acc[self.is_] = -self.law.stabilized.K @ qdot[self.is_]
+        return acc
+
+    def desired_acceleration_scalar(self, q, qdot, e_int, reference) -> list:
+        """:meth:`desired_acceleration` of the Sobolev law on lists of Python floats (q, q̇: n,
+        ∫e: n_c, reference: 3 n_ref; validated by the caller), returned as a list: for a handful
+        of DOF the products in floats cost a fraction of the numpy calls (per-sample path of
+        the tilt-rotor law).  Equal to :meth:`desired_acceleration` to rounding (tested).
+
+        Parameters
+        ----------
+        q, qdot : list of float, length n
+            Generalized coordinates and velocities, thesis order.
+        e_int : list of float, length n_c
+            Error integral of the controlled DOF.
+        reference : list of float, length 3 n_ref
+            Stacked reference (see :meth:`split_reference`).
+
+        Returns
+        -------
+        list of float, length n
+            q̈_des (NaN on the uncontrolled DOF).
+        """
+        rows = self._cache.get("K_rows")
+        if rows is None:
+            lw = self.law
+            rows = self._cache["K_rows"] = tuple(
+                None if g is None else g.K.tolist()
+                for g in (lw.controlled, lw.regulated, lw.stabilized))
+        Kc, Kr, Ks = rows
+        nr, nc = self.n_ref, self.nc
+        tr = self.partition.tracked
+        e = [q[i] - reference[k] for k, i in enumerate(tr)]
+        ed = [qdot[i] - reference[nr + k] for k, i in enumerate(tr)]
+        qddr = reference[2 * nr:]
+        acc = [math.nan] * self.n
+        z = ed[:nc] + e[:nc] + list(e_int)
+        for k, i in enumerate(self.partition.controlled):
+            acc[i] = qddr[k] - sum([a * b for a, b in zip(Kc[k], z)])
+        if self.nr:
+            z = ed[nc:] + e[nc:]
+            for k, i in enumerate(self.partition.regulated):
+                acc[i] = qddr[nc + k] - sum([a * b for a, b in zip(Kr[k], z)])
+        if self.ns:
+            z = [qdot[i] for i in self.partition.stabilized]
+            for k, i in enumerate(self.partition.stabilized):
+                acc[i] = -sum([a * b for a, b in zip(Ks[k], z)])
+        return acc
+
+    def reduced_model(self, q, qdot):
+        """(M̄, B̄, h̄, Mcu Muu⁻¹) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u.
+
+        Cached per (q, q̇); callers must not mutate the returned arrays.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+
+        Returns
+        -------
+        Mbar : ndarray, shape (n_c, n_c)
+            M_cc − Mcu Muu⁻¹ M_uc.
+        Bbar : ndarray, shape (n_c, n_τ)
+            B_c − Mcu Muu⁻¹ B_u.
+        hbar : ndarray, shape (n_c,)
+            h_c − Mcu Muu⁻¹ h_u.
+        X : ndarray, shape (n_c, n_u)
+            Mcu Muu⁻¹.
+        """
+        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
+        if self._cache.get("red_key") == key:
+            return self._cache["red"]
+        M, h = self._dynamics(q, qdot)
+        ic, iu = self.ic, self.iu
+        Mcu = M[ic][:, iu]
+        X = Mcu @ np.linalg.inv(M[iu][:, iu])           # Mcu Muu⁻¹
+        Mbar = M[ic][:, ic] - X @ M[iu][:, ic]
+        B = self._B(q)
+        out = (Mbar, B[ic] - X @ B[iu], h[ic] - X @ h[iu], X)
+        self._cache["red_key"], self._cache["red"] = key, out
+        return out
+
+    # --- H∞ law ------------------------------------------------------------------------------
+    def _hinf_terms(self, q, qdot, e_int, reference):
+        """(a, σ, σ-index set) with a = q̈_r − T11⁻¹(T12 q̃̇ + T13 q̃) (0 on stabilized DOF)."""
+        g: HinfMechanicalGains = self.law.gains
+        e, ed, qddr = self._errors(q, qdot, reference)
+        nc = self.nc
+        if self.nr:
+            raise ValueError("the classic H∞ baseline has no regulated-DOF form")
+        idx = np.concatenate([self.is_, self.ic]).astype(int)
+        sigma = np.concatenate([g.T11 * qdot[self.is_], g.sigma(ed[:nc], e[:nc], e_int)])
+        a = np.concatenate([np.zeros(self.ns), qddr[:nc] - (g.T12 * ed[:nc] + g.T13 * e[:nc]) / g.T11])
+        return idx, sigma, a
+
+    # --- generalized input and actuation -----------------------------------------------------
+    def generalized_input(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+        """u* (generalized force, size n; reduced mode: B̄τ, size n_c), minus ``extra``.
+
+        Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81); reduced model:
+        M̄ q̈c_des + h̄.
+        H∞: M a + h − C(q,q̇)T11⁻¹σ − T11⁻¹R⁻¹σ (docs/design.md §4.3, same inverse dynamics).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+        e_int : array_like, shape (n_c,)
+            Error integral ∫q̃c of the controlled DOF.
+        reference : array_like, shape (3 n_ref,)
+            Stacked reference (see :meth:`split_reference`).
+        extra : array_like, optional
+            Force subtracted from u* (same size), e.g. ϑ_passive(q, q̇, ζ) of the tilt-rotor
+            law (7.81).
+
+        Returns
+        -------
+        ndarray, shape (n,) or (n_c,)
+            u* (size n_c in the reduced mode).
+        """
+        q, qdot, e_int = self._parse(q, qdot, e_int)
+        if isinstance(self.law, SobolevLaw):
+            acc = self.desired_acceleration(q, qdot, e_int, reference)
+            if self.partition.mode == "reduced":
+                Mbar, _, hbar, _ = self.reduced_model(q, qdot)
+                out = Mbar @ acc[self.ic] + hbar
+            else:
+                out = self.inverse_dynamics(q, qdot, acc)
+        else:
+            out = self._hinf_force(q, qdot, e_int, reference)
+        if extra is not None:
+            out = out - check_vector("extra", extra, out.shape[0])
+        return out
+
+    def _hinf_force(self, q, qdot, e_int, reference):
+        g: HinfMechanicalGains = self.law.gains
+        idx, sigma, a = self._hinf_terms(q, qdot, e_int, reference)
+        w = np.zeros(self.n)
+        w[idx] = sigma / g.T11                      # q̇ − v = T11⁻¹σ
+        Cw = self.model.C_times(q, qdot, w)
+        M, h = self._dynamics(q, qdot)
+        acc = np.zeros(self.n)
+        acc[idx] = a
+        extra = np.zeros(self.n)
+        extra[idx] = -g.R_inv * sigma / g.T11       # T11⁻¹ u, u = −R⁻¹σ
+        if self.partition.mode == "reduced":
+            ic, iu = self.ic, self.iu
+            # only the controlled DOF carry σ; reduce M a + h − C w like (5.5)
+            Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
+            X = np.linalg.solve(Muu, np.eye(len(iu)))
+            Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
+            red = Mbar @ acc[ic] + (h - Cw)[ic] - Mcu @ X @ (h - Cw)[iu]
+            return red + extra[ic]
+        return M @ acc + h - Cw + extra
+
+    def allocate(self, u_star, q, qdot) -> np.ndarray:
+        """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds).
+
+        With ``lower``/``upper`` the least-squares solution is returned when it is within
+        the bounds, else the bounded least-squares one.
+
+        Parameters
+        ----------
+        u_star : array_like
+            Generalized input from :meth:`generalized_input`.
+        q, qdot : array_like, shape (n,)
+            Generalized coordinates and velocities, thesis order.
+
+        Returns
+        -------
+        ndarray, shape (n_τ,)
+            Actuator command τ.
+        """
+        if self.allocation is not None:
+            return np.asarray(self.allocation(u_star, q, qdot), dtype=float)
+        if self.partition.mode == "reduced":
+            _, Bmat, _, _ = self.reduced_model(q, qdot)
+        else:
+            Bmat = self._B(q)
+        if self.lower is not None or self.upper is not None:
+            lo = -np.inf * np.ones(self.num_inputs) if self.lower is None else self.lower
+            hi = np.inf * np.ones(self.num_inputs) if self.upper is None else self.upper
+            tau = np.linalg.lstsq(Bmat, u_star, rcond=None)[0]
+            if np.all(tau >= lo) and np.all(tau <= hi):  # unconstrained optimum is feasible
+                return tau
+            if np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
+                # our active-set solver (pure numpy, faster than BVLS on these sizes)
+                return bounded_least_squares(Bmat, u_star, lo, hi)
+            return lsq_linear(Bmat, u_star, bounds=(lo, hi), method="bvls").x
+        if Bmat.shape[0] == Bmat.shape[1]:
+            return np.linalg.solve(Bmat, u_star)
+        return np.linalg.pinv(Bmat) @ u_star
+
+    def actuation(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+        """Applied actuator command τ: :meth:`allocate` of :meth:`generalized_input`.
+
+        Parameters
+        ----------
+        q, qdot, e_int, reference, extra
+            As in :meth:`generalized_input`.
+
+        Returns
+        -------
+        ndarray, shape (n_τ,)
+            Actuator command τ.
+        """
+        u_star = self.generalized_input(q, qdot, e_int, reference, extra)
+        return self.allocate(u_star, np.asarray(q, float), np.asarray(qdot, float))
+
+    def closed_loop_matrix(self) -> np.ndarray:
+        """Linear closed loop of the Sobolev law (5.27)/(5.86): blkdiag of the group chains.
+
+        ``TypeError`` for the H∞ law.
+
+        Returns
+        -------
+        ndarray
+            Block diagonal of the stabilized, regulated and controlled chains' closed-loop
+            matrices (in that order, absent groups left out).
+        """
+        if not isinstance(self.law, SobolevLaw):
+            raise TypeError("closed_loop_matrix is defined for the Sobolev law")
+        mats = [g.closed_loop for g in (self.law.stabilized, self.law.regulated, self.law.controlled)
+                if g is not None]
+        n = sum(m.shape[0] for m in mats)
+        out = np.zeros((n, n))
+        i = 0
+        for m in mats:
+            out[i:i + m.shape[0], i:i + m.shape[0]] = m
+            i += m.shape[0]
+        return out
