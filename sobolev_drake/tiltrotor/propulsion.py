@@ -97,27 +97,6 @@ class PropellerCoefficients:
                        zip(self._pw, self.ct_coef, self.cq_coef) if a != 0.0 or b != 0.0]
         if self.ct_coef.shape != (len(self.basis),) or self.cq_coef.shape != (len(self.basis),):
             raise ValueError("Ct/Cq coefficient vectors must match the basis length")
-        self.ct_cq_scalar = self._compile_ct_cq()
-
-    def _compile_ct_cq(self):
-        """Straight-line Python for :meth:`ct_cq_scalar` with the coefficients as literals: the
-        same products and left-to-right sums as the loop (bit-identical), without its per-term
-        tuple unpacking (the plant evaluates it twice per derivative)."""
-        pw = ("1.0", "{x}", "{x}2", "{x}3", "{x}4")
-        ct, cq = ["0.0"], ["0.0"]
-        for (i, j), a, b in self._terms:
-            f = f"({pw[i].format(x='J')} * {pw[j].format(x='P')})"
-            ct.append(f"{a!r} * {f}")
-            cq.append(f"{b!r} * {f}")
-        src = ("def ct_cq_scalar(J, phi):\n"
-               "    J2 = J * J\n    J3 = J2 * J\n    J4 = J3 * J\n"
-               "    P = phi\n    P2 = P * P\n    P3 = P2 * P\n    P4 = P3 * P\n"
-               f"    return ({' + '.join(ct)}, {' + '.join(cq)})\n")
-        ns: dict = {}
-        exec(compile(src, "<ct_cq_scalar>", "exec"), ns)   # noqa: S102 - our own literals
-        fn = ns["ct_cq_scalar"]
-        fn.__doc__ = PropellerCoefficients.ct_cq_scalar.__doc__
-        return fn
 
     # --- coefficients ------------------------------------------------------------------------
     def _features(self, J, phi):
