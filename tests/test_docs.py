@@ -175,3 +175,37 @@ def test_design_references_point_at_existing_headings():
                         bad.append(f"{path.relative_to(ROOT)}:{k}: §{m.group(1)}")
     assert refs >= 30                               # the package does point into the design
     assert not bad, "no such heading in docs/design.md:\n" + "\n".join(bad)
+
+
+EXPERIMENT_PAGE = re.compile(r"docs/experiments/([\w.-]+\.md)")
+EXPERIMENT_PAGES = ROOT / "docs" / "experiments"
+
+
+def test_experiment_page_references_point_at_existing_pages():
+    refs, bad = 0, []
+    for base in (PACKAGE, DESIGN) + tuple(ROOT / p for p in OTHER_SOURCES):
+        if not base.exists():
+            continue
+        for path in _text_files(base):
+            for k, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+                for m in EXPERIMENT_PAGE.finditer(line):
+                    refs += 1
+                    if not (EXPERIMENT_PAGES / m.group(1)).is_file():
+                        bad.append(f"{path.relative_to(ROOT)}:{k}: docs/experiments/{m.group(1)}")
+    assert refs >= 12                               # every experiment module points at its page
+    assert not bad, "no such page:\n" + "\n".join(bad)
+
+
+def test_every_registered_experiment_has_a_page():
+    # the @register("name", ...) decorators, read from the source (no Drake import)
+    names = set()
+    for path in sorted((PACKAGE / "experiments").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "register"
+                    and node.args and isinstance(node.args[0], ast.Constant)):
+                names.add(node.args[0].value)
+    assert len(names) >= 12
+    index = (EXPERIMENT_PAGES / "README.md").read_text(encoding="utf-8")
+    missing = sorted(n for n in names if not (EXPERIMENT_PAGES / f"{n}.md").is_file())
+    unlisted = sorted(n for n in names if f"({n}.md)" not in index)
+    assert not missing and not unlisted, f"no page: {missing}; not in the index: {unlisted}"

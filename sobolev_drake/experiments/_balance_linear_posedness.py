@@ -1,29 +1,14 @@
 """Well-posedness diagnostics of the ``balance-linear`` output-feedback designs (Table 6.2).
 
-Why this exists.  Both output-feedback problems of 6.5.2 (W∞-O.F. and the classic H∞-O.F.)
-measure y = [θ, ϕ̇] without noise (D21 = 0): they are *singular* H∞ problems.  Their LMI
-optimum γ* is an infimum approached only with the Lyapunov variable Y and the controller
-variables growing without bound (the disk region bounds the closed-loop poles, not the gains).
-The controller an SDP solver returns "at γ*" is therefore wherever that solver stopped: the
-old synthesis (γ² form, no scaling) stopped at γ = 3.16 with D_K = [60, −37] for W∞-O.F.,
-the current one at 3.043 with D_K = [257, −27] (same weights, same disk), and the own
-interior-point backend reaches 2.867.  The settling time of θ, used to tune the H∞ weight,
-inherits that solver dependence.
+Both output-feedback problems measure y = [θ, ϕ̇] without noise (D21 = 0): they are singular
+H∞ problems whose LMI optimum γ* is not attained, so the controller returned "at γ*" depends
+on where the solver stops.  :func:`gain_growth` shows the least-gain controller growing as
+γ → γ*; :func:`backend_spread` compares backends (raw optimum, regularized, fixed γ) on
+coordinate-free controller data and on the nonlinear settling time.  They are the evidence
+for designing both controllers at γ = (1+δ)γ* (``regularize=True, delta=OF_REG_DELTA``,
+docs/design.md §8.2) with γ* from one pinned backend (``OF_BACKEND``).
 
-Measurements (public synthesis API only):
-
-* :func:`gain_growth` — at γ = (1+δ)γ* the synthesis minimizes a bound on the controller
-  variables and on X, Y (``output_feedback(..., gamma=...)``).  For an attained optimum the
-  least bound converges as δ → 0; here ‖Y‖ and the controller peak gain keep growing
-  (H∞-O.F.: ‖Y‖ 3.9e3, 1.1e4, 3.2e4, 9.8e4 for δ = 0.2, 0.1, 0.05, 0.02).
-* :func:`backend_spread` — the same design by several backends: raw LMI optimum,
-  regularized at (1+δ) × that backend's own γ*, and least-gain at one fixed γ; coordinate-free
-  controller data (D_K, peak gain of K(jω)) and the nonlinear settling time.  At a fixed γ
-  every backend returns the same controller (D_K equal to 4 digits); the γ* anchors differ.
-
-The experiment therefore designs both O.F. controllers as least-gain controllers at
-γ = (1+δ)γ* (``regularize=True, delta=OF_REG_DELTA``, docs/design.md §8.2) with γ* from one pinned
-backend (``OF_BACKEND``); the raw LMI-optimum controllers are kept as diagnostic rows.
+See docs/experiments/balance-linear.md.
 """
 
 from __future__ import annotations

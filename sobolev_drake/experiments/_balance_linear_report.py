@@ -1,4 +1,7 @@
-"""Report pieces of ``balance-linear`` (Table 6.2): figures and the evaluated claims."""
+"""Report pieces of ``balance-linear`` (Table 6.2): figures and the evaluated claims.
+
+See docs/experiments/balance-linear.md.
+"""
 
 from __future__ import annotations
 

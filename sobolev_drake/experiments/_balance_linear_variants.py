@@ -9,6 +9,8 @@ as the main table (nonlinear plant, 2 % band) and both are flown through the ful
   (``regularize=False``): what a thesis-faithful "minimize γ" run returns.  Its numbers depend
   on where the solver stops (see :mod:`._balance_linear_posedness`), so they are indicative only.
 * ``S.F., H∞ Q = I`` — the state-feedback baseline with Q = I instead of Q = Γ0.
+
+See docs/experiments/balance-linear.md.
 """
 
 from __future__ import annotations

@@ -15,6 +15,8 @@ a named variable, and prints no weights):
   the same error dynamics;
 * the σ-gain 1/ωu² found by a 1-D search on log ωu (bracketing + regula falsi, :func:`tune`)
   so that the named index matches the W2/W∞ run; γ = 2ωu (the law does not depend on γ).
+
+See docs/experiments/README.md for the experiments that use it.
 """
 
 from __future__ import annotations

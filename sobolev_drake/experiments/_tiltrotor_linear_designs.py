@@ -7,6 +7,8 @@ design's own certificate, every controller is scored on one common channel, the 
 disturbance-model channel v → z of the augmented plant (von Kármán filter states in the plant,
 v the filters' white-noise input), so the state- and disturbance-model designs can be compared
 on the same number.
+
+See docs/experiments/tiltrotor-hover-linear.md.
 """
 
 from __future__ import annotations
@@ -106,12 +108,12 @@ def _solve(lin, kind, backend, x0=None):
     A, B, D = lin.A, lin.B, lin.D
     disk = regions.disk(DISK_RADIUS)
     notes = []
-    # Default backends (measured on these 20/28-state plants): "auto" (own IPM, kept only when
-    # its certificate and the BRL re-check pass, else the Clarabel chain) for the W-inf state/
-    # output feedback, 4-8x faster than Clarabel at an equal certified gamma.  The thesis'
-    # non-strict LMIs are degenerate: plain Clarabel without the fallback chain, whose CSDP
-    # step ran > 30 min on (6.36) without an answer.  The optimum of the well-posed
-    # disturbance-model designs is pinned to Clarabel below (dm_backend).
+    # Default backends: "auto" (own IPM, kept only when its certificate and the BRL re-check
+    # pass, else the Clarabel chain) for the W-inf state/output feedback, where it is faster
+    # than Clarabel at an equal certified gamma.  The thesis' non-strict LMIs are degenerate:
+    # plain Clarabel without the fallback chain, whose CSDP step does not return on (6.36).
+    # The optimum of the well-posed disturbance-model designs is pinned to Clarabel below
+    # (dm_backend).
     thesis_form = kind.startswith("dm_thesis")
     dm_backend = backend or "clarabel"
     if backend is None:
@@ -155,26 +157,13 @@ def _solve(lin, kind, backend, x0=None):
     notes.append("well-posed: filter states in the plant, unmeasured; γ bounds ‖T_vz‖∞")
     # The thesis adds the disk to its output-feedback designs against "undesired fast poles";
     # the well-posed W∞-D is an output-feedback synthesis too and without it has closed-loop
-    # poles near 6e4 rad/s (measured), which no explicit integrator can fly.
+    # poles no explicit integrator can fly.
     # Singular problem (filter states unmeasured, D21 rank deficient; flagged by the synthesis):
     # the v -> z optimum is approached with unbounded controller entries even inside the disk,
-    # so the controller depends on where the solver stops.  Measured: IPM ("auto") gamma
-    # 0.03491 gave a controller so stiff that 0.2 s of flight took 240 s of wall time;
-    # Clarabel's 0.03546 flies.  The least-gain re-solve (regularize=True) did not finish in
-    # 15 min on this 28-state problem, so the design is pinned to Clarabel and says so.
-    # No transient re-solve (unlike the W-inf and W-inf-O.F. designs).  Measured on the
-    # W-inf-O.F.D plant, all certified unless said: re-solves at 1.2-4 x gamma_opt minimizing
-    # the transient bound either failed (IPM stalled, Clarabel NumericalError, e.g. at 2 x in
-    # the last make reproduce) or gave controllers that fly or not by where the solver stopped:
-    # Clarabel's inexact solutions at 1.5 x and 2 x flew 60 s (0.84 m, 46 deg), the IPM's
-    # converged ones (transient_gain_weight 1e-4..1e-1 at 2 x; 1e-3 at 3 x, 4 x; delay margins
-    # 4.8-9 ms) lost the aircraft at 7.6-9.5 s, and a regular problem (measurement noise
-    # eps I, eps 1e-2 / 1e-3: Clarabel "Solved", delay margins 36 / 29 ms) at 1.9 / 4.2 s.
-    # For W-inf-D the converged re-solve at 2 x (delay margin 5.9 ms) was lost at 47 s while its
-    # optimum (2 ms) flies.  Linear margins do not predict the nonlinear flight here, so the
-    # solver optimum is flown and the table says what it does.  That optimum depends on
-    # Clarabel's thread count (W-inf-D: gamma 0.0354391 with the automatic setting, 0.0354647
-    # with max_threads=1, each reproducible to the bit), so it can differ between machines.
+    # so the controller depends on where the solver stops.  It is pinned to Clarabel (whose
+    # optimum flies) and flown as solved, without a transient or least-gain re-solve: those
+    # were measured not to fly better (docs/experiments/tiltrotor-hover-linear.md).  The
+    # optimum can still differ between machines (it depends on Clarabel's thread count).
     r = hinf.output_feedback(plant, region=disk, backend=dm_backend, time_limit=None)
     return r, (np.eye(20) if C is None else C), notes
 

@@ -1,5 +1,8 @@
 """Tables, plots and thesis claims of :mod:`sobolev_drake.experiments.tiltrotor_hover_linear`
-(Table 7.2)."""
+(Table 7.2).
+
+See docs/experiments/tiltrotor-hover-linear.md.
+"""
 
 from __future__ import annotations
 

@@ -1,40 +1,13 @@
-"""Thesis 5.3.2, Table 5.7: two-wheeled self-balanced vehicle with the input-coupling law.
+"""``balance-coupled``: two-wheeled vehicle with the input-coupling law, W2/W∞ vs classic
+nonlinear H∞ (thesis 5.3.2, Table 5.7).
 
-(Owned by the chapter-5 input-coupling experiments engineer; it supersedes the first version
-committed with the shared harness, keeping its structure and adding the torque limit and the
-Assumption-8 signal.)
+θ is controlled and ϕ stabilized; τ = B†u* is clipped to ±``torque_limit`` (for one input the
+exact bounded least-squares allocation).  The H∞ law (docs/design.md §4.3) is tuned to the
+same ISE θ on the same loop, by default with the W law's ϕ̇ damping
+(``hinf_phidot="matched"``; ``"equal"`` keeps the classic structure, which cannot meet that
+rule).
 
-Plant (4.30), Table 4.1 (friction k ϕ̇ included); controller model = a separate TwoWheeledModel
-with the same parameters.  Partition qc = θ, qs = ϕ (Assumptions 6/7: B = [1, −1]ᵀ, Bc = −1,
-Bs = 1).  Law (5.73)/(5.84): u* = M q̈_des + C q̇ + g + K(q̇) with
-θ̈_des = −Γ3⁻¹[Q K T][θ̃̇; θ̃; ∫θ̃] and ϕ̈_des = −Υ1⁻¹U ϕ̇, applied as τ = B†u* (5.118), i.e.
-τ = (u*_ϕ − u*_θ)/2.  Tuning Υ0 = 0.1, Υ1 = 1.1, Γ0 = 1000, Γ1 = 300, Γ2 = 2, Γ3 = 0.001
-(W2 ≡ W∞, Remark 36).  q(0) = [0, π/4], q̇(0) = 0, θ_r = 0; disturbances wϕ = 4 sin(2πt/5) N m on
-7 ≤ t ≤ 14 s and wθ = 4 N m on 22 ≤ t ≤ 32 s (the PDF prints "22 ≤ t ≥ 32", a typo); 40 s (not
-printed; it is the duration that reproduces the printed ISE ϕ̇).
-
-Why ϕ̇ is large: with θ held at 0 by integral action, a constant body torque wθ can only be
-balanced by a motor torque whose reaction accelerates the wheels at wθ/((M+m)r² + Ir), so ϕ̇
-ramps up during 22–32 s and stays (Υ0 is small); ISE ϕ̇ ≈ 5·10⁴ is physics, not a defect.
-
-Actuator limit: the thesis prints none.  The motor torque is bounded by ``torque_limit``
-(default 50 N m, just above the 48.9 N m the W law asks at t = 0) through the law's allocation
-hook (:func:`make_allocation`: bounded least squares, closed form for one input); the claims
-report the saturated time.  ``torque_limit=None`` removes it.
-
-H∞ baseline (Raffo et al. 2015 structure, docs/design.md §4.3) tuned by the thesis' rule for
-this table: same ISE of θ as the W2/W∞ run, by the 1-D search of ``_mechanical_common.tune`` on
-ωu (sliding-surface coefficients matched to the W closed loop, ``hinf_surface``), one reused
-diagram.
-
-Stabilized DOF in the H∞ law.  The classic law weighs all DOF alike: it damps ϕ̇ with the same
-σ gain R⁻¹ as θ (u*_ϕ ∋ −R⁻¹ϕ̇).  Under the constant body torque wθ (22–32 s) holding θ = 0
-*requires* ϕ̇ to ramp (see above), so that damping fights the balance; we measured ISE θ ≈ 5.4
-(100× the W run) for ωu = 0.26, 0.087 and 0.029 (ISE θ barely moves: scaling ωu scales both
-channels alike), i.e. the thesis' rule "same ISE θ" is unreachable that way.  With
-``hinf_phidot="matched"`` (default) the H∞ ϕ̇ damping is replaced by the W law's, M_ϕϕΥ1⁻¹U ϕ̇
-(applied in the allocation hook, since the law's H∞ gains are scalar); ``"equal"`` keeps the
-classic structure.
+See docs/experiments/balance-coupled.md.
 """
 
 from __future__ import annotations
@@ -69,7 +42,7 @@ def sobolev_inner() -> SobolevLaw:
     return SobolevLaw(controlled_gains(*GAMMAS), stabilized=stabilized_gains(*UPSILONS))
 
 
-gains = sobolev_inner  # name used by the first version
+gains = sobolev_inner  # older name of sobolev_inner, kept for callers
 
 
 def reference() -> TrajectoryReference:
@@ -134,8 +107,9 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
     def alloc(u, q, qd):
         inner = holder["controller"].law.law
         if hinf_phidot == "matched" and isinstance(inner, HinfLaw):
-            # the classic law damps q̇s with the σ gain R⁻¹ (u*_ϕ ∋ −R⁻¹ϕ̇); give it the W law's
-            # ϕ̇ damping instead (module docstring)
+            # the classic law damps q̇s with the σ gain R⁻¹ (u*_ϕ ∋ −R⁻¹ϕ̇), which fights the
+            # balance under a constant wθ; give it the W law's ϕ̇ damping instead
+            # (docs/experiments/balance-coupled.md)
             u = np.array(u, dtype=float)
             u[0] += (inner.gains.R_inv - w_damping) * qd[0]
         return base(u, q, qd)

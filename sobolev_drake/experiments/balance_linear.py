@@ -1,42 +1,14 @@
-"""``balance-linear``: linear W∞ vs classic H∞ on the two-wheeled vehicle (thesis 6.5.2, Table 6.2).
+"""Pieces of ``balance-linear``: linear W∞ vs classic H∞ on the two-wheeled vehicle (thesis 6.5.2,
+Table 6.2).
 
-Linear model.  The Euler–Lagrange model (4.30) is linearized at the upright x = 0 with state
-x = [θ, ϕ̇, θ̇] (ϕ is cyclic and dropped, as in 6.5.2), input the motor torque u and disturbance
-w = [wϕ, wθ] (generalized forces, D = [0; M⁻¹]).  :func:`linearize` differentiates the Drake
-model's M(q), C(q,q̇)q̇, g(q) and friction K(q̇) by central differences; :func:`closed_form_linearization`
-is the hand Jacobian of (4.30) (test: they agree).
+The linearization of (4.30) at the upright (numerical and closed form), the four designs with
+a disk pole region (the thesis' region matrix read as a disk, docs/design.md §4.4; both
+output-feedback designs regularized at γ = (1+δ)γ*, docs/design.md §8.2), the nonlinear
+closed-loop rig reused for every run, the Table 6.2 indices and the equal-settling-time
+search of the H∞ input weight ρ.  The registered run is composed in
+:mod:`.balance_linear_table`.
 
-Designs (all with a disk pole region centred at 0, (6.43); the thesis' "α = [−r 0; 0 r]" is read
-as the disk, docs/design.md §4.4):
-
-* ``W∞``  — state feedback (6.7), Γ0 = diag(0.2, 2, 0.3), Γ1 = diag(2.6, 0.25, 0.625), r = 40;
-* ``W∞-O.F.`` — dynamic output feedback (6.22), y = [θ, ϕ̇] (θ̇ not measured),
-  Γ0 = diag(10, 1, 10), Γ1 = diag(0.66, 0.35, 0.3355), r = 150;
-* ``H∞`` / ``H∞-O.F.`` — classic z = [Q^½x; R^½u] with the same region (r = 40 for both
-  state-feedback designs, r = 150 for both O.F. designs, as 6.5.2 says).  The thesis does not
-  give their weights, only the rule "similar 2 % settling time of θ from x(0) = [π/4 0 0]".  We
-  take Q = Γ0 of the matching W∞ design and R = ρ, and pick ρ by scanning a log grid (two points
-  per decade) and bisecting on log ρ so that the settling time of the NONLINEAR closed loop
-  matches the W∞ one.  The search reuses ONE Drake diagram (the controllers' gains are numeric
-  parameters of the library's
-  :class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback` /
-  :class:`~sobolev_drake.systems.linear_controllers.LinearDynamicOutputFeedback`, reset in the
-  context) because Python LeafSystems are not garbage-collected in drake 1.51.
-
-Output feedback is a singular H∞ problem here (y = [θ, ϕ̇] without noise, D21 = 0): the LMI
-optimum γ* is not attained — it is approached with Y and the controller gains growing without
-bound, so "the optimal controller" is wherever the SDP solver stops (the synthesis change of
-fe3bb08/d69ca1e moved the W∞-O.F. feedthrough D_K from [60, −37] to [257, −27] and with it
-the settling times).  Both O.F. designs are therefore regularized at γ = (1+δ)γ*, δ =
-:data:`OF_REG_DELTA`, minimizing a gain bound (docs/design.md §8.2); the evidence (gain growth
-towards γ*, backend spread of the raw and regularized designs) is in
-:mod:`._balance_linear_posedness` and the ``balance-linear_of_posedness`` table.  The O.F.
-settling time is V-shaped in ρ (the slow tail of θ changes sign near ρ ≈ 4.6), so the search
-refines around the dip when the grid has no bracket.
-
-Every controller is then flown on the nonlinear Drake model from θ(0) = π/4 with wϕ = 2 N m on
-5 ≤ t ≤ 10 s and wθ = 2 sin(2πt/5) N m on 15 < t ≤ 20 s.  Indices: ISE ∫θ², ∫ϕ̇², IADU ∫|du/dt|,
-empirical gain ‖x‖_L2/‖w‖_L2 over the whole run (Table 6.2's "H∞" row).
+See docs/experiments/balance-linear.md.
 """
 
 from __future__ import annotations
@@ -70,18 +42,16 @@ LOWER = 0.98
 SETTLE_FRACTION = 0.02
 SETTLE_WINDOW = 5.0  # the disturbances start at t = 5 s
 #: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design); two
-#: points per decade: the O.F. settling time is V-shaped in ρ (minimum ≈ 0.65 s near ρ ≈ 4.6,
-#: where the slow tail of θ changes sign), a decade grid straddles the dip (ρ = 1, 10) and finds
-#: no match although one exists
+#: points per decade: the O.F. settling time is V-shaped in ρ and a decade grid straddles its
+#: dip, finding no match although one exists
 RHO_GRID = {"sf": np.logspace(-3, 3, 13), "of": np.logspace(-3, 3, 13)}
 #: relative γ relaxation of the regularized O.F. designs (see _balance_linear_posedness): at
 #: δ = 0.05 Clarabel, cvxpy/Clarabel and Drake/Clarabel return the same settling time to
 #: 1e-3 s; at δ ≤ 0.02 the gain-bound LMI is so ill-conditioned that solvers fail or disagree
 OF_REG_DELTA = 0.05
 #: backend of the O.F. designs when none is given.  Their anchor γ* is the non-attained
-#: infimum and solvers stop at different depths (γ* of W∞-O.F.: Clarabel 3.0431, Drake/Clarabel
-#: 3.0421, own IPM 2.8669), so (1+δ)γ* and with it the controller would follow the default
-#: backend chain; given γ, all backends return the same least-gain controller
+#: infimum and solvers stop at different depths, so (1+δ)γ* and with it the controller would
+#: follow the default backend chain; given γ, all backends return the same least-gain controller
 OF_BACKEND = "clarabel"
 #: ρ found by a full run (used by smoke mode, which skips the search; settling 2.046 s vs
 #: W∞ 2.040 s and 0.781 s vs W∞-O.F. 0.777 s)

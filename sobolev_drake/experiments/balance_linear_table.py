@@ -1,6 +1,9 @@
 """``balance-linear`` (thesis 6.5.2, Table 6.2): the experiment composed from the pieces in
 :mod:`.balance_linear` (linearization, designs, rig, indices) and its report, diagnostics and
-variant helpers."""
+variant helpers.
+
+See docs/experiments/balance-linear.md.
+"""
 
 from __future__ import annotations
 

@@ -1,53 +1,13 @@
-"""linear-simple: thesis 6.5.1, Table 6.1 (system (6.41)).
+"""``linear-simple``: the four linear W∞ designs of Table 6.1 on the simple system (6.41)
+(thesis 6.5.1).
 
-Controllers (all tuned with Gamma0 = diag(10, 10), Gamma1 = I as in the thesis):
+Designs W-inf (regularized on its feedthrough bound, docs/design.md §8.2), W-inf-D,
+W-inf-O.F. and W-inf-O.F.D as LMIs — the disturbance-model rows in the well-posed augmented
+form, since the thesis' (6.31) is degenerate (docs/design.md §8.3), plus disk-limited
+variants — flies them from the same x(0) through the same noise by exact discretization of
+the linear closed loop, and splits ISE x1 into initial-condition and disturbance parts.
 
-* W-inf        (6.7)  state feedback; the optimum sits on the feedthrough bound |Gamma1^1/2 D| = 1
-  (matched disturbance), so it is regularized at gamma = 1.01 gamma_opt (docs/design.md §8.2);
-* W-inf-D      the thesis' (6.31) is degenerate (strict LMI infeasible, see
-  ``disturbance_model_degeneracy``); we run the well-posed alternative: disturbance filter
-  states in the plant, Lyapunov function on (x, d), d unmeasured (dynamic controller, y = x);
-* W-inf-O.F.   (6.22) dynamic output feedback, y = [1 1] x;
-* W-inf-O.F.D  well-posed disturbance-model design with y = [1 1] x.
-
-Simulation (Drake diagram: LinearSystem plant + disturbance filter + controller LeafSystem):
-x(0) = [3, 1], d(0) = 0, controller state x_K(0) = 0, white Gaussian v (unit variance samples
-held over 1 ms) on 1 <= t <= 9 s; all four controllers see the same x(0) and the same v.
-
-Why W-inf-D has a much larger ISE x1 than W-inf (0.19) although it was designed "with the
-disturbance model" (the ``*_decomposition`` table of every run has the numbers; the value
-moved with earlier changes of the output-feedback synthesis, see docs/design.md §8):
-
-* No bug in the loop: the disturbance enters as D Cd d in the plant and in the design's
-  augmented plant alike, d is not measured (thesis Remark 40), the filter starts at rest, all
-  designs see the same x(0) and v.  The run with x(0) = 0 (v only) gives ISE x1 ~1e-8..1e-10
-  for W-inf-D against 3.7e-3 for W-inf: the dynamic controller estimates the matched
-  disturbance (D = B) from x and cancels it, which is what its criterion (gain v -> z) asks.
-* All of W-inf-D's ISE x1 comes from the initial condition (v = 0 run: same number).  The
-  design bounds ||z||^2 <= gamma^2 ||v||^2 + V(xi(0)) ((6.33), xi = [x; d; x_K]) but does not
-  choose V: with the convention x_K(0) = 0 the loop starts at V(xi(0)) ~ 1e6 (W-inf:
-  x0' P x0 = 2.4e3), far from the controller's own "consistent" state, and the transient
-  (||z||^2 ~ 1e5 from x(0) vs 873 for W-inf) is nothing the v -> z optimization controls.
-  Whether x1 or xdot carries that energy depends on the controller coordinates the solver
-  returns: W-inf-O.F.D, with even more ||z||^2 from x(0), puts it in xdot (ISE x1 0.09).
-* Starting the controller at x_K(0) = argmin V([x0; 0; x_K]) (a linear function of the
-  measured x(0) for W-inf-D) gives ||z||^2 from x(0) of 250..500 (W-inf 873) and ISE x1
-  ~0.8, still above our W-inf's 0.19: our regularized W-inf state feedback (poles -50 +- 42j)
-  is much faster than the thesis' (its ISE x1 is 5.4), so the thesis' ranking of ISE x1 is not
-  reproduced under either convention; its claim that the disturbance-model designs attenuate
-  the disturbance better is (v-only column).
-* The unconstrained disturbance-model optimum is an infimum that no finite controller
-  attains (the matched d can be estimated arbitrarily fast from x): the returned controllers
-  have entries 1e6..1e7, closed-loop poles ~5e4 rad/s, and an LMI gamma that depends on the
-  solver (0.10 then 0.127) and exceeds the certified norm (0.084 then 0.032).  A disk region
-  bounds the bandwidth: the extra rows "disk r = 1000" (gamma ~1.2, certified within 3 %,
-  v-only ISE x1 1.6e-3 < W-inf's 3.7e-3, ISE x1 1.8).  Even so the LMI optimum is not
-  solver independent: the own IPM certifies gamma 1.0266 (entries ~1e6) where Clarabel and
-  Drake report "Solved" at 1.18 / 1.29 — a solver "success" 15-25 % above the optimum; the
-  report carries both (claim "solver independent" does not hold).
-
-The thesis' own W-inf-D is a static K x from (6.31), which is degenerate (see above), so the
-comparison is necessarily between different controller classes.
+See docs/experiments/linear-simple.md.
 """
 
 from __future__ import annotations
@@ -118,11 +78,9 @@ def design():
 
 def design_well_posed(radius=WELL_POSED_DISK, backend=None):
     """The disturbance-model designs with a disk pole region (6.39) of ``radius``: bounded
-    controller bandwidth; the delivered controllers are certified tightly (within ~3 % of the
-    LMI gamma).  Measured: the disk does not make the LMI optimum solver independent — the
-    own interior-point backend (``backend="ipm"``) reaches gamma 1.0266 (certified 1.0265,
-    controller entries up to ~1e6) where Clarabel and Drake stop at 1.18 / 1.29 reporting
-    "Solved"; ``run`` re-solves with the IPM and reports both.
+    controller bandwidth; the delivered controllers are certified tightly.  The disk does not
+    make the LMI optimum solver independent, so ``run`` re-solves with the own interior-point
+    backend (``backend="ipm"``) and reports both (docs/experiments/linear-simple.md).
     Returns {name: (kind, controller, result)}."""
     out = {}
     with warnings.catch_warnings():
@@ -484,6 +442,6 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
         f"initial-condition term V(xi(0)) in (6.33) is {mD['V_xi0']:.3g} with x_K(0) = 0 (W-inf: "
         f"{mB['V_xi0']:.3g}). With x_K(0) = argmin V: V = {mD['V_xi0_xk_argminV']:.3g}, ||z||^2 from x(0) "
         f"{mD['z2_ic_xk_argminV']:.3g} (W-inf {mB['z2_ic']:.3g}), ISE x1 {mD['ISE_x1_xk_argminV']:.3g}. "
-        "See the module docstring.")
+        "See docs/experiments/linear-simple.md.")
     (out_dir / "linear_simple_notes.md").write_text("\n".join(f"- {n}" for n in notes) + "\n")
     return ExperimentResult("linear-simple", outputs, metrics, claims, md)

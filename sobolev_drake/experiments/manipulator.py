@@ -1,12 +1,10 @@
-"""Thesis 5.3.1, Table 5.3: two-link manipulator, nonlinear W2/W∞ vs classic nonlinear H∞.
+"""``manipulator``: two-link arm, nonlinear W2/W∞ vs classic nonlinear H∞ (thesis 5.3.1,
+Table 5.3).
 
-Plant (5.119)–(5.122), Table 5.1; controller model = a separate TwoLinkArmModel with the same
-parameters.  Partition qc = q (fully actuated, Remark 23).  Tuning Y0 = diag(100, 200),
-Y1 = diag(500, 400), Y2 = diag(40, 40), Y3 = diag(0.0720, 0.0126) (W2 ≡ W∞, Remark 30).
-q(0) = [π/4, 0], q̇(0) = 0, reference Table 5.2, disturbances w1 = 40 N m on 10 ≤ t ≤ 20 s and
-w2 = −40 sin(2πt/10) N m on 25 ≤ t ≤ 35 s (the thesis prints "10 ≥ t ≥ 20"; read as an
-interval).  Duration 40 s (not printed; covers all disturbances).  H∞ baseline: same IADU
-(search of ωu, see ``_mechanical_common``).  No actuator limits (none in the thesis).
+Flies the W2/W∞ law along Table 5.2 under the two torque disturbances, tunes the H∞ law to the
+same IADU on the same loop (:mod:`._mechanical_common`), and checks Theorem 3 on the W2/W∞ run.
+
+See docs/experiments/manipulator.md.
 """
 
 from __future__ import annotations

@@ -1,24 +1,12 @@
 """``models-tour``: every plant of the library under gravity for a few seconds, recorded.
 
-For each model (two-wheeled vehicle, two-link arm, quadrotor, tilt-rotor) a diagram
-``add_<name>(builder)`` + Meshcat recorder + state logger is simulated open loop and written as
-``<out>/<name>.html`` (standalone Meshcat replay) and ``<out>/<name>_states.png``.  A table
-compares the mechanical energy at the start and the end of each run, which checks the Drake
-models against physics:
+The two-wheeled vehicle, the arm, the quadrotor and the tilt-rotor are simulated open loop and
+written as standalone Meshcat replays (camera following the main body) and state plots; a
+table of mechanical energy at the start and end of each run checks the Drake models against
+physics (friction work, conservation, level hover, trim equilibrium).  The lowest-priority
+flagship.
 
-* arm (no friction, no input): energy conserved (error-controlled integrator);
-* two-wheeled vehicle: ΔE equals the work of the friction K(q̇) = [kϕ̇, −kϕ̇] of (4.30) (which
-  acts on the absolute wheel rate, so it can also inject energy when ϕ̇ and ϕ̇ − θ̇ differ in sign);
-* quadrotor: equal rotor speeds Ω² = B⁺g (least squares on the model's own B(q), g(q)) hold
-  it level at constant altitude while it drifts and yaws from its initial velocity;
-* tilt-rotor (if its model is available): open loop at the hover trim (n ≈ 51.9 rev/s,
-  τs ≈ −0.127 N m, thesis 7.3.1): the trim must be an equilibrium of the simulated diagram.
-
-Each recording frames its model: the camera follows the model's main body (origin from the
-plant state log, :func:`sobolev_drake.viz.follow_camera`), so the tilt-rotor hovering 2 m up and
-the drifting quadrotor stay in view; the mouse still orbits and zooms.
-
-This is the lowest-priority flagship (``make demo`` runs it only if no mission is registered).
+See docs/experiments/models-tour.md.
 """
 
 from __future__ import annotations

@@ -1,14 +1,11 @@
-"""Thesis 5.3.1, Table 5.6: quadrotor altitude and attitude with the reduced model (5.5).
+"""``quadrotor-attitude``: quadrotor altitude and attitude with the reduced model (5.5), W2/W∞ vs
+classic nonlinear H∞ (thesis 5.3.1, Table 5.6).
 
-Plant (5.123), Table 5.4 (rotors tilted 5°, inputs Ω_i²); controller model = a separate
-QuadrotorModel with the same parameters.  Partition qc = [z ϕ θ ψ], qu = [x y] (reduced
-underactuated, Assumption 5).  Tuning Y0 = Y1 = diag(1, 1, 1, 1), Y2 = diag(0.61, 0.6, 0.6, 0.6),
-Y3 = diag(2e-3, 1e-7, 1e-7, 1e-7) (W2 ≡ W∞, Remark 30).  qc(0) = [4.5, π/4, −π/4, π/4],
-everything else 0; reference Table 5.5 (``table_5_5``, discontinuous at t = 8 s as printed);
-disturbances δz = −10 N on 10 ≤ t ≤ 15 s and δϕ = −3 sin(2πt) N m on 16 ≤ t ≤ 20 s; 30 s.
-IADU = ∫Σ|dΩ_i/dt| with Ω_i = √(Ω_i²) as in Table 5.6.  Actuator limits Ω² ∈ [0, 4 × hover]
-(docs/design.md §8.1; none printed in the thesis) enforced by bounded least squares;
-``limits=False`` reproduces the unconstrained law.  H∞ baseline: same IADU (``_mechanical_common``).
+Controls [z ϕ θ ψ] with x, y uncontrolled, rotor commands limited to Ω² ∈ [0, 4 × hover]
+(docs/design.md §8.1; ``limits=False`` removes them); the H∞ law is tuned to the same IADU on
+the same loop (:mod:`._mechanical_common`).
+
+See docs/experiments/quadrotor-attitude.md.
 """
 
 from __future__ import annotations

@@ -1,36 +1,14 @@
-"""Thesis 5.3.2, Table 5.9: quadrotor figure-8 with the input-coupling law, untilted truth.
+"""``quadrotor-figure8``: quadrotor figure-8 with the input-coupling law on an untilted truth,
+W2/W∞ vs classic nonlinear H∞ (thesis 5.3.2, Table 5.9).
 
-Controller model: QuadrotorModel with the Table 5.4 rotors tilted α = 5° (Assumption 7 needs the
-tilt: it gives B(q) rank on the stabilized DOF); simulated truth: the same quadrotor with
-untilted rotors (``add_quadrotor(builder, tilt=0)``, the thesis' robustness test).  Partition
-qc = [ψ x y z], qs = [ϕ θ].  Law (5.73)/(5.84): u* = M q̈_des + C q̇ + g,
-q̈c_des = q̈cr − Γ3⁻¹[Q K T][ė; e; ∫e], q̈s_des = −Υ1⁻¹U q̇s, τ = B†u* (5.118).  Tuning
-Υ0 = diag(2, 2), Υ1 = diag(0.01, 0.01), Γ0 = diag(10, 10, 10, 10), Γ1 = diag(12.8, 18.8, 18.8, 12.8),
-Γ2 = diag(0.01, 0.1, 0.1, 0.1), Γ3 = diag(4e-5, 0.08, 0.07, 0.09) (order [ψ x y z]; W2 ≡ W∞,
-Remark 36).  q(0): qs = 0, qc = [0 7 0 1] (ψ x y z), q̇(0) = 0; reference Table 5.8; 40 s
-(the time axis of Fig. 5.8).
+The controller's model has rotors tilted 5°, the simulated quadrotor none.  Allocations of
+u* (:class:`Allocation`): ``"pinv"``, the thesis' unlimited τ = B†u* (the headline table);
+``"bls"``, bounded least squares over Ω² ∈ [0, 4·hover]; ``"clip"``, B†u* saturated to that
+box (docs/design.md §8.1).  The H∞ law (docs/design.md §4.3) is tuned to the same IADU
+(:mod:`._mechanical_common`); the Figure 5.7 signal ‖B⊥(w − d)‖² is computed from the logs
+(:func:`bperp_signal`).
 
-Disturbances: the thesis gives them only as curves in Fig. 5.7 (not in its text).  We use the
-profile the thesis prints for the same quadrotor and figure-8 in 6.5.3 (a constant and a
-time-varying one, as 5.3.2 describes): δy = 10 N on 10 ≤ t < 15 s, δz = 10 sin(0.4πt) N on
-25 ≤ t < 30 s.  This is our choice; the ISE values therefore need not match Table 5.9.
-
-Actuator limits (docs/design.md §8.1).  B†u* asks the tilted-rotor model for the lateral force of
-the figure-8 through sin 5°, i.e. rotor commands far outside [0, 4·hover].  Allocations:
-
-* ``"pinv"``: the thesis' τ = B†u* with no limits (negative Ω² allowed) — the headline
-  comparison (``allocation=``), as the thesis ran it;
-* ``"bls"``: bounded least squares min ‖u* − B(q)τ‖ over Ω² ∈ [0, 4·hover]
-  (:func:`~sobolev_drake.tiltrotor.allocation.bounded_least_squares`, the law's allocation hook);
-* ``"clip"``: τ = B†u* then saturated to the same box (what a speed controller does).
-
-The allocations in ``limited`` (default ``("bls",)``) are run afterwards with the same W2/W∞ law
-and the tuned H∞ law, on the same diagram (:class:`Allocation` is switchable).  Runs that lose
-the vehicle (|ϕ| or |θ| > 1.4 rad) are stopped by :class:`Allocation` and reported as failed.
-The claims report tracking, saturated time and the ISE comparison honestly.  The H∞ baseline
-(Raffo et al. 2011 structure, docs/design.md §4.3) is tuned to the same IADU, as in the thesis,
-by the 1-D search of ``_mechanical_common.tune`` on one reused diagram.  The signal ‖B⊥(w − d)‖² of
-Fig. 5.7 is computed from the logs with the controller (tilted) model (:func:`bperp_signal`).
+See docs/experiments/quadrotor-figure8.md.
 """
 
 from __future__ import annotations

@@ -1,44 +1,13 @@
-"""``quadrotor-polytopic``: robust W∞ vs robust H∞ state feedback for the quadrotor (thesis 6.5.3, Table 6.4).
+"""``quadrotor-polytopic``: robust W∞ vs robust H∞ state feedback for the quadrotor (thesis 6.5.3,
+Table 6.4).
 
-Linear model (6.44)–(6.45).  The quadrotor (5.123) is linearized at hover (ϕ = θ = ψ = 0, all
-rotors at the hover Ω²) with state x̂ = [ϕ θ ψ x y z ϕ̇ θ̇ ψ̇ ẋ ẏ ż] (no integral states: Γ0, Γ1
-of 6.5.3 have 12 entries), input the rotor commands Ω_i² and disturbance the generalized force w
-(D = [0; M⁻¹]).  :func:`linearize` differentiates the Drake model; :func:`closed_form_linearization`
-is the hand Jacobian (ẍ = g θ, ÿ = −g ϕ, [q̈] = M0⁻¹(B0 Δτ + w), M0 = diag(Ixx, Iyy, Izz, m, m, m));
-tests check they agree.  The trim Ω² depends on m, so the mass-independent A (g θ) holds at every
-vertex with Δτ measured from each vertex's own trim; the simulated controller uses the nominal
-trim (the integral-free design then leaves an offset under mass error, as in the thesis).
+The hover linearization (6.44)–(6.45) (numerical and closed form), the 16-vertex ±10 %
+polytope in m, Ixx, Iyy, Izz with a disk region r = 100, the W∞ LMI optimum flown
+unregularized (it lies on the feedthrough bound, docs/design.md §8.2), H∞ with its input
+weight ρ tuned to a similar ISE, and the flights along Table 6.3 on the nonlinear Drake
+quadrotor (one reused diagram).
 
-Uncertainty (Corollary 1): m, Ixx, Iyy, Izz ±10 % about m = 2.24 kg, Ixx = Iyy = 0.0384,
-Izz = 0.0615 (the thesis' boxes), 2⁴ = 16 vertices from ``polytopic.interval_vertices``; one
-common Lyapunov matrix and the disk r = 100 (6.43) at every vertex.
-
-Input units: the LMIs are posed in Ω² itself (B entries ~1e-5).  The synthesis balances the
-problem automatically (``hinf.state_feedback(scaling=True)``: exact diagonal state similarity
-and input scaling, certificate in the original units), which replaced the hand scaling
-ũ = Ω²/Ω²_hover used before (measured on the 16-vertex W∞ problem: same γ* = 77.609, certified
-at every vertex either way; full run: W∞ ISE 112.3 / IADU 3516 without, 113.3 / 3539 with
-the hand scaling — the optimum's gains differ at solver-noise level, see below; H∞ ρ found
-254.8 vs 264.2, ISE 111.7 vs 113.4, IADU 4157 vs 4143).  The H∞ input
-weight is still quoted on the normalized input, R = ρ/Ω²_hover² on Ω² (ρ on Ω²/Ω²_hover), so
-ρ keeps its meaning and :data:`RHO_GRID` / :data:`RHO_TUNED` are unchanged.
-
-Designs: ``W∞`` with the thesis' Γ0, Γ1 (Υ0 = I6).  γ* sits on the feedthrough bound ‖Γ1^½D‖ at
-every vertex (state feedback cannot change D11).  The library's gain-bound regularization
-(γ = 1.01 γ*, minimal ‖K‖) is certified at all 16 vertices but takes ~200 s (cvxpy/Clarabel
-fails, the Drake/Clarabel fallback stops "AlmostSolved") and the minimal-gain controller is
-slow (max |eig| 2.0 vs 6.8): flown 40 s, ISE 320 vs 113, IADU 2059 vs 3539 (measured with the
-hand-scaled input).  So the LMI optimum is used as is (``regularize=False``; the certificate is
-still checked at every vertex, with a 1 % tolerance on γ, :data:`W_RTOL`).  ``H∞``: z = [Γ0^½x; ρ^½ Ω²/Ω²_hover] with the same region,
-ρ chosen by the thesis' rule "similar ISE to W∞" (scan + bisection on log ρ, reusing ONE Drake
-diagram: the gains are a numeric parameter of
-:class:`~sobolev_drake.systems.linear_controllers.LinearStateFeedback`).
-
-Simulation on the nonlinear Drake quadrotor (tilted rotors, nominal parameters): q(0) =
-[0 0 0 4 0 1], q̇(0) = 0, Table 6.3 path, δy = 10 N on 10 < t < 15 s, δz = 10 sin(0.4πt) N on
-25 < t < 30 s; control Ω² = Ω²_hover + K (x̂ − x̂_r) clipped to [0, 4 Ω²_hover] (time in
-saturation reported).  The thesis gives no duration: 40 s (one period of the path).
-ISE = ∫ eᵀe dt over the 12 error states; IADU = ∫ Σ|dΩ_i/dt| dt with Ω_i = √Ω_i² (Table 6.4).
+See docs/experiments/quadrotor-polytopic.md.
 """
 
 from __future__ import annotations
@@ -64,15 +33,13 @@ UNCERTAIN = ("m", "Ixx", "Iyy", "Izz")
 Q0 = np.array([0, 0, 0, 4.0, 0, 1.0])
 U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), docs/design.md §8.1
 THESIS_TABLE_6_4 = {"H∞": (68.3, 22635.0), "W∞": (67.9, 10025.0)}
-RHO_GRID = np.logspace(0.5, 3.0, 6)  # ρ ≤ 0.1 diverges (saturation); ρ = 1000 solves since the γ-form BRL
+RHO_GRID = np.logspace(0.5, 3.0, 6)  # ρ ≤ 0.1 diverges (saturation)
 DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) beyond this tilt
 #: certificate tolerance of the unregularized W∞ optimum: it sits on the feedthrough bound and
 #: Clarabel stops "optimal_inaccurate" with ‖T‖∞ up to ~0.2 % above its γ (measured)
 W_RTOL = 1e-2
-#: smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2).  It was
-#: 254.8 (ISE 111.7 vs W∞ 112.3) before the state-feedback BRL moved to the symmetric γ form;
-#: the W∞ LMI optimum (same γ 77.609, on the feedthrough bound, unregularized) then gave a
-#: different K: W∞ ISE 124 / IADU 3320, H∞ ρ 365.2 ISE 124.5 / IADU 4069 (grid now to 1e3).
+#: smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2); it
+#: follows the W∞ optimum's K, see docs/experiments/quadrotor-polytopic.md
 RHO_TUNED = 365.2
 
 

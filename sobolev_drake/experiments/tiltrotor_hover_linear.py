@@ -1,47 +1,15 @@
-"""Linear W∞ designs for the tilt-rotor in helicopter mode (thesis §7.3.1, Table 7.2).
+"""``tiltrotor-hover-linear``: linear W∞ designs for the tilt-rotor in helicopter mode, flown on the
+nonlinear plant (thesis §7.3.1, Table 7.2).
 
-The plant (7.57) is the hover linearization of the Drake diagram with the four integral
-states [∫Δψ ∫Δx ∫Δy ∫Δz] (``tiltrotor.trim.linearize``), inputs Δu = [ΔnR ΔnL ΔτsR
-ΔτsL] (surfaces fixed at 0), disturbance the wind ζ.  Designs (all with the thesis Γ0, Γ1;
-synthesis in :mod:`._tiltrotor_linear_designs`):
+The hover controller (:class:`LinearHoverController`: u = u_trim + K Δx, or a dynamic
+controller on y = C Δx, inputs clipped to n ≥ 0, |τs| ≤ 2 N m), the flights along the Table 7.1
+path in von Kármán wind, the Table 7.2 indices and the registered run.  The syntheses are in
+:mod:`._tiltrotor_linear_designs` (the thesis' disturbance-model LMIs are degenerate,
+docs/design.md §8.3, and are flown beside their well-posed form), tables and claims in
+:mod:`._tiltrotor_linear_report`.  The turbulence is σ-normalized (docs/design.md §6); a
+second table flies the noise read literally.
 
-* ``W∞``       — state feedback (6.7); ``W∞ (disk r=250)`` the same inside the disk (6.40);
-* ``W∞-O.F.``  — dynamic output feedback (6.22), ẋ and ẏ not measured, disk r = 250;
-* ``W∞-D (thesis LMI)`` / ``W∞-O.F.D (thesis LMI)`` — (6.31) / (6.36) with the von Kármán
-  filters (7.58)–(7.60) as disturbance model, as written.  Their (d, v) block is singular
-  (docs/design.md §8.3): the strict LMI is infeasible; the non-strict one is solved and flown, its γ
-  is not a bound;
-* ``W∞-D`` / ``W∞-O.F.D`` — the well-posed form: filter states in the plant, Lyapunov function
-  on the augmented state, output-feedback LMI with the filter states unmeasured (a dynamic
-  controller even for W∞-D).  A singular problem: its optimum has input delay margins of a
-  few milliseconds.  It is flown as solved (Clarabel): re-solves for the transient cost below,
-  or with measurement noise making the problem regular, raised the delay margins to 5–36 ms
-  but flew no better, often worse (measurements in ``_tiltrotor_linear_designs._solve``).
-
-Every controller is simulated on the *nonlinear* plant: Table 7.1 path, q(0) = [0 0 0 0 0 −1 20 0],
-von Kármán wind for 30 ≤ t ≤ 170 s with ζx offset −3 m/s.  The controller's Δq̇ is q̇ itself
-(``velocity_reference="zero"``, default): the thesis linearizes at q̇_r = 0 and writes
-Δ(·) = (·) − (·)_r.  ``"path"`` takes Δq̇ relative to the path velocity instead; the flight then
-starts with a 3.6 m/s velocity error (the helix starts moving at t = 0, the aircraft at rest),
-and with the thesis' weights the optimal linear response to it tilts the nacelles by ~70°
-(measured on the linear loop), beyond what the nonlinear plant tolerates for the output-
-feedback designs.  The γ of the W∞ designs sits on the feedthrough bound, so it hardly
-constrains the closed loop; among the controllers with the same certified γ the designs
-minimize the guaranteed transient cost Δx(0)ᵀ P Δx(0) of the flight's initial error
-(``regularization="transient"``, default) or a gain bound (``"gain"``).  Inputs are limited to physical ranges
-(n ≥ 0, |τs| ≤ 2 N m); ISE = ∫Δxᵀ Δx dt (velocities relative to the path in the index, whatever
-the controller uses) and IADU = ∫Σ|dΔu_i/dt| dt as in Table 7.2.  Every design is also flown
-with the thesis' noise read literally (unit-variance samples, gusts ≈ 6 % of σ; see
-``systems/wind.py``) in a second table.
-
-The σ-normalized turbulence (docs/design.md §6; σv = 5 m/s) reaches 11–18 m/s of lateral wind,
-and the plant's crossflow model decides whether a heading-held hover survives that (``crossflow``,
-``TiltrotorParams.crossflow``): with (7.41)–(7.45) read literally ("thesis") a sideways flow
-gets flat-plate drag from the α tables, no hover trim within ±60° exists beyond 12.5 m/s of
-steady lateral wind, and no design stayed within ±60° in these gusts; with the independence
-principle (default) the limit is 21 m/s.  The metrics report the limit
-(``setup.hover_wind_limit_lateral_m_s``) and each flight's peak lateral wind.
-``smoke=True`` runs only the state-feedback design for 10 s.
+See docs/experiments/tiltrotor-hover-linear.md.
 """
 
 from __future__ import annotations

@@ -1,17 +1,16 @@
 """Tilt-rotor missions of thesis §7.3.2: nonlinear W∞ with control allocation.
 
-* ``tiltrotor-hover``    — scenario 1 (helicopter mode, Table 7.1 path, lateral wind 3 m/s,
-  −15 N force pulses along y and z);
-* ``tiltrotor-envelope`` — scenario 2 (take-off while accelerating, 33 m/s cruise, 3/4 turn,
+* ``tiltrotor-hover``    — scenario 1 (helicopter mode, Table 7.1 path, lateral wind, force
+  pulses);
+* ``tiltrotor-envelope`` — scenario 2 (take-off while accelerating, 33 m/s cruise, turn,
   deceleration and landing, head wind and gusts; flagship of ``make demo``).
 
-Wind the controller measures (Assumption 19) is the constant wind; gusts are unmeasured
-disturbances (thesis footnote 8).  Tilt references of the regulated DOF come from the plant's
-level-flight trims α(V) (default) or the mission file's polynomial (``schedule="data"``, the
-thesis author's simulator); both are evaluated at the forward air speed of the reference motion.
-The polynomial climbs to 1.83 rad at 34 m/s where our trims give 0.62 rad; with the 3 m/s head
-wind of scenario 2 the polynomial then swings the tilt by ~0.9 rad during the turn.  Force disturbances act at the main-body centre of mass in
-the inertial frame (``force_disturbance`` port of the plant).
+The controller measures the constant wind (Assumption 19); gusts are unmeasured disturbances
+(thesis footnote 8).  Tilt references come from the plant's level-flight trims or, with
+``schedule="data"``, from the mission file's polynomial.  Tracking is scored per phase
+against goals of our own.
+
+See docs/experiments/tiltrotor-hover.md and docs/experiments/tiltrotor-envelope.md.
 """
 
 from __future__ import annotations
