@@ -127,7 +127,8 @@ POSEDNESS_COLUMNS = ["design", "ρ", "synthesis", "backend", "γ", "‖Y‖", "D
 def diagnose(res, lin, rig_of, designs, out_dir):
     """O.F. well-posedness table (see :mod:`._balance_linear_posedness`) and its claims."""
     from sobolev_drake.experiments import Claim
-    from sobolev_drake.experiments.balance_linear import C_OF, GAMMA0_OF, GAMMA1_OF, OF_BACKEND, RADIUS
+    from sobolev_drake.experiments.balance_linear import (C_OF, DESIGN_SPECS, GAMMA0_OF, GAMMA1_OF,
+                                                          OF_BACKEND, RADIUS)
     from sobolev_drake.report import write_table
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
@@ -138,12 +139,13 @@ def diagnose(res, lin, rig_of, designs, out_dir):
     for name, plant in (("W∞-O.F.", sb.winf_plant(A, B, D, GAMMA0_OF, GAMMA1_OF, C_OF)),
                         ("H∞-O.F.", sb.hinf_plant(A, B, D, GAMMA0_OF, np.array([[rho]]), C_OF))):
         g_design = float(designs[name]["res"].gamma)
-        rr = backend_spread(name, lin, None if name.startswith("W") else rho, rig_of, gamma=g_design,
+        winf = DESIGN_SPECS[name].norm == "winf"
+        rr = backend_spread(name, lin, None if winf else rho, rig_of, gamma=g_design,
                             plant=plant, region=disk)
         rows_spread += rr
         ref = [r for r in rr if r["mode"] == "LMI optimum" and r["backend"] == OF_BACKEND and "error" not in r]
         g_opt = ref[0]["gamma_opt"] if ref else designs[name]["res"].gamma_opt
-        growth[name] = (None if name.startswith("W") else rho,
+        growth[name] = (None if winf else rho,
                         gain_growth(plant, disk, g_opt, (0.2, 0.1, 0.05, 0.02),
                                     backend=OF_BACKEND))  # no slow fallbacks near γ*
         ok = [g for g in growth[name][1] if "error" not in g]

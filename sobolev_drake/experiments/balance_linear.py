@@ -14,6 +14,7 @@ See docs/experiments/balance-linear.md.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
@@ -32,7 +33,20 @@ RADIUS = {"sf": 40.0, "of": 150.0}
 #: plant state [ϕ θ ϕ̇ θ̇] → linear-model state [θ ϕ̇ θ̇] (ϕ is cyclic)
 S_LIN = np.array([[0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
 THETA0 = np.pi / 4
-DESIGNS = ("H∞", "W∞", "H∞-O.F.", "W∞-O.F.")
+
+
+@dataclass(frozen=True)
+class Design:
+    """One row of Table 6.2: which norm, which feedback, and its label in the tables."""
+
+    label: str
+    norm: str         # "winf" (Sobolev weights Γ0, Γ1) or "hinf" (Q = Γ0, R = ρ)
+    feedback: str     # "sf" (state) or "of" (output, y = C_OF x)
+
+
+DESIGN_SPECS = {d.label: d for d in (Design("H∞", "hinf", "sf"), Design("W∞", "winf", "sf"),
+                                     Design("H∞-O.F.", "hinf", "of"), Design("W∞-O.F.", "winf", "of"))}
+DESIGNS = tuple(DESIGN_SPECS)
 #: Table 6.2: ISE θ, ISE ϕ̇, IADU, empirical H∞ index
 THESIS_TABLE_6_2 = {"H∞": (1.7, 82.9, 48.2, 1.47), "W∞": (1.8, 65.8, 33.5, 1.32),
                     "H∞-O.F.": (1.6, 96.1, 4544.0, 13.5), "W∞-O.F.": (1.8, 71.6, 682.0, 9.2)}
@@ -106,13 +120,14 @@ def design(which, lin, *, rho=None, backend=None, regularize=None):
     Returns (result, warning texts, seconds)."""
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
-    if which not in DESIGNS:
-        raise ValueError(f"which must be one of {DESIGNS}, got {which!r}")
+    spec = which if isinstance(which, Design) else DESIGN_SPECS.get(which)
+    if spec is None:
+        raise ValueError(f"which must be one of {DESIGNS} or a Design, got {which!r}")
     A, B, D = lin
-    of = which.endswith("O.F.")
-    disk = regions.disk(RADIUS["of" if of else "sf"])
+    of = spec.feedback == "of"
+    disk = regions.disk(RADIUS[spec.feedback])
     G0, G1 = (GAMMA0_OF, GAMMA1_OF) if of else (GAMMA0_SF, GAMMA1_SF)
-    if which.startswith("W"):
+    if spec.norm == "winf":
         fn = sb.winf_output_feedback if of else sb.winf_state_feedback
         args = (A, B, C_OF, D, G0, G1) if of else (A, B, D, G0, G1)
     else:

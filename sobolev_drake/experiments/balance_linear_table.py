@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sobolev_drake.experiments import ExperimentResult, register
-from sobolev_drake.experiments.balance_linear import (DESIGNS, RADIUS, SETTLE_WINDOW, THESIS_TABLE_6_2,
+from sobolev_drake.experiments.balance_linear import (DESIGN_SPECS, DESIGNS, RADIUS, SETTLE_WINDOW, THESIS_TABLE_6_2,
                                                       Rig, indices, linearize, result_gains,
                                                       synthesize_all)
 
@@ -40,7 +40,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
     for name in DESIGNS:
         dz = designs[name]
         r = dz["res"]
-        kind = "of" if name.endswith("O.F.") else "sf"
+        kind = DESIGN_SPECS[name].feedback
         d = rigs[kind].run(result_gains(r), duration)
         runs[name] = d
         idx = indices(d)
