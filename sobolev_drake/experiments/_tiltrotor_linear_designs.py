@@ -109,7 +109,7 @@ def _solve(lin, kind, backend, x0=None):
     disk = regions.disk(DISK_RADIUS)
     notes = []
     # Default backends: "auto" (own IPM, kept only when its certificate and the BRL re-check
-    # pass, else the Clarabel chain) for the W-inf state/output feedback, where it is faster
+    # pass, else the Clarabel chain) for the W∞ state/output feedback, where it is faster
     # than Clarabel at an equal certified gamma.  The thesis' non-strict LMIs are degenerate:
     # plain Clarabel without the fallback chain, whose CSDP step does not return on (6.36).
     # The optimum of the well-posed disturbance-model designs is pinned to Clarabel below
@@ -178,7 +178,7 @@ def design(lin, which, *, backend=None, initial_state=None):
     keep their solver optimum either way (re-solves measured not to help, see ``_solve``).
     None: least-gain regularization.
 
-    ``backend``: LMI backend; None picks "auto" for the W-inf state/output-feedback designs and
+    ``backend``: LMI backend; None picks "auto" for the W∞ state/output-feedback designs and
     "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate LMIs
     whose controller depends on the solver: see ``_solve``).
 

@@ -1,8 +1,8 @@
 """``linear-simple``: the four linear W∞ designs of Table 6.1 on the simple system (6.41)
 (thesis 6.5.1).
 
-Designs W-inf (regularized on its feedthrough bound, docs/design.md §8.2), W-inf-D,
-W-inf-O.F. and W-inf-O.F.D as LMIs — the disturbance-model rows in the well-posed augmented
+Designs W∞ (regularized on its feedthrough bound, docs/design.md §8.2), W∞-D,
+W∞-O.F. and W∞-O.F.D as LMIs — the disturbance-model rows in the well-posed augmented
 form, since the thesis' (6.31) is degenerate (docs/design.md §8.3), plus disk-limited
 variants — flies them from the same x(0) through the same noise by exact discretization of
 the linear closed loop, and splits ISE x1 into initial-condition and disturbance parts.
@@ -41,8 +41,8 @@ X0 = np.array([3.0, 1.0])  # initial plant state of the runs (6.5.1)
 #: disk radius of the well-posed (bandwidth-limited) disturbance-model variants (extra rows)
 WELL_POSED_DISK = 1000.0
 THESIS = {  # Table 6.1: ISE x1, ISE x2, IADU x1e3, ||x||/||w|| x1e-3
-    "W-inf": [5.4, 0.13, 2.0, 5.2], "W-inf-D": [3.4, 0.10, 1.8, 4.1],
-    "W-inf-O.F.": [1.5, 0.12, 1.5, 2.8], "W-inf-O.F.D": [0.3, 0.07, 1.1, 1.1]}
+    "W∞": [5.4, 0.13, 2.0, 5.2], "W∞-D": [3.4, 0.10, 1.8, 4.1],
+    "W∞-O.F.": [1.5, 0.12, 1.5, 2.8], "W∞-O.F.D": [0.3, 0.07, 1.1, 1.1]}
 
 
 #: the thesis solves these designs as LMIs ((6.7), (6.22), (6.31)/(6.36)); so does the table
@@ -59,7 +59,7 @@ def design():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = winf_state_feedback(A, B, D, GAMMA0, GAMMA1, **kw)
-        out["W-inf"] = ("sf", r.K, r)
+        out["W∞"] = ("sf", r.K, r)
         rep = disturbance_model_degeneracy(AD, BD, CD, 1.0, 1000.0)
         try:
             winf_disturbance_thesis(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, 1.0, 1000.0)
@@ -68,11 +68,11 @@ def design():
             notes.append(f"(6.31) as written: {e}")
         notes.append(rep.message)
         r = winf_disturbance_augmented(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, **kw)
-        out["W-inf-D"] = ("of_x", r.controller, r)
+        out["W∞-D"] = ("of_x", r.controller, r)
         r = winf_output_feedback(A, B, C, D, GAMMA0, GAMMA1, **kw)
-        out["W-inf-O.F."] = ("of_y", r.controller, r)
+        out["W∞-O.F."] = ("of_y", r.controller, r)
         r = winf_disturbance_augmented(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, C=C, **kw)
-        out["W-inf-O.F.D"] = ("of_y", r.controller, r)
+        out["W∞-O.F.D"] = ("of_y", r.controller, r)
     return out, notes
 
 
@@ -85,7 +85,7 @@ def design_well_posed(radius=WELL_POSED_DISK, backend=None):
     out = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name, kind, Cm in (("W-inf-D", "of_x", None), ("W-inf-O.F.D", "of_y", C)):
+        for name, kind, Cm in (("W∞-D", "of_x", None), ("W∞-O.F.D", "of_y", C)):
             r = winf_disturbance_augmented(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, C=Cm,
                                            region=regions.disk(radius), backend=backend,
                                            time_limit=None)
@@ -337,7 +337,7 @@ def _decomposition(ctrls, duration, metrics, extra=None):
     return rows
 
 
-@register("linear-simple", "Linear W-inf controllers on the simple system (6.41), Table 6.1",
+@register("linear-simple", "Linear W∞ controllers on the simple system (6.41), Table 6.1",
           default_duration=10.0, thesis_ref="6.5.1, Table 6.1")
 def run(out_dir, *, duration=None, record=False, smoke=False):
     out_dir = Path(out_dir)
@@ -386,18 +386,18 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
         outputs["figure"] = save_figure(fig, out_dir / "linear_simple.png")
     except ImportError:  # plotting is optional for the table
         pass
-    base = metrics["W-inf"]
+    base = metrics["W∞"]
     claims = [
-        Claim("Disturbance-model W-inf (state) improves ISE x1 over W-inf",
-              metrics["W-inf-D"]["ISE_x1"] < base["ISE_x1"],
-              f"{metrics['W-inf-D']['ISE_x1']:.3g} vs {base['ISE_x1']:.3g}"),
-        Claim("Disturbance-model W-inf O.F. improves ISE x1 over W-inf O.F.",
-              metrics["W-inf-O.F.D"]["ISE_x1"] < metrics["W-inf-O.F."]["ISE_x1"],
-              f"{metrics['W-inf-O.F.D']['ISE_x1']:.3g} vs {metrics['W-inf-O.F.']['ISE_x1']:.3g}"),
+        Claim("Disturbance-model W∞ (state) improves ISE x1 over W∞",
+              metrics["W∞-D"]["ISE_x1"] < base["ISE_x1"],
+              f"{metrics['W∞-D']['ISE_x1']:.3g} vs {base['ISE_x1']:.3g}"),
+        Claim("Disturbance-model W∞ O.F. improves ISE x1 over W∞ O.F.",
+              metrics["W∞-O.F.D"]["ISE_x1"] < metrics["W∞-O.F."]["ISE_x1"],
+              f"{metrics['W∞-O.F.D']['ISE_x1']:.3g} vs {metrics['W∞-O.F.']['ISE_x1']:.3g}"),
         Claim("(6.31) as written is degenerate (strict LMI infeasible)", any("kernel" in n for n in notes),
               "; ".join(notes)),
     ]
-    for d_name, b_name in (("W-inf-D", "W-inf"), ("W-inf-O.F.D", "W-inf-O.F.")):
+    for d_name, b_name in (("W∞-D", "W∞"), ("W∞-O.F.D", "W∞-O.F.")):
         md_, mb_ = metrics[d_name], metrics[b_name]
         claims.append(Claim(f"{d_name} attenuates the disturbance better than {b_name} (ISE x1 of the "
                             "run with x(0) = 0, v only)", md_["ISE_x1_v_only"] < mb_["ISE_x1_v_only"],
@@ -406,7 +406,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
                         all(m[f"z2_ic{k}"] <= m[f"V_xi0{k}"] * (1 + 1e-6) for m in metrics.values()
                             for k in ("", "_xk_argminV") if f"z2_ic{k}" in m),
                         "; ".join(f"{k}: {m['z2_ic']:.3g} <= {m['V_xi0']:.3g}" for k, m in metrics.items())))
-    for name in ("W-inf-D", "W-inf-O.F.D"):
+    for name in ("W∞-D", "W∞-O.F.D"):
         m = metrics[name]
         wp = metrics[f"{name}, disk r = {WELL_POSED_DISK:g}"]
         claims.append(Claim(f"{name} without a region behaves like an unattained infimum: LMI gamma exceeds the "
@@ -415,7 +415,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
                             f"gamma {m['gamma']:.3g} vs certified {m['achieved']:.3g}, "
                             f"max entry {m['max_abs_controller_entry']:.3g}"))
         claims.append(Claim(f"{name} with the disk r = {WELL_POSED_DISK:g}: the delivered controller is certified "
-                            "tightly (LMI gamma within 5 % of its norm) and attenuates v better than W-inf",
+                            "tightly (LMI gamma within 5 % of its norm) and attenuates v better than W∞",
                             wp["gamma"] <= 1.05 * wp["achieved"] and wp["ISE_x1_v_only"] < base["ISE_x1_v_only"],
                             f"gamma {wp['gamma']:.3g} vs {wp['achieved']:.3g}, v-only ISE x1 "
                             f"{wp['ISE_x1_v_only']:.3g} vs {base['ISE_x1_v_only']:.3g}, max entry "
@@ -434,14 +434,14 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
                             f"{wp['achieved']:.4g}) vs IPM gamma {r.gamma:.4g} (certified "
                             f"{r.certificate.achieved:.4g}, max entry "
                             f"{wp['max_abs_controller_entry_ipm']:.3g})"))
-    mD, mB = metrics["W-inf-D"], base
+    mD, mB = metrics["W∞-D"], base
     notes.append(
-        f"W-inf-D vs W-inf ISE x1 ({mD['ISE_x1']:.3g} vs {mB['ISE_x1']:.3g}): the x(0)-only run gives "
-        f"{mD['ISE_x1_ic_only']:.3g}, the v-only run {mD['ISE_x1_v_only']:.3g} (W-inf: "
+        f"W∞-D vs W∞ ISE x1 ({mD['ISE_x1']:.3g} vs {mB['ISE_x1']:.3g}): the x(0)-only run gives "
+        f"{mD['ISE_x1_ic_only']:.3g}, the v-only run {mD['ISE_x1_v_only']:.3g} (W∞: "
         f"{mB['ISE_x1_v_only']:.3g}). The disturbance-model design minimizes the gain v -> z; its "
-        f"initial-condition term V(xi(0)) in (6.33) is {mD['V_xi0']:.3g} with x_K(0) = 0 (W-inf: "
+        f"initial-condition term V(xi(0)) in (6.33) is {mD['V_xi0']:.3g} with x_K(0) = 0 (W∞: "
         f"{mB['V_xi0']:.3g}). With x_K(0) = argmin V: V = {mD['V_xi0_xk_argminV']:.3g}, ||z||^2 from x(0) "
-        f"{mD['z2_ic_xk_argminV']:.3g} (W-inf {mB['z2_ic']:.3g}), ISE x1 {mD['ISE_x1_xk_argminV']:.3g}. "
+        f"{mD['z2_ic_xk_argminV']:.3g} (W∞ {mB['z2_ic']:.3g}), ISE x1 {mD['ISE_x1_xk_argminV']:.3g}. "
         "See docs/experiments/linear-simple.md.")
     (out_dir / "linear_simple_notes.md").write_text("\n".join(f"- {n}" for n in notes) + "\n")
     return ExperimentResult("linear-simple", outputs, metrics, claims, md)

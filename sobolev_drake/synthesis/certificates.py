@@ -3,7 +3,7 @@
 Nothing here uses the LMI: a result is accepted only if
 
 * every closed-loop eigenvalue has negative real part (and lies in the requested LMI region),
-* the H-infinity norm of the closed-loop performance channel, computed by Hamiltonian
+* the H∞ norm of the closed-loop performance channel, computed by Hamiltonian
   iteration (Bruinsma & Steinbuch 1990, own implementation, D != 0 handled), does not exceed
   the claimed gamma by more than a relative tolerance (default 1e-4).
 
@@ -106,7 +106,7 @@ def _sigma_max(A, B, C, D, w):
 
 
 def hinf_norm(A, B, C, D, rtol=1e-7):
-    """H-infinity norm of C (sI-A)^-1 B + D by Hamiltonian iteration.
+    """H∞ norm of C (sI-A)^-1 B + D by Hamiltonian iteration.
 
     Each iteration takes the imaginary-axis eigenvalues of the Hamiltonian at
     gamma = (1+2 rtol) * lower bound and evaluates the gain at the midpoints (Bruinsma &
@@ -165,7 +165,7 @@ def hinf_norm(A, B, C, D, rtol=1e-7):
 
 
 def hinf_norm_sweep(A, B, C, D, freqs=None):
-    """Frequency-sweep lower estimate of the H-infinity norm (for tests and plots)."""
+    """Frequency-sweep lower estimate of the H∞ norm (for tests and plots)."""
     if freqs is None:
         freqs = np.concatenate([[0.0], np.logspace(-3, 5, 2000)])
     vals = [_sigma_max(A, B, C, D, w) for w in freqs]
@@ -180,7 +180,7 @@ class Certificate:
 
     stable: bool
     max_real_eig: float
-    achieved: float  # closed-loop performance-channel H-infinity norm (Hamiltonian)
+    achieved: float  # closed-loop performance-channel H∞ norm (Hamiltonian)
     gamma: float  # claimed bound
     rtol: float
     region_ok: bool = True
@@ -209,7 +209,7 @@ def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, so
         fails.append(f"closed loop unstable: max Re(eig) = {mre:.3g}")
     achieved = hinf_norm(Acl, Bcl, Ccl, Dcl)[0] if stable else np.inf
     if stable and achieved > gamma * (1 + rtol):
-        fails.append(f"H-infinity norm {achieved:.6g} exceeds gamma {gamma:.6g} by "
+        fails.append(f"H∞ norm {achieved:.6g} exceeds gamma {gamma:.6g} by "
                      f"{achieved / gamma - 1:.2e} (relative; tolerance {rtol:.0e})")
     region_ok, margin = True, -np.inf
     if region is not None and ev.size:

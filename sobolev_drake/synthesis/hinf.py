@@ -1,4 +1,4 @@
-"""H-infinity synthesis for a continuous-time generalized plant.
+"""H∞ synthesis for a continuous-time generalized plant.
 
     xdot = A x + B1 w + B2 u,   z = C1 x + D11 w + D12 u,   y = C2 x + D21 w   (D22 = 0)
 
@@ -21,7 +21,7 @@ result is checked independently (``certificates.py``) on the original plant befo
 returned. When the optimum sits on the feedthrough (Parrott) bound the infimum is approached
 only with unbounded gains (docs/design.md §8.2); the synthesis then re-solves at
 gamma = (1 + delta) gamma_opt minimizing a gain bound, and says so in ``result.warnings``.
-W-infinity problems are performance channels of this plant (``sobolev.py``); LMI regions come
+W∞ problems are performance channels of this plant (``sobolev.py``); LMI regions come
 from ``regions.py``.
 """
 
@@ -57,7 +57,7 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, 
     Symmetric gamma form [[He(AX + B2 W), B1, (C1 X + D12 W)'], [B1', -gamma I, D11'],
     [., D11, -gamma I]] (equivalent to the Schur complement of (6.5) in the gamma^2 form with
     X scaled by gamma).  Measured: the gamma^2 form fails in every backend on the two-wheeled
-    classic H-infinity plant with rho = 1000 (NumericalError / certificate off by 2 %); the
+    classic H∞ plant with rho = 1000 (NumericalError / certificate off by 2 %); the
     gamma form solves it ("Solved", certified, Clarabel and the own IPM agree to 5e-7).
     """
     plants = [compress_performance(p) for p in plants]
@@ -100,7 +100,7 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
                    rtol=1e-4, verify=True, input_weight=None, vertices=None, margin=EPS,
                    scaling=True, initial_states=None):
-    """H-infinity state feedback u = K x, certified (sign convention: u = +K x).
+    """H∞ state feedback u = K x, certified (sign convention: u = +K x).
 
     Parameters
     ----------
@@ -158,7 +158,7 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
     ``initial_states``: x0 (n,) or columns x0_i (n, k).  Changes the secondary objective used
     at a fixed gamma (``gamma`` given, or the regularizing re-solve at (1+delta) gamma_opt)
     from the least-gain bound to the guaranteed transient cost sum_i x0_i' P x0_i, which
-    bounds sum_i ||z||^2 of the responses to x(0) = x0_i with w = 0 (the mixed H2/H-infinity
+    bounds sum_i ||z||^2 of the responses to x(0) = x0_i with w = 0 (the mixed H2/H∞
     idea with a common Lyapunov matrix).  On problems whose optimum sits on the feedthrough
     bound, gamma hardly constrains the closed loop and the least-gain controller can be
     lightly damped; this picks, among the controllers with the same certified gamma, one

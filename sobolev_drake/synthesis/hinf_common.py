@@ -264,7 +264,7 @@ class SynthesisResult:
     """
 
     kind: str  # "state_feedback" | "output_feedback"
-    gamma: float  # certified bound on the performance-channel H-infinity norm
+    gamma: float  # certified bound on the performance-channel H∞ norm
     K: np.ndarray | None = None
     controller: DynamicController | None = None
     P: np.ndarray | None = None  # closed-loop Lyapunov matrix
@@ -508,7 +508,7 @@ def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
 def compress_performance(p):
     """Same plant with z replaced by U^T z, U an orthonormal basis of range [C1 D11 D12].
 
-    |z| is unchanged (the dropped components vanish identically); the W-infinity channel
+    |z| is unchanged (the dropped components vanish identically); the W∞ channel
     has 2n rows but rank <= n + nw + nu, so the BRL block shrinks (faster SDP).
     """
     M = np.hstack([p.C1, p.D11, p.D12])
@@ -619,12 +619,12 @@ def validate_plants(plants, need_detectable):
             raise ValueError("all vertex plants must have the same dimensions")
         if not (p.C1.any() or p.D12.any()):
             raise ValueError("the performance output z depends on neither x nor u (C1 = 0 and "
-                             "D12 = 0; for W-infinity: Gamma0 = Gamma1 = 0): every stabilizing "
+                             "D12 = 0; for W∞: Gamma0 = Gamma1 = 0): every stabilizing "
                              "controller gives the same norm, there is nothing to optimize")
         if not (p.B1.any() or p.D11.any() or (need_detectable and p.D21.any())):
             raise ValueError("the disturbance w reaches neither the state nor z (B1 = 0 and "
                              "D11 = 0" + (" and D21 = 0" if need_detectable else "") +
-                             "; for W-infinity: D = 0): the closed-loop norm is 0 for every "
+                             "; for W∞: D = 0): the closed-loop norm is 0 for every "
                              "stabilizing controller; use an LQR / H2 design for this plant")
         require_stabilizable(p.A, p.B2)
         if need_detectable:

@@ -1,11 +1,11 @@
-"""H-infinity synthesis by Riccati equations and gamma bisection (``riccati.py``), certified.
+"""H∞ synthesis by Riccati equations and gamma bisection (``riccati.py``), certified.
 
 Regular problems (D12 full column rank; for output feedback also D21 full row rank): bisection
 on gamma to a relative width of ``BISECTION_RTOL``, then the Riccati controller at
 ``(1 + OPTIMUM_GAP) gamma_hi`` -- the state-feedback gain F2 or the central controller.
 
 Singular problems (rank-deficient D12 or D21: an input reaching z without cost, a measurement
-without noise -- every W-infinity output feedback with y = C x): the infimum is generally not
+without noise -- every W∞ output feedback with y = C x): the infimum is generally not
 attained and controllers near it have unbounded gains.  The plant is perturbed by a small cost
 eps |u|^2 and/or a measurement noise eps v (:func:`perturbed_plant`); both only add channels, so
 the original closed-loop norm is at most the perturbed one.  For a target level gamma_t the

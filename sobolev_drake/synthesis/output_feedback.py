@@ -1,4 +1,4 @@
-"""Full-order dynamic output-feedback H-infinity synthesis (controller feedthrough allowed).
+"""Full-order dynamic output-feedback H∞ synthesis (controller feedthrough allowed).
 
 Scherer, Gahinet & Chilali (1997) / Gahinet & Apkarian (1994) linearizing variables
 (X, Y, Ak, Bk, Ck, Dk): the bounded-real-lemma LMI of the closed loop becomes linear (the
@@ -142,7 +142,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
                     backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
                     rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
                     scaling=True, initial_states=None, transient_gain_weight=0.0):
-    """Full-order dynamic output-feedback H-infinity synthesis, certified.
+    """Full-order dynamic output-feedback H∞ synthesis, certified.
 
     The controller x_K' = AK x_K + BK y, u = CK x_K + DK y (sign convention: u = +(...), no
     minus sign) in ``result.controller``.

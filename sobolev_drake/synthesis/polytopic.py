@@ -2,7 +2,7 @@
 
 If the bounded-real-lemma LMI (and the region LMI) hold at every vertex (A_i, B_i, D_i) with
 the same X = P^-1 and W = K X, they hold on the convex hull because the LMIs are affine in the
-plant data for fixed (X, W). The W-infinity channel's C1 = [Gamma0^1/2; Gamma1^1/2 A] and
+plant data for fixed (X, W). The W∞ channel's C1 = [Gamma0^1/2; Gamma1^1/2 A] and
 D12 = [0; Gamma1^1/2 B] are affine in (A, B), so convex combinations of vertex generalized
 plants are the generalized plants of convex combinations of (A, B, D).
 """
@@ -87,13 +87,13 @@ def _vertex_triples(vertices):
 
 
 def robust_winf_state_feedback(vertices, Gamma0, Gamma1, *, region=None, **kw):
-    """Common-Lyapunov W-infinity state feedback over vertices [(A, B, D), ...]."""
+    """Common-Lyapunov W∞ state feedback over vertices [(A, B, D), ...]."""
     plants = [winf_plant(A, B, D, Gamma0, Gamma1) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 
 def robust_hinf_state_feedback(vertices, Q, R, *, region=None, **kw):
-    """Common-Lyapunov classic H-infinity state feedback over vertices [(A, B, D), ...]."""
+    """Common-Lyapunov classic H∞ state feedback over vertices [(A, B, D), ...]."""
     plants = [hinf_plant(A, B, D, Q, R) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 

@@ -1,4 +1,4 @@
-"""Riccati (Glover-Doyle) characterization of the H-infinity problem, for regular plants.
+"""Riccati (Glover-Doyle) characterization of the H∞ problem, for regular plants.
 
 For the generalized plant of ``hinf_common.GeneralizedPlant`` (D22 = 0) write
 B = [B1 B2], C = [C1; C2], D1. = [D11 D12], D.1 = [D11; D21] and, at a level gamma,

@@ -2,7 +2,7 @@
 
 Coordinates x = T x~ (diagonal state similarity), u = Su u~ (input scaling), y = Sy y~
 (measurement scaling); w and z are never scaled.  The w -> z map of every closed loop, hence
-gamma, the closed-loop poles (so any LMI region) and the feasible set of the H-infinity problem
+gamma, the closed-loop poles (so any LMI region) and the feasible set of the H∞ problem
 are invariant; only the SDP's conditioning changes.  All factors are powers of two, so the
 scaling itself is exact in floating point.  The controller found for the scaled plant is
 mapped back (:func:`unscale_gain`, :func:`unscale_controller`) and certified on the original

@@ -1,4 +1,4 @@
-"""W-infinity (weighted Sobolev) performance channels on the generalized-plant synthesis.
+"""W∞ (weighted Sobolev) performance channels on the generalized-plant synthesis.
 
 For xdot = A x + B u + D w (6.1) the W^{1,2,Gamma} cost ||x||^2_Gamma0 + ||xdot||^2_Gamma1 is the
 L2 norm of z = [Gamma0^1/2 x ; Gamma1^1/2 xdot], i.e. the generalized plant
@@ -6,7 +6,7 @@ L2 norm of z = [Gamma0^1/2 x ; Gamma1^1/2 xdot], i.e. the generalized plant
     C1 = [Gamma0^1/2 ; Gamma1^1/2 A],  D11 = [0 ; Gamma1^1/2 D],  D12 = [0 ; Gamma1^1/2 B],
 
 whose bounded-real-lemma LMI is (6.7) (state feedback) and (6.22) (output feedback, y = C x)
-after a Schur complement. Classic H-infinity is z = [Q^1/2 x ; R^1/2 u].
+after a Schur complement. Classic H∞ is z = [Q^1/2 x ; R^1/2 u].
 
 Disturbance model (6.28)/(6.34): ddot = Ad d + Bd v, w = Cd d. The thesis' LMIs (6.31)/(6.36)
 keep V = x'Px and replace the -gamma^2 I block by -gamma^2 L' diag(Upsilon0, Upsilon1) L with
@@ -70,7 +70,7 @@ def _weights(name0, W0, name1, W1):
 
 
 def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
-    """Generalized plant of the W-infinity channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
+    """Generalized plant of the W∞ channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
 
     Parameters
     ----------
@@ -97,7 +97,7 @@ def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
 
 
 def hinf_plant(A, B, D, Q, R, C=None):
-    """Generalized plant of the classic H-infinity channel z = [Q^1/2 x ; R^1/2 u].
+    """Generalized plant of the classic H∞ channel z = [Q^1/2 x ; R^1/2 u].
 
     Parameters
     ----------
@@ -123,7 +123,7 @@ def hinf_plant(A, B, D, Q, R, C=None):
 
 
 def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
-    """Full-state W-infinity controller (6.7), certified; u = +K x.
+    """Full-state W∞ controller (6.7), certified; u = +K x.
 
     Parameters
     ----------
@@ -150,7 +150,7 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
 
 
 def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **options):
-    """Dynamic output-feedback W-infinity controller (6.22) with y = C x, certified.
+    """Dynamic output-feedback W∞ controller (6.22) with y = C x, certified.
 
     Parameters
     ----------
@@ -368,7 +368,7 @@ def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):
 
 
 def winf_disturbance_augmented(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None, **kw):
-    """Well-posed disturbance-model W-infinity design (output-feedback LMI on (x, d)).
+    """Well-posed disturbance-model W∞ design (output-feedback LMI on (x, d)).
 
     The gain certified is from v (L2) to z = [Gamma0^1/2 x; Gamma1^1/2 xdot]; the controller
     is dynamic (it estimates d from the measured x or y = C x).

@@ -11,7 +11,7 @@ warnings.simplefilter("ignore", UserWarning)
 
 def test_linear_simple_drake_diagram_matches_exact_discretization():
     """The Drake diagram (LinearSystem plant + LeafSystem controller) and the exact ZOH
-    discretization agree for the (non-stiff) regularized W-inf state feedback."""
+    discretization agree for the (non-stiff) regularized W∞ state feedback."""
     r = ls.winf_state_feedback(ls.A, ls.B, ls.D, ls.GAMMA0, ls.GAMMA1)
     d = ls.simulate("sf", r.K, 0.5)
     e = ls.simulate_exact("sf", r.K, 0.5)
@@ -22,8 +22,8 @@ def test_linear_simple_drake_diagram_matches_exact_discretization():
 def test_linear_simple_smoke(tmp_path):
     res = ls.run(tmp_path, smoke=True)
     assert (tmp_path / "table_6_1.md").exists() and (tmp_path / "table_6_1.json").exists()
-    assert set(res.metrics) == {"W-inf", "W-inf-D", "W-inf-O.F.", "W-inf-O.F.D",
-                                "W-inf-D, disk r = 1000", "W-inf-O.F.D, disk r = 1000"}
+    assert set(res.metrics) == {"W∞", "W∞-D", "W∞-O.F.", "W∞-O.F.D",
+                                "W∞-D, disk r = 1000", "W∞-O.F.D, disk r = 1000"}
     for m in res.metrics.values():
         assert m["achieved"] <= m["gamma"] * (1 + 1e-4)
     assert any("degenerate" in c.text and c.held for c in res.claims)
@@ -46,7 +46,7 @@ def test_linear_simple_runs_superpose_initial_condition_and_disturbance(simple_d
     """The closed loop is linear: the full run equals the x(0)-only run plus the v-only run
     (same seed), for the static and for a dynamic controller; the v-only run of the
     disturbance-model design is tiny (the matched disturbance is estimated and cancelled)."""
-    for name in ("W-inf", "W-inf-D"):
+    for name in ("W∞", "W∞-D"):
         kind, data, _ = simple_designs[name]
         full = ls.simulate_exact(kind, data, 3.0)
         ic = ls.simulate_exact(kind, data, 3.0, noise=False)
@@ -54,8 +54,8 @@ def test_linear_simple_runs_superpose_initial_condition_and_disturbance(simple_d
         scale = np.abs(full["x"]).max()
         np.testing.assert_allclose(full["x"], ic["x"] + vo["x"], atol=1e-9 * scale)
         np.testing.assert_allclose(full["u"], ic["u"] + vo["u"], atol=1e-9 * np.abs(full["u"]).max())
-    kind, data, _ = simple_designs["W-inf-D"]
-    kb, datab, _ = simple_designs["W-inf"]
+    kind, data, _ = simple_designs["W∞-D"]
+    kb, datab, _ = simple_designs["W∞"]
     vD = ls._indices(ls.simulate_exact(kind, data, 3.0, x0=[0.0, 0.0]))[0]
     vB = ls._indices(ls.simulate_exact(kb, datab, 3.0, x0=[0.0, 0.0]))[0]
     assert vD < 1e-3 * vB
@@ -64,7 +64,7 @@ def test_linear_simple_runs_superpose_initial_condition_and_disturbance(simple_d
 def test_linear_simple_initial_condition_energy_matches_simulation(simple_designs):
     """||z||^2 from the Gramian equals the integral of |Gamma0^1/2 x|^2 + |xdot|^2 of a long
     x(0)-only run (xdot by finite differences)."""
-    kind, data, _ = simple_designs["W-inf"]
+    kind, data, _ = simple_designs["W∞"]
     s = ls.simulate_exact(kind, data, 2.0, noise=False, dt=1e-4)
     t, x = s["t"], s["x"]
     xd = np.gradient(x, t, axis=0)
@@ -74,12 +74,12 @@ def test_linear_simple_initial_condition_energy_matches_simulation(simple_design
 
 def test_linear_simple_lyapunov_bound_6_33_and_consistent_controller_state(simple_designs):
     """(6.33) with v = 0: ||z||^2 <= V(xi(0)) for every design; x_K(0) = argmin V is a
-    stationary point of V (gradient zero), lowers V and the transient energy of W-inf-D."""
+    stationary point of V (gradient zero), lowers V and the transient energy of W∞-D."""
     for name, (kind, data, res) in simple_designs.items():
         z2 = ls.initial_condition_energy(kind, data)
         V = ls.lyapunov_bound(kind, data, res)
         assert 0 < z2 <= V * (1 + 1e-6), name
-    kind, data, res = simple_designs["W-inf-D"]
+    kind, data, res = simple_designs["W∞-D"]
     xk = ls.consistent_controller_state(res)
     P = res.P
     xi = np.concatenate([ls.X0, np.zeros(2), xk])
@@ -92,15 +92,15 @@ def test_linear_simple_lyapunov_bound_6_33_and_consistent_controller_state(simpl
 
 
 def test_linear_simple_bad_initial_states(simple_designs):
-    kind, data, res = simple_designs["W-inf-D"]
+    kind, data, res = simple_designs["W∞-D"]
     with pytest.raises(ValueError, match="xk0 must have 4 entries"):
         ls.simulate_exact(kind, data, 0.1, xk0=[0.0, 0.0])
     with pytest.raises(ValueError, match="x0 must have 2 entries"):
         ls.initial_condition_energy(kind, data, x0=[1.0, 2.0, 3.0])
-    _, _, rsf = simple_designs["W-inf"]
+    _, _, rsf = simple_designs["W∞"]
     with pytest.raises(ValueError, match="dynamic-controller result"):
         ls.consistent_controller_state(rsf)
-    _, _, rof = simple_designs["W-inf-O.F."]  # P on [x; x_K]: no disturbance states
+    _, _, rof = simple_designs["W∞-O.F."]  # P on [x; x_K]: no disturbance states
     with pytest.raises(ValueError, match=r"res.P must be the Lyapunov matrix on \[x; d; x_K\]"):
         ls.consistent_controller_state(rof)
 
@@ -109,7 +109,7 @@ def test_linear_simple_brl_scale_is_normalization_free(simple_designs):
     """brl_scale finds the factor that turns the stored P into a gamma^2-form bounded-real
     certificate: ~1 for the state feedback (gamma^2 form), and scaling P by c divides it by c;
     an indefinite P is rejected."""
-    kind, K, res = simple_designs["W-inf"]
+    kind, K, res = simple_designs["W∞"]
     plant = ls.winf_plant(ls.A, ls.B, ls.D, ls.GAMMA0, ls.GAMMA1)
     cl = plant.closed_loop(K=K)
     s1 = ls.brl_scale(*cl, res.P, res.gamma)

@@ -16,7 +16,7 @@ warnings.simplefilter("ignore", UserWarning)
 
 
 def sgc_example7():
-    """Scherer, Gahinet & Chilali (1997), example 7 (H-infinity part); gamma* = 9.5081."""
+    """Scherer, Gahinet & Chilali (1997), example 7 (H∞ part); gamma* = 9.5081."""
     A = np.array([[0, 10, 2], [-1, 1, 0], [0, 2, -5.0]])
     B1 = np.array([[1.0], [0], [1]])
     B2 = np.array([[0.0], [1], [0]])
@@ -290,7 +290,7 @@ def test_ipm_backend_state_feedback_matches_clarabel(seed, n):
 
 
 def _bench3_plant():
-    """3-state W-infinity output-feedback plant (benchmarks/synthesis.py) on which the own IPM
+    """3-state W∞ output-feedback plant (benchmarks/synthesis.py) on which the own IPM
     stalls: the infimum needs Y -> infinity (Clarabel: |Y| ~ 7e6) and the IPM's point
     (gamma 1.002) fails the norm certificate by 18 %."""
     A = np.array([[0, 0, 1.0], [0, -0.5, 2], [30, 1, -0.5]])

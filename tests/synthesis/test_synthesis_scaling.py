@@ -1,7 +1,7 @@
 """Automatic scaling of the state-feedback LMI (hinf.balance_scaling / scale_plant).
 
 A well-posed plant is rewritten in badly scaled coordinates (diagonal state similarity with
-entries 1e-3..1e3, inputs multiplied by 1e-5): the H-infinity problem is the same, so the
+entries 1e-3..1e3, inputs multiplied by 1e-5): the H∞ problem is the same, so the
 optimal gamma must match and the controller, mapped back, must pass the certificate computed
 in the badly scaled (original) coordinates.
 """
@@ -95,7 +95,7 @@ def test_explicit_scaling_and_bad_input():
 
 # --------------------------------------------------------------------------- output feedback
 def _of_plant(seed, n=5, sensor_noise=0.1):
-    """W-infinity plant with measurement noise (as tests/synthesis/test_synthesis.py's random plants)."""
+    """W∞ plant with measurement noise (as tests/synthesis/test_synthesis.py's random plants)."""
     from sobolev_drake.synthesis.sobolev import winf_plant
     rng = np.random.default_rng(seed)
     nu, nw, ny = 1 + n % 2, 1 + (n // 2) % 2, max(1, n // 2)

@@ -1,4 +1,4 @@
-"""W-infinity channels, disturbance-model LMIs (6.31)/(6.36), well-posedness, polytopic design."""
+"""W∞ channels, disturbance-model LMIs (6.31)/(6.36), well-posedness, polytopic design."""
 
 import warnings
 

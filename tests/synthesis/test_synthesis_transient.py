@@ -18,7 +18,7 @@ from sobolev_drake.synthesis.sobolev import winf_plant
 warnings.simplefilter("ignore", UserWarning)
 warnings.simplefilter("ignore", SynthesisWarning)
 
-# thesis simple example (6.41): matched disturbance, the W-inf optimum sits on the feedthrough bound
+# thesis simple example (6.41): matched disturbance, the W∞ optimum sits on the feedthrough bound
 A = np.array([[0, 50], [-50, -50.0]])
 B = np.array([[0.0], [1]])
 G0, G1 = np.diag([10.0, 10]), np.eye(2)
@@ -43,12 +43,12 @@ def test_state_feedback_transient_objective_bounds_and_beats_least_gain():
     assert any("transient bound" in w for w in r.warnings)
     cost, cost_least = exact_cost(r, p, X0), exact_cost(least, p, X0)
     assert cost <= r.transient_bound * (1 + 1e-6)  # the bound holds
-    assert r.transient_bound <= cost * 1.05  # and is nearly tight (H-inf constraint inactive)
+    assert r.transient_bound <= cost * 1.05  # and is nearly tight (H∞ constraint inactive)
     assert cost < 0.6 * cost_least  # measured 232.5 vs 460.0
 
 
 def test_riccati_state_feedback_is_transient_optimal_at_its_gamma():
-    """The stabilizing solution of the H-infinity Riccati equation is the smallest P of the
+    """The stabilizing solution of the H∞ Riccati equation is the smallest P of the
     bounded-real inequality, so the Riccati gain at a level gamma minimizes x0'P x0 for every
     x0 at once: the default (Riccati) controller's transient cost equals the optimum of the
     LMI's transient objective at the same gamma.  Tolerance: the LMI optimum is accurate to
@@ -61,7 +61,7 @@ def test_riccati_state_feedback_is_transient_optimal_at_its_gamma():
 
 
 def test_state_feedback_transient_bound_approaches_lqr_cost_when_gamma_is_loose():
-    """With a loose gamma the H-inf constraint is inactive: the minimal bound is the cost of
+    """With a loose gamma the H∞ constraint is inactive: the minimal bound is the cost of
     the LQR with Q = C1'C1, R = D12'D12, S = C1'D12 (Riccati, independent of the LMI)."""
     p = winf_plant(A, B, B, G0, G1)
     r = state_feedback(p, gamma=50.0, initial_states=X0)

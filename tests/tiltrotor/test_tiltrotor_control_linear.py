@@ -173,7 +173,7 @@ def test_smoke_nonlinear_flight_and_outputs(smoke):
 
 def test_bad_design_name_is_rejected(tmp_path):
     with pytest.raises(ValueError, match="designs must be names"):
-        hl.run(tmp_path, smoke=True, designs=["W-inf"])
+        hl.run(tmp_path, smoke=True, designs=["W-infinity"])
     from sobolev_drake.experiments._tiltrotor_linear_designs import design
     with pytest.raises(ValueError, match="which must be one of"):
         design(None, "nope")
