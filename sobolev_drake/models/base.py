@@ -340,7 +340,10 @@ class PlantModel(MechanicalModel):
             raise ValueError("plant must be finalized (plant.Finalize()) before from_plant")
         _refuse_unsupported(plant)
         if name is None:
-            name = plant.GetModelInstanceName(ModelInstanceIndex(min(plant.num_model_instances() - 1, 2)))
+            # instances 0 and 1 are the world and the default one; 2 is the first model added
+            first = (ModelInstanceIndex(2) if plant.num_model_instances() > 2
+                     else plant.default_model_instance())
+            name = plant.GetModelInstanceName(first)
         names = plant.GetPositionNames(add_model_instance_prefix=False, always_add_suffix=False)
         super().__init__(plant, dof_names=names, name=name)
         if context is not None:
@@ -361,11 +364,9 @@ class PlantModel(MechanicalModel):
         self.frictionless = not np.any(damping)
         self._B = plant.MakeActuationMatrix()
         self.num_inputs = self._B.shape[1]
-        lower, upper = -np.inf * np.ones(self.num_inputs), np.inf * np.ones(self.num_inputs)
-        for k, index in enumerate(plant.GetJointActuatorIndices()):
-            limit = plant.get_joint_actuator(index).effort_limit()
-            lower[k], upper[k] = -limit, limit
-        self.input_lower, self.input_upper = lower, upper
+        self.input_upper = np.array([plant.get_joint_actuator(i).effort_limit()
+                                     for i in plant.GetJointActuatorIndices()], dtype=float)
+        self.input_lower = -self.input_upper
 
     def B(self, q) -> np.ndarray:
         """Actuation matrix (n × number of actuators), constant in q.

@@ -30,11 +30,27 @@ __all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_
            "hinf_state_feedback", "hinf_output_feedback", "hinfsyn", "HinfsynOutput"]
 
 
+def _system_kind(obj):
+    """"drake" (methods A(), B(), ...), "statespace" (attributes A, B, C, D) or None."""
+    if callable(getattr(obj, "A", None)) and callable(getattr(obj, "C", None)):
+        return "drake"
+    if not isinstance(obj, np.ndarray) and all(hasattr(obj, k) for k in ("A", "B", "C", "D")):
+        return "statespace"
+    return None
+
+
 def is_linear_system(obj) -> bool:
-    """True for a Drake Linear/AffineSystem, a python-control or scipy StateSpace."""
-    return (callable(getattr(obj, "A", None)) and callable(getattr(obj, "C", None))) or (
-        all(hasattr(obj, k) for k in ("A", "B", "C", "D")) and not isinstance(obj, np.ndarray)
-        and not callable(getattr(obj, "A")))
+    """True for a Drake Linear/AffineSystem, a python-control or scipy StateSpace.
+
+    Parameters
+    ----------
+    obj : object
+
+    Returns
+    -------
+    bool
+    """
+    return _system_kind(obj) is not None
 
 
 def state_space_matrices(system, name="system"):
@@ -52,15 +68,16 @@ def state_space_matrices(system, name="system"):
     tuple of ndarray
         A (n × n), B (n × m), C (p × n), D (p × m).
     """
+    kind = _system_kind(system)
     if isinstance(system, tuple) and len(system) == 4:
         A, B, C, D = system
-    elif callable(getattr(system, "A", None)):                   # Drake (Affine|Linear)System
+    elif kind == "drake":                                        # Drake (Affine|Linear)System
         period = system.time_period() if hasattr(system, "time_period") else 0.0
         if period:
             raise ValueError(f"{name} must be continuous-time, got a Drake system with time "
                              f"period {period}")
         A, B, C, D = system.A(), system.B(), system.C(), system.D()
-    elif all(hasattr(system, k) for k in ("A", "B", "C", "D")):  # python-control / scipy
+    elif kind == "statespace":                                   # python-control / scipy
         dt = getattr(system, "dt", 0)
         if dt not in (0, None):
             raise ValueError(f"{name} must be continuous-time, got dt = {dt}")

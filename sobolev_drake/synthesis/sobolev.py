@@ -63,7 +63,15 @@ def _plant(A, B, D, C, *, measured):
     return (*_abd(A, B, B if D is None else D), C)
 
 
-def _weights(name0, W0, name1, W1):
+def _measured_plant(A, B, D, C):
+    """:func:`_plant` for output feedback: C is required (given, or the linear system's)."""
+    A, B, D, C = _plant(A, B, D, C, measured=True)
+    if C is None:
+        raise TypeError("C (the measurement y = C x) is required")
+    return A, B, D, C
+
+
+def _require_weights(name0, W0, name1, W1):
     for name, W in ((name0, W0), (name1, W1)):
         if W is None:
             raise TypeError(f"{name} is required")
@@ -144,7 +152,7 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
     SynthesisResult
         ``K`` with u = +K x (no minus sign), certified ``gamma``.
     """
-    _weights("Gamma0", Gamma0, "Gamma1", Gamma1)
+    _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
     return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **options)
 
@@ -168,10 +176,8 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     SynthesisResult
         ``controller`` (A_K, B_K, C_K, D_K) with x_K' = A_K x_K + B_K y, u = C_K x_K + D_K y.
     """
-    _weights("Gamma0", Gamma0, "Gamma1", Gamma1)
-    A, B, D, C = _plant(A, B, D, C, measured=True)
-    if C is None:
-        raise TypeError("C (the measurement y = C x) is required")
+    _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
+    A, B, D, C = _measured_plant(A, B, D, C)
     return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **options)
 
 
@@ -191,7 +197,7 @@ def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
     -------
     SynthesisResult
     """
-    _weights("Q", Q, "R", R)
+    _require_weights("Q", Q, "R", R)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
     return state_feedback(hinf_plant(A, B, D, Q, R), **options)
 
@@ -212,10 +218,8 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
     -------
     SynthesisResult
     """
-    _weights("Q", Q, "R", R)
-    A, B, D, C = _plant(A, B, D, C, measured=True)
-    if C is None:
-        raise TypeError("C (the measurement y = C x) is required")
+    _require_weights("Q", Q, "R", R)
+    A, B, D, C = _measured_plant(A, B, D, C)
     return output_feedback(hinf_plant(A, B, D, Q, R, C), **options)
 
 

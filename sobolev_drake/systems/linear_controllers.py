@@ -139,6 +139,23 @@ class LinearStateFeedback(_ClippedOutput, LeafSystem):
         return self.u_r + self.gains(context) @ (x - xr)
 
 
+def _controller_matrices(controller):
+    """(AK, BK, CK, DK) of a DynamicController, an output-feedback SynthesisResult or a tuple."""
+    kind = getattr(controller, "kind", None)
+    if kind == "state_feedback":
+        raise TypeError("from_controller got a state-feedback SynthesisResult (u = K x); "
+                        "wire it with LinearStateFeedback(result.K) instead")
+    if kind is not None:
+        controller = controller.controller
+    try:
+        AK, BK, CK, DK = controller
+    except (TypeError, ValueError):
+        raise TypeError("controller must be a DynamicController, an output-feedback "
+                        f"SynthesisResult or an (AK, BK, CK, DK) tuple, got "
+                        f"{type(controller).__name__}") from None
+    return AK, BK, CK, DK
+
+
 class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
     """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op).
 
@@ -222,19 +239,7 @@ class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
         -------
         LinearDynamicOutputFeedback
         """
-        kind = getattr(controller, "kind", None)
-        if kind == "state_feedback":
-            raise TypeError("from_controller got a state-feedback SynthesisResult (u = K x); "
-                            "wire it with LinearStateFeedback(result.K) instead")
-        if kind is not None:
-            controller = controller.controller
-        try:
-            AK, BK, CK, DK = controller
-        except (TypeError, ValueError):
-            raise TypeError("controller must be a DynamicController, an output-feedback "
-                            f"SynthesisResult or an (AK, BK, CK, DK) tuple, got "
-                            f"{type(controller).__name__}") from None
-        return cls(AK, BK, CK, DK, **kw)
+        return cls(*_controller_matrices(controller), **kw)
 
     @staticmethod
     def _pack(mats):
@@ -346,8 +351,7 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
         if y_op is not None:
             raise TypeError("y_op is for output feedback; a state-feedback controller takes x_op")
         return LinearStateFeedback(K, u_r=u_op, x_r=x_op, S=S, u_min=u_min, u_max=u_max)
-    controller = result.controller if kind else result
-    AK, BK, CK, DK = controller
+    AK, BK, CK, DK = _controller_matrices(result)
     if y_op is None and x_op is not None:
         x_op = real_matrix("x_op", np.atleast_2d(x_op)).ravel()
         if S is None:

@@ -124,16 +124,17 @@ def check_actuation(model, partition: Partition, B_of_q, operating_points) -> No
     """
     p = partition
     ic, ir, is_, iu = (list(g) for g in (p.controlled, p.regulated, p.stabilized, p.uncontrolled))
-    for q in operating_points:
-        B = np.asarray(B_of_q(q), dtype=float)
-        where = f"at q = {np.array2string(np.asarray(q, float), precision=3)}"
+    points = [np.asarray(q, dtype=float) for q in operating_points]
+    inputs = [np.asarray(B_of_q(q), dtype=float) for q in points]      # B(q) once per point
+    for q, B in zip(points, inputs):
+        where = f"at q = {np.array2string(q, precision=3)}"
         if p.mode == "fully_actuated":
             if B.shape[0] != B.shape[1] or _rank(B) < B.shape[0]:
                 raise ValueError(
                     f"partition {p} is fully actuated (every DOF controlled) but B(q) has shape "
-                    f"{B.shape} and rank {_rank(B)} {where}; the law inverts B, which must be square and invertible (5.26). Mark the "
-                    "DOF no input reaches as uncontrolled (reduced model) or stabilized "
-                    "(input coupling)")
+                    f"{B.shape} and rank {_rank(B)} {where}; the law inverts B, which must be "
+                    "square and invertible (5.26). Mark the DOF no input reaches as "
+                    "uncontrolled (reduced model) or stabilized (input coupling)")
         elif p.mode == "reduced":
             M = np.asarray(model.M(q), dtype=float)
             X = np.linalg.solve(M[np.ix_(iu, iu)], M[np.ix_(iu, ic)]).T     # M_cu M_uu⁻¹
@@ -145,7 +146,7 @@ def check_actuation(model, partition: Partition, B_of_q, operating_points) -> No
                     f"(as many inputs as controlled DOF {_names(model, ic)}, acting on them)")
         else:
             dead = [i for i in is_ + ir if not np.any(B[i])]
-            if dead and all(not np.any(np.asarray(B_of_q(x), float)[dead]) for x in operating_points):
+            if dead and not any(np.any(Bx[dead]) for Bx in inputs):
                 raise ValueError(
                     f"DOF {_names(model, dead)} receive no input (their rows of B(q) are zero "
                     "at every operating point), so the input-coupling law cannot stabilize or "
