@@ -47,6 +47,7 @@ __all__ = [
     "l2_norm",
     "empirical_gain",
     "settling_time",
+    "fraction_at_bounds",
 ]
 
 
@@ -421,3 +422,31 @@ def settling_time(t, y, *, fraction, reference=None, until=None, crossing="inter
     if crossing == "next_sample":
         return float(t[k + 1])
     return float(t[k] + (t[k + 1] - t[k]) * excess[k] / (excess[k] - excess[k + 1]))
+
+
+def fraction_at_bounds(u, lo, hi, *, rtol: float = 1e-6) -> float:
+    """Share of samples at which some input is on (or beyond) a bound of the box [lo, hi].
+
+    "On" means within ``rtol`` × max(|lo|, |hi|) of it: a saturated actuator, or a command the
+    actuator cannot produce.
+
+    Parameters
+    ----------
+    u : array_like
+        (N,) or (N, m) logged inputs, one row per sample.
+    lo, hi : float or array_like
+        Lower and upper bounds (broadcast over the columns).
+    rtol : float
+        Relative closeness to a bound that counts as "on" it.
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    u = np.asarray(u, dtype=float)
+    u = u[:, None] if u.ndim == 1 else u
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), u.shape[1:])
+    hi = np.broadcast_to(np.asarray(hi, dtype=float), u.shape[1:])
+    tol = rtol * np.maximum(np.abs(lo), np.abs(hi))
+    return float(np.mean(np.any((u <= lo + tol) | (u >= hi - tol), axis=1)))

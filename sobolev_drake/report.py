@@ -17,7 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["Claim", "ExperimentResult", "fmt", "markdown_table", "write_table", "write_reproduction",
+__all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "markdown_table", "write_table", "write_reproduction",
            "save_result", "load_result"]
 
 DASH = "—"
@@ -42,6 +42,22 @@ class ExperimentResult:
     claims: list[Claim] = field(default_factory=list)
     table_markdown: str = ""  # our numbers beside the thesis'
 
+
+
+def percent_of(value, base) -> str:
+    """A table cell "value (percentage of base)", e.g. ``"0.369 (65%)"``; the value alone when
+    ``base`` is 0.
+
+    Parameters
+    ----------
+    value : float
+    base : float
+
+    Returns
+    -------
+    str
+    """
+    return f"{value:.4g} ({100 * value / base:.0f}%)" if base else f"{value:.4g}"
 
 
 def fmt(x) -> str:

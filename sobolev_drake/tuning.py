@@ -1,10 +1,15 @@
-"""One-dimensional tuning: find the parameter at which an index matches a target."""
+"""One-dimensional tuning: find the parameter at which an index matches a target.
+
+Three strategies, each kept for the experiments whose published numbers rest on it: a grid scan
+followed by bisection (:func:`match_parameter`), bracketing from a first guess followed by regula
+falsi (:func:`match_by_regula_falsi`), and plain bisection inside a bracket (:func:`bisect_log`).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["match_parameter"]
+__all__ = ["match_parameter", "match_by_regula_falsi", "bisect_log"]
 
 
 def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
@@ -54,3 +59,115 @@ def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
             lo, flo = mid, v
     p, v = min(((lo, flo), (hi, fhi)), key=lambda h: abs(h[1] - target))
     return p, v, hist
+
+
+def match_by_regula_falsi(evaluate, target, p0, *, iters=7, factor=3.0, rtol=0.02,
+                          decreasing=True):
+    """Find p with ``evaluate(p)[0]`` ≈ ``target`` from a first guess, without a grid.
+
+    Bracket by multiplying or dividing p by ``factor``, then regula falsi on (log p, log index),
+    clamped to the inner 80 % of the bracket.  Suited to a positive index that is monotone in p
+    and whose evaluation is a full simulation (few evaluations): the H∞ σ-gain searches of the
+    mechanical experiments, where the index (IADU) decreases with ωu, or (``decreasing=False``)
+    increases with it (ISE).  An evaluation that failed (``run.get("failed")``), or returned a
+    non-finite or non-positive index, counts as "index too large".
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(p) -> (index, run)``, run a dict kept for the best point.
+    target : float
+        The index to match (> 0).
+    p0 : float
+        First guess (> 0).
+    iters : int
+        Number of evaluations at most.
+    factor : float
+        Bracketing step (> 1).
+    rtol : float
+        Stop when |log(index/target)| < log(1 + rtol).
+    decreasing : bool
+        Whether the index decreases as p grows.
+
+    Returns
+    -------
+    (p, run, history)
+        The evaluated p closest to the target in log ratio, its run, and [(p, index), ...].
+    """
+    hist, runs = [], {}
+
+    def ev(p):
+        val, run = evaluate(p)
+        if run.get("failed") or not np.isfinite(val) or val <= 0:
+            val = np.inf
+        hist.append((float(p), float(val)))
+        runs[float(p)] = run
+        return val
+
+    below = above = None  # below: p must grow; above: p must shrink
+    p = float(p0)
+    for _ in range(iters):
+        val = ev(p)
+        if abs(np.log(val / target)) < np.log1p(rtol):
+            break
+        if (val > target) == decreasing:
+            below = (p, val)
+        else:
+            above = (p, val)
+        if below is None:
+            p = p / factor
+        elif above is None:
+            p = p * factor
+        else:
+            (a, fa), (b, fb) = below, above
+            la, lb = np.log(a), np.log(b)
+            if np.isfinite(fa) and np.isfinite(fb):
+                ga, gb = np.log(fa / target), np.log(fb / target)
+                x = la - ga * (lb - la) / (gb - ga)
+                x = min(max(x, la + 0.1 * (lb - la)), lb - 0.1 * (lb - la))
+            else:
+                x = 0.5 * (la + lb)
+            p = float(np.exp(x))
+    best = min(hist, key=lambda h: abs(np.log(h[1] / target)) if np.isfinite(h[1]) else np.inf)
+    return best[0], runs[best[0]], hist
+
+
+def bisect_log(evaluate, target, bracket, *, iters=8, increasing=True):
+    """Bisection on log p inside ``bracket`` so that ``evaluate(p)[0]`` ≈ ``target``.
+
+    Every midpoint is evaluated (never the ends); the midpoint whose index is closest to the
+    target, among those whose payload is not None, is returned.  Suited to an index known to be
+    monotone on the bracket whose evaluations may fail (payload None, index treated as too large
+    when ``increasing``): the SGAA H∞ design's settling time against its input weight ρ.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(p) -> (index, payload)``; payload None marks a failed evaluation.
+    target : float
+        The index to match.
+    bracket : (float, float)
+        Positive lower and upper ends of the search.
+    iters : int
+        Number of midpoints evaluated.
+    increasing : bool
+        Whether the index increases as p grows.
+
+    Returns
+    -------
+    (p, index, payload)
+    """
+    lo, hi = np.log(bracket[0]), np.log(bracket[1])
+    best = None
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        value, payload = evaluate(np.exp(mid))
+        if payload is not None and (best is None or abs(value - target) < abs(best[1] - target)):
+            best = (np.exp(mid), value, payload)
+        if (value > target) == increasing:
+            hi = mid
+        else:
+            lo = mid
+    if best is None:
+        raise RuntimeError("bisect_log: no evaluation in the bracket succeeded")
+    return best

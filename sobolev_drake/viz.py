@@ -60,7 +60,7 @@ from pydrake.math import RigidTransform  # noqa: E402
 
 __all__ = [
     "start_meshcat", "add_meshcat_recorder", "save_recording_html", "external_script_sources",
-    "save_figure", "plot_time_series", "draw_path", "draw_reference_and_flown",
+    "save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d", "draw_path", "draw_reference_and_flown",
     "frame_camera", "camera_position", "follow_camera", "trajectory_from_log", "meshcat_commands",
     "animation_keyframes", "FOLLOW_CAMERA_PATH", "FOLLOW_CAMERA_JS",
 ]
@@ -241,6 +241,109 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
     fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
     plt.close(fig)
     return path
+
+
+def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Path:
+    """Stacked panels overlaying several logged runs (one line style per run, one colour per
+    component).
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    runs : dict
+        {name: run}; each run has "t" and whatever the panels read.
+    panels : sequence of (str, callable, list of str or None)
+        (y label, ``fn(run) -> (N,) or (N, k)`` array, component labels).
+    title : str
+        Figure title.
+    vlines : sequence of float
+        Times marked by light vertical lines (e.g. disturbance windows).
+
+    Returns
+    -------
+    Path
+    """
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8),
+                             squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    for ax, (ylabel, fn, labels) in zip(axes[:, 0], panels):
+        for k, (name, run) in enumerate(runs.items()):
+            y = np.asarray(fn(run), dtype=float)
+            y = y[:, None] if y.ndim == 1 else y
+            for j in range(y.shape[1]):
+                lab = f"{name} {labels[j]}" if labels else name
+                ax.plot(run["t"], y[:, j], styles[k % 4], lw=1.0, color=f"C{j}", label=lab)
+        for v in vlines:
+            ax.axvline(v, color="0.75", lw=0.6)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=6, ncol=4, loc="upper right")
+    axes[-1, 0].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
+                  floor: float = 1e-12) -> Path:
+    """Several positive signals on one logarithmic axis (values below ``floor`` drawn at it).
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    curves : dict
+        {label: (x, y)}.
+    ylabel, xlabel : str
+        Axis labels.
+    floor : float
+        Smallest value drawn.
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax = plt.subplots(figsize=(8, 2.8))
+    for k, (name, (x, y)) in enumerate(curves.items()):
+        ax.semilogy(x, np.maximum(y, floor), ["-", "--"][k % 2], lw=1.0, label=name)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_paths_3d(path, reference, flown: dict) -> Path:
+    """A reference path (dotted black) and flown paths in 3-D.
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    reference : array_like
+        (N, 3) reference positions.
+    flown : dict
+        {label: (N, 3) positions}.
+
+    Returns
+    -------
+    Path
+    """
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    ref = np.asarray(reference, dtype=float)
+    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.0, label="reference")
+    for k, (name, xyz) in enumerate(flown.items()):
+        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], ["-", "--"][k % 2], lw=1.0, label=name)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
 
 
 def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t [s]",

@@ -132,3 +132,13 @@ def test_settling_time_of_an_exponential_decay():
         settling_time(t, y, fraction=0.02, crossing="last")
     with pytest.raises(ValueError, match="fraction"):
         settling_time(t, y, fraction=-0.1)
+
+
+def test_fraction_at_bounds_counts_samples_with_any_input_on_a_bound():
+    # 4 samples of 2 inputs in [0, 10]: sample 1 has an input on the lower bound, sample 2 one
+    # beyond the upper bound, sample 3 one within rtol·10 of it; sample 0 is inside
+    u = np.array([[1.0, 2.0], [0.0, 5.0], [3.0, 11.0], [4.0, 10.0 - 5e-6]])
+    assert norms.fraction_at_bounds(u, 0.0, 10.0) == 0.75
+    assert norms.fraction_at_bounds(u, 0.0, 10.0, rtol=1e-7) == 0.5
+    # one input, symmetric box
+    assert norms.fraction_at_bounds(np.array([-5.0, 0.0, 4.9, 5.0]), -5.0, 5.0) == 0.5

@@ -18,14 +18,16 @@ import numpy as np
 
 from sobolev_drake import norms, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments._mechanical_common import (build_loop, compare_plot, hinf_inner,
-                                                          hinf_surface, omega_u_guess, pct,
-                                                          run_loop, tracked_errors, tune)
 from sobolev_drake.models.two_wheeled import add_two_wheeled, make_two_wheeled_model
-from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
+from sobolev_drake.report import percent_of
+from sobolev_drake.rigs.mechanical import build_loop, run_loop, tracked_errors
+from sobolev_drake.synthesis.mechanical import (controlled_gains, matched_hinf_surface,
+                                                stabilized_gains)
 from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import HinfLaw, Partition, SobolevLaw
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const
+from sobolev_drake.tuning import match_by_regula_falsi
 
 PARTITION = Partition(controlled=[1], stabilized=[0])          # q = [ϕ θ]: qc = θ, qs = ϕ
 GAMMAS = (1000.0, 300.0, 2.0, 0.001)                            # Γ0..Γ3
@@ -40,9 +42,6 @@ B_PERP = np.array([1.0, 1.0]) / np.sqrt(2.0)                    # left annihilat
 def sobolev_inner() -> SobolevLaw:
     """W2/W∞ gains of the thesis tuning (Theorem 4, (5.76)–(5.82))."""
     return SobolevLaw(controlled_gains(*GAMMAS), stabilized=stabilized_gains(*UPSILONS))
-
-
-gains = sobolev_inner  # older name of sobolev_inner, kept for callers
 
 
 def reference() -> TrajectoryReference:
@@ -79,12 +78,6 @@ def make_allocation(limit):
     quadratic's constrained minimizer is its clipped unconstrained one), without a QP solve."""
     hi = np.inf if limit is None else float(limit)
     return lambda u, q, qd: np.array([min(max(0.5 * (u[0] - u[1]), -hi), hi)])
-
-
-def saturated_fraction(run, limit) -> float:
-    if limit is None:
-        return 0.0
-    return float(np.mean(np.abs(run["u"][:, 0]) >= limit * (1 - 1e-6)))
 
 
 @register("balance-coupled", "Two-wheeled vehicle, input-coupling law: W2/W∞ vs H∞ (Table 5.7)",
@@ -124,17 +117,19 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
         outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
                                                            out_dir / "balance_coupled_w.html")
     w_idx = indices(w_run)
-    surface = hinf_surface(w_inner.controlled)
+    surface = matched_hinf_surface(w_inner.controlled)
 
     def evaluate(wu):
-        r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, QD0, label="H∞")
+        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, QD0, label="H∞")
         return indices(r)["ISE θ"], r
 
-    wu, h_run, hist = tune(evaluate, w_idx["ISE θ"], omega_u_guess(law, w_inner.controlled, Q0, QD0),
-                           iters=1 if smoke else 9, rtol=0.01, decreasing=False)
+    wu, h_run, hist = match_by_regula_falsi(
+        evaluate, w_idx["ISE θ"], omega_u_guess(law, w_inner.controlled, Q0, QD0),
+        iters=1 if smoke else 9, rtol=0.01, decreasing=False)
     h_idx = indices(h_run)
-    rows = [[k, *(pct(idx[c], h_idx[c]) for c in COLS)] for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
-    th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+    rows = [[k, *(percent_of(idx[c], h_idx[c]) for c in COLS)]
+            for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
+    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
     md, js, table = report.write_table(
         out_dir, "balance_coupled", ["controller", *COLS], rows, thesis_rows=th,
         title=f"Table 5.7 (two-wheeled vehicle, input coupling, {duration:g} s, torque limit "
@@ -143,7 +138,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
     runs = {"W2/W∞": w_run, "H∞": h_run}
     for r in runs.values():
         r["bperp"] = annihilator_residual(r, model)
-    outputs["states and input"] = compare_plot(
+    outputs["states and input"] = viz.compare_plot(
         out_dir / "balance_coupled.png", runs,
         [("θ [rad]", lambda r: r["x"][:, 1], None),
          ("ϕ̇ [rad/s]", lambda r: r["x"][:, 2], None),
@@ -151,7 +146,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
          ("‖B⊥(w−d)‖²", lambda r: r["bperp"], None),
          ("w [N m]", lambda r: r["w"], ["wϕ", "wθ"])],
         title="Two-wheeled vehicle, input coupling (thesis Fig. 5.5)", vlines=(7, 14, 22, 32))
-    sat = {k: saturated_fraction(r, lim) for k, r in runs.items()}
+    sat = {k: 0.0 if lim is None else norms.fraction_at_bounds(r["u"], -lim, lim)
+           for k, r in runs.items()}
     for name, r in runs.items():
         if r["failed"]:
             claims.append(Claim(f"{name} simulation completed", False, r["failed"]))

@@ -2,7 +2,7 @@
 Table 5.3).
 
 Flies the W2/W∞ law along Table 5.2 under the two torque disturbances, tunes the H∞ law to the
-same IADU on the same loop (:mod:`._mechanical_common`), and checks Theorem 3 on the W2/W∞ run.
+same IADU on the same loop (:mod:`sobolev_drake.rigs.mechanical`), and checks Theorem 3 on the W2/W∞ run.
 
 See docs/experiments/manipulator.md.
 """
@@ -15,14 +15,15 @@ import numpy as np
 
 from sobolev_drake import norms, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments._mechanical_common import (build_loop, compare_plot, hinf_inner,
-                                                          hinf_surface, pct, run_loop,
-                                                          sobolev_bound, tracked_errors, tune)
 from sobolev_drake.models.arm import add_arm, make_arm_model
-from sobolev_drake.synthesis.mechanical import controlled_gains
+from sobolev_drake.report import percent_of
+from sobolev_drake.rigs.mechanical import build_loop, run_loop, sobolev_bound, tracked_errors
+from sobolev_drake.synthesis.mechanical import controlled_gains, matched_hinf_surface
 from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import table_5_2
+from sobolev_drake.tuning import match_by_regula_falsi
 
 WEIGHTS = ([100, 200], [500, 400], [40, 40], [0.0720, 0.0126])
 Q0, QD0 = np.array([np.pi / 4, 0.0]), np.zeros(2)
@@ -64,30 +65,30 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
     w_idx = indices(w_run, law)
     bound = sobolev_bound(w_run, loop.controller.law, make_arm_model())
 
-    surface = hinf_surface(gains)
+    surface = matched_hinf_surface(gains)
     M0 = np.diag(ctrl_model.M(Q0))
     omega0 = 1.0 / np.sqrt(np.mean(M0 * np.diag(gains.blocks["Q"]) / np.diag(gains.weights["Y3"])))
 
     def evaluate(wu):
-        r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, QD0, label="H∞")
+        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, QD0, label="H∞")
         return indices(r, law)["IADU"], r
 
-    wu, h_run, hist = tune(evaluate, w_idx["IADU"], omega0, iters=2 if smoke else 6)
+    wu, h_run, hist = match_by_regula_falsi(evaluate, w_idx["IADU"], omega0, iters=2 if smoke else 6)
     h_idx = indices(h_run, law)
 
     cols = ["controller", "IADU Σ|dτ/dt|", "ISE q1", "ISE q2"]
-    rows = [["W2/W∞", pct(w_idx["IADU"], h_idx["IADU"]), pct(w_idx["ISE q1"], h_idx["ISE q1"]),
-             pct(w_idx["ISE q2"], h_idx["ISE q2"])],
-            ["H∞", pct(h_idx["IADU"], h_idx["IADU"]), pct(h_idx["ISE q1"], h_idx["ISE q1"]),
-             pct(h_idx["ISE q2"], h_idx["ISE q2"])]]
-    th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in ("IADU", "ISE q1", "ISE q2"))]
+    rows = [["W2/W∞", percent_of(w_idx["IADU"], h_idx["IADU"]), percent_of(w_idx["ISE q1"], h_idx["ISE q1"]),
+             percent_of(w_idx["ISE q2"], h_idx["ISE q2"])],
+            ["H∞", percent_of(h_idx["IADU"], h_idx["IADU"]), percent_of(h_idx["ISE q1"], h_idx["ISE q1"]),
+             percent_of(h_idx["ISE q2"], h_idx["ISE q2"])]]
+    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in ("IADU", "ISE q1", "ISE q2"))]
           for k in ("W2/W∞", "H∞")]
     md, js, table = report.write_table(out_dir, "manipulator", cols, rows, thesis_rows=th,
                                        title=f"Table 5.3 (manipulator, {duration:g} s)")
     outputs.update({"table (md)": md, "table (json)": js})
 
     runs = {"W2/W∞": w_run, "H∞": h_run}
-    outputs["errors and inputs"] = compare_plot(
+    outputs["errors and inputs"] = viz.compare_plot(
         out_dir / "manipulator.png", runs,
         [("q̃ [rad]", lambda r: tracked_errors(r, law)[0], ["q1", "q2"]),
          ("τ [N m]", lambda r: r["u"], ["τ1", "τ2"]),

@@ -3,7 +3,7 @@ classic nonlinear H∞ (thesis 5.3.1, Table 5.6).
 
 Controls [z ϕ θ ψ] with x, y uncontrolled, rotor commands limited to Ω² ∈ [0, 4 × hover]
 (docs/design.md §8.1; ``limits=False`` removes them); the H∞ law is tuned to the same IADU on
-the same loop (:mod:`._mechanical_common`).
+the same loop (:mod:`sobolev_drake.rigs.mechanical`).
 
 See docs/experiments/quadrotor-attitude.md.
 """
@@ -16,15 +16,15 @@ import numpy as np
 
 from sobolev_drake import norms, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments._mechanical_common import (build_loop, compare_plot, hinf_inner,
-                                                          hinf_surface, omega_u_guess, pct,
-                                                          run_loop, sobolev_bound,
-                                                          tracked_errors, tune)
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
-from sobolev_drake.synthesis.mechanical import controlled_gains
+from sobolev_drake.report import percent_of
+from sobolev_drake.rigs.mechanical import build_loop, run_loop, sobolev_bound, tracked_errors
+from sobolev_drake.synthesis.mechanical import controlled_gains, matched_hinf_surface
 from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import table_5_5
+from sobolev_drake.tuning import match_by_regula_falsi
 
 WEIGHTS = ([1, 1, 1, 1], [1, 1, 1, 1], [0.61, 0.6, 0.6, 0.6], [2e-3, 1e-7, 1e-7, 1e-7])
 PARTITION = Partition(controlled=[5, 0, 1, 2], uncontrolled=[3, 4])  # z ϕ θ ψ | x y
@@ -74,25 +74,27 @@ def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> Ex
         outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
                                                            out_dir / "quadrotor_attitude_w.html")
     w_idx = indices(w_run, law)
-    surface = hinf_surface(gains)
+    surface = matched_hinf_surface(gains)
 
     def evaluate(wu):
-        r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, qd0, label="H∞")
+        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, qd0, label="H∞")
         return indices(r, law)["IADU"], r
 
     # start 3× softer than the W law's ė gain: the saturated H∞ law at that gain chatters
-    wu, h_run, hist = tune(evaluate, w_idx["IADU"], 3.0 * omega_u_guess(law, gains, Q0, qd0),
-                           iters=1 if smoke else 6)
+    wu, h_run, hist = match_by_regula_falsi(evaluate, w_idx["IADU"],
+                                            3.0 * omega_u_guess(law, gains, Q0, qd0),
+                                            iters=1 if smoke else 6)
     h_idx = indices(h_run, law)
-    rows = [[k, *(pct(idx[c], h_idx[c]) for c in COLS)] for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
-    th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+    rows = [[k, *(percent_of(idx[c], h_idx[c]) for c in COLS)]
+            for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
+    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
     md, js, table = report.write_table(out_dir, "quadrotor_attitude", ["controller", *COLS], rows,
                                        thesis_rows=th,
                                        title=f"Table 5.6 (quadrotor, reduced model, {duration:g} s, "
                                              f"limits {'on' if limits else 'off'})")
     outputs.update({"table (md)": md, "table (json)": js})
     runs = {"W2/W∞": w_run, "H∞": h_run}
-    outputs["errors and inputs"] = compare_plot(
+    outputs["errors and inputs"] = viz.compare_plot(
         out_dir / "quadrotor_attitude.png", runs,
         [("z̃ [m]", lambda r: tracked_errors(r, law)[0][:, :1], ["z"]),
          ("attitude error [rad]", lambda r: tracked_errors(r, law)[0][:, 1:], NAMES[1:]),

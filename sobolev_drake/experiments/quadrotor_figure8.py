@@ -1,12 +1,10 @@
 """``quadrotor-figure8``: quadrotor figure-8 with the input-coupling law on an untilted truth,
 W2/W∞ vs classic nonlinear H∞ (thesis 5.3.2, Table 5.9).
 
-The controller's model has rotors tilted 5°, the simulated quadrotor none.  Allocations of
-u* (:class:`Allocation`): ``"pinv"``, the thesis' unlimited τ = B†u* (the headline table);
-``"bls"``, bounded least squares over Ω² ∈ [0, 4·hover]; ``"clip"``, B†u* saturated to that
-box (docs/design.md §8.1).  The H∞ law (docs/design.md §4.3) is tuned to the same IADU
-(:mod:`._mechanical_common`); the Figure 5.7 signal ‖B⊥(w − d)‖² is computed from the logs
-(:func:`bperp_signal`).
+The controller's model has rotors tilted 5°, the simulated quadrotor none.  Allocations of u*
+(:mod:`~sobolev_drake.systems.rotor_allocation`): ``"pinv"`` (the thesis' unlimited B†u*, the
+headline table), ``"bls"`` and ``"clip"`` within Ω² ∈ [0, 4·hover] (docs/design.md §8.1).  The
+H∞ law is tuned to the same IADU; Fig. 5.7's ‖B⊥(w − d)‖² is computed from the logs.
 
 See docs/experiments/quadrotor-figure8.md.
 """
@@ -16,20 +14,21 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.linalg import null_space
 
 from sobolev_drake import norms, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
-from sobolev_drake.experiments._mechanical_common import (build_loop, compare_plot, hinf_inner,
-                                                          hinf_surface, omega_u_guess, pct,
-                                                          run_loop, tracked_errors, tune)
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
-from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
-from sobolev_drake.tiltrotor.allocation import bounded_least_squares
+from sobolev_drake.report import percent_of
+from sobolev_drake.rigs.mechanical import bperp_signal, build_loop, run_loop, tracked_errors
+from sobolev_drake.synthesis.mechanical import (controlled_gains, matched_hinf_surface,
+                                                stabilized_gains)
 from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import trajectory
 from sobolev_drake.systems.references import TrajectoryReference
+from sobolev_drake.systems.rotor_allocation import RotorAllocation
+from sobolev_drake.tuning import match_by_regula_falsi
 
 PARTITION = Partition(controlled=[2, 3, 4, 5], stabilized=[0, 1])   # q = [ϕ θ ψ x y z]
 GAMMAS = ([10, 10, 10, 10], [12.8, 18.8, 18.8, 12.8], [0.01, 0.1, 0.1, 0.1],
@@ -40,7 +39,6 @@ NAMES = ["ψ", "x", "y", "z"]
 THESIS = {"W2/W∞": {"IADU": 2.4e4, "ISE x": 0.496, "ISE y": 0.030, "ISE z": 0.313, "ISE ψ": 9.5e-5},
           "H∞": {"IADU": 2.4e4, "ISE x": 1.105, "ISE y": 0.102, "ISE z": 0.404, "ISE ψ": 4.6e-4}}
 COLS = ["IADU", "ISE x", "ISE y", "ISE z", "ISE ψ"]
-ALLOCATIONS = ("bls", "clip", "pinv")
 
 
 def sobolev_inner() -> SobolevLaw:
@@ -59,84 +57,13 @@ def disturbance() -> TimeProfiledForce:
     ])
 
 
-def left_annihilator(B) -> np.ndarray:
-    """Full-rank left annihilator B⊥ (orthonormal rows, B⊥ B = 0) of Assumption 8."""
-    B = np.atleast_2d(np.asarray(B, dtype=float))
-    return null_space(B.T).T
-
-
-class Allocation:
-    """Allocation callable ``(u*, q, q̇) -> Ω²`` for the law's hook (module docstring); ``kind``
-    may be switched between runs so one diagram serves every variant."""
-
-    def __init__(self, model, kind: str, lo, hi):
-        self.model = model
-        self.lo, self.hi = np.asarray(lo, float), np.asarray(hi, float)
-        self.kind = kind
-
-    @property
-    def kind(self) -> str:
-        return self._kind
-
-    @kind.setter
-    def kind(self, kind: str) -> None:
-        if kind not in ALLOCATIONS:
-            raise ValueError(f"allocation must be one of {ALLOCATIONS}, got {kind!r}")
-        self._kind = kind
-
-    max_tilt = 1.4  # rad; beyond it the run has lost the vehicle (and nears θ = π/2)
-
-    def __call__(self, u, q, qd):
-        if max(abs(q[0]), abs(q[1])) > self.max_tilt:
-            # a tumbling quadrotor makes the error-controlled integrator crawl; the run is a
-            # failure anyway: stop it (run_loop reports the RuntimeError as the failure)
-            raise RuntimeError(f"diverged: |ϕ|, |θ| = {abs(q[0]):.3g}, {abs(q[1]):.3g} rad "
-                               f"> {self.max_tilt} rad")
-        B = self.model.B(q)
-        if self._kind == "bls":
-            return bounded_least_squares(B, u, self.lo, self.hi)
-        tau = np.linalg.pinv(B) @ u
-        return np.clip(tau, self.lo, self.hi) if self._kind == "clip" else tau
-
-
-def make_allocation(model, kind: str, lo, hi) -> Allocation:
-    return Allocation(model, kind, lo, hi)
-
-
-def rotor_speed(u):
-    return np.sqrt(np.clip(u, 0.0, None))
-
-
 def indices(run, law) -> dict:
+    """IADU of the rotor speeds Ω = √(Ω²) and the ISE of each tracked DOF."""
     e, _ = tracked_errors(run, law)
-    out = {"IADU": float(norms.iadu(run["t"], rotor_speed(run["u"])).sum())}
+    out = {"IADU": float(norms.iadu(run["t"], np.sqrt(np.clip(run["u"], 0.0, None))).sum())}
     for j, name in enumerate(NAMES):
         out[f"ISE {name}"] = float(norms.ise(run["t"], e[:, j]))
     return out
-
-
-def bperp_signal(run, model, law, max_points: int = 1500):
-    """(t, ‖B⊥(w − d)‖²) of Fig. 5.7 on (at most ``max_points``) logged samples, with
-    d = g + M[0; q̈cr] + C(q, q̇)[0; q̇cr] ((5.65)) and B⊥ of the controller model."""
-    n, m = law.n, law.n_ref
-    idx = np.unique(np.linspace(0, len(run["t"]) - 1, min(max_points, len(run["t"]))).astype(int))
-    ic = list(law.partition.controlled)
-    out = np.empty(len(idx))
-    for j, k in enumerate(idx):
-        q, qd = run["x"][k, :n], run["x"][k, n:]
-        vr, ar = np.zeros(n), np.zeros(n)
-        vr[ic] = run["ref"][k, m:2 * m]
-        ar[ic] = run["ref"][k, 2 * m:]
-        d = model.g(q) + model.M(q) @ ar + model.C_times(q, qd, vr)
-        r = left_annihilator(model.B(q)) @ (run["w"][k] - d)
-        out[j] = float(r @ r)
-    return run["t"][idx], out
-
-
-def outside_fraction(run, lo, hi) -> float:
-    """Fraction of samples with some Ω² on or outside [lo, hi] (saturated, or unphysical)."""
-    u = run["u"]
-    return float(np.mean(np.any((u <= lo + 1e-6 * hi) | (u >= hi * (1 - 1e-6)), axis=1)))
 
 
 def position_error(run, law):
@@ -159,10 +86,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
     hover = params.hover_input()
     lo, hi = np.zeros(4), 4 * hover * np.ones(4)
     model = make_quadrotor_model(params)                       # tilted 5°: the controller's model
-    alloc = Allocation(model, allocation, lo, hi)
+    alloc = RotorAllocation(model, allocation, lo, hi)
     limited = tuple(k for k in limited if k != allocation)
     for k in limited:
-        Allocation(model, k, lo, hi)                            # validate names early
+        RotorAllocation(model, k, lo, hi)                       # validate names early
     w_inner = sobolev_inner()
     loop = build_loop(lambda b: add_quadrotor(b, params, tilt=float(truth_tilt)), model, PARTITION,
                       w_inner, reference(), disturbance(), allocation=alloc, record=record)
@@ -175,17 +102,16 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
                                                            out_dir / "quadrotor_figure8_w.html")
     w_idx = indices(w_run, law)
     gains = w_inner.controlled
-    surface = hinf_surface(gains)
+    surface = matched_hinf_surface(gains)
 
     def evaluate(wu):
-        r = run_loop(loop, hinf_inner(surface, wu), duration, Q0, qd0, label="H∞")
+        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, qd0, label="H∞")
         return indices(r, law)["IADU"], r
 
-    # same IADU as the W2/W∞ run (thesis rule); if that run diverged its IADU means nothing and
-    # the thesis' printed IADU is the target instead (reported in the claims)
+    # same IADU as W2/W∞ (thesis rule); if that run diverged, the thesis' printed IADU instead
     target = THESIS["H∞"]["IADU"] if w_run["failed"] else w_idx["IADU"]
-    wu, h_run, hist = tune(evaluate, target, omega_u_guess(law, gains, Q0, qd0),
-                           iters=1 if smoke else int(tune_iters))
+    wu, h_run, hist = match_by_regula_falsi(evaluate, target, omega_u_guess(law, gains, Q0, qd0),
+                                            iters=1 if smoke else int(tune_iters))
     h_idx = indices(h_run, law)
     runs = {f"W2/W∞ [{allocation}]": w_run, f"H∞ [{allocation}]": h_run}
     idx = {f"W2/W∞ [{allocation}]": w_idx, f"H∞ [{allocation}]": h_idx}
@@ -196,7 +122,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
         for suffix, (q0, v0) in starts.items() if on_reference else list(starts.items())[:1]:
             key = f"{kind}{suffix}"
             runs[f"W2/W∞ [{key}]"] = run_loop(loop, w_inner, duration, q0, v0, label=f"W2/W∞ {key}")
-            runs[f"H∞ [{key}]"] = run_loop(loop, hinf_inner(surface, wu), duration, q0, v0,
+            runs[f"H∞ [{key}]"] = run_loop(loop, matched_hinf_law(surface, wu), duration, q0, v0,
                                            label=f"H∞ {key}")
             for c in ("W2/W∞", "H∞"):
                 idx[f"{c} [{key}]"] = indices(runs[f"{c} [{key}]"], law)
@@ -208,8 +134,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
         if r["failed"]:  # indices of a truncated run mean nothing: say what happened instead
             rows.append([f"{name} — {r['failed'][:70]}", *(["—"] * len(COLS))])
         else:
-            rows.append([name, *(pct(v[c], base[c]) for c in COLS)])
-    th = [[k, *(pct(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+            rows.append([name, *(percent_of(v[c], base[c]) for c in COLS)])
+    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
     th += [None] * (len(rows) - 2)                             # the thesis ran B† only
     md, js, table = report.write_table(
         out_dir, "quadrotor_figure8", ["controller [allocation]", *COLS], rows, thesis_rows=th,
@@ -220,20 +146,24 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
     for r in runs.values():
         r["bperp_t"], r["bperp"] = bperp_signal(r, model, law, 100 if smoke else 1500)
     head = dict(list(runs.items())[:2])
-    outputs["errors and stabilized DOF"] = compare_plot(
+    outputs["errors and stabilized DOF"] = viz.compare_plot(
         out_dir / "quadrotor_figure8_errors.png", runs,
         [("position error [m]", lambda r: np.clip(position_error(r, law), 0, 5), None),
          ("ψ − ψr [rad]", lambda r: tracked_errors(r, law)[0][:, 0], None),
          ("ϕ, θ [rad]", lambda r: r["x"][:, :2], ["ϕ", "θ"])],
         title="Quadrotor figure-8 (thesis Fig. 5.8)", vlines=(10, 15, 25, 30))
-    outputs["inputs and disturbances"] = compare_plot(
+    outputs["inputs and disturbances"] = viz.compare_plot(
         out_dir / "quadrotor_figure8_inputs.png", head,
         [("Ω² / hover", lambda r: r["u"] / hover, ["1", "2", "3", "4"]),
          ("w [N]", lambda r: r["w"][:, [4, 5]], ["δy", "δz"])],
         title="Quadrotor figure-8 inputs (thesis Fig. 5.7)", vlines=(10, 15, 25, 30))
-    outputs["B-perp signal"] = _bperp_plot(out_dir / "quadrotor_figure8_bperp.png", runs)
-    outputs["trajectory"] = _xy_plot(out_dir / "quadrotor_figure8_xy.png", runs)
-    sat = {k: outside_fraction(r, lo, hi) for k, r in runs.items()}
+    outputs["B-perp signal"] = viz.plot_semilogy(
+        out_dir / "quadrotor_figure8_bperp.png",
+        {k: (r["bperp_t"], r["bperp"]) for k, r in runs.items()}, ylabel="‖B⊥(w − d)‖²")
+    outputs["trajectory"] = viz.plot_paths_3d(
+        out_dir / "quadrotor_figure8_xy.png", next(iter(runs.values()))["ref"][:, 1:4],
+        {k: r["x"][:, 3:6] for k, r in runs.items()})
+    sat = {k: norms.fraction_at_bounds(r["u"], lo, hi) for k, r in runs.items()}
     t_late = min(5.0, 0.5 * duration)
     for name, r in runs.items():
         if r["failed"]:
@@ -267,33 +197,3 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
                "failed": {k: r["failed"] for k, r in runs.items()}}
     return ExperimentResult("quadrotor-figure8", outputs, metrics, claims, table)
 
-
-def _bperp_plot(path, runs):
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 2.8))
-    for k, (name, r) in enumerate(runs.items()):
-        ax.semilogy(r["bperp_t"], np.maximum(r["bperp"], 1e-12), ["-", "--"][k % 2], lw=1.0, label=name)
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("‖B⊥(w − d)‖²")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return viz.save_figure(fig, path)
-
-
-def _xy_plot(path, runs):
-    import matplotlib.pyplot as plt
-
-    fig = plt.figure(figsize=(6, 5))
-    ax = fig.add_subplot(projection="3d")
-    r0 = next(iter(runs.values()))
-    ax.plot(r0["ref"][:, 1], r0["ref"][:, 2], r0["ref"][:, 3], "k:", lw=1.0, label="reference")
-    for k, (name, r) in enumerate(runs.items()):
-        ax.plot(r["x"][:, 3], r["x"][:, 4], r["x"][:, 5], ["-", "--"][k % 2], lw=1.0, label=name)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return viz.save_figure(fig, path)

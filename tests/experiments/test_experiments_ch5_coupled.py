@@ -6,7 +6,8 @@ from scipy.linalg import expm
 
 from sobolev_drake.experiments import balance_coupled as bc
 from sobolev_drake.experiments import quadrotor_figure8 as q8
-from sobolev_drake.experiments._mechanical_common import build_loop, run_loop, tracked_errors
+from sobolev_drake.rigs.mechanical import build_loop, left_annihilator, run_loop, tracked_errors
+from sobolev_drake.systems.rotor_allocation import RotorAllocation
 from sobolev_drake.models.quadrotor import add_quadrotor, make_quadrotor_model
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const
@@ -18,12 +19,12 @@ def test_left_annihilator_of_tilted_quadrotor():
     for _ in range(5):
         q = np.r_[rng.uniform(-0.6, 0.6, 3), rng.uniform(-5, 5, 3)]
         B = model.B(q)
-        Bp = q8.left_annihilator(B)
+        Bp = left_annihilator(B)
         assert Bp.shape == (2, 6)                       # n − rank B = 6 − 4
         assert np.abs(Bp @ B).max() < 1e-10 * np.abs(B).max()
         np.testing.assert_allclose(Bp @ Bp.T, np.eye(2), atol=1e-12)
     # two-wheeled vehicle: B = [1, −1]ᵀ → B⊥ ∝ [1, 1] (used by balance-coupled)
-    Bp = q8.left_annihilator(np.array([[1.0], [-1.0]]))
+    Bp = left_annihilator(np.array([[1.0], [-1.0]]))
     np.testing.assert_allclose(np.abs(Bp), [[2 ** -0.5, 2 ** -0.5]], atol=1e-12)
 
 
@@ -45,7 +46,7 @@ def test_exact_tilted_model_follows_linear_closed_loop_586():
     ref = TrajectoryReference(PiecewiseTrajectory(["psi", "x", "y", "z"],
                                                   [[const(0.0), const(0.0), const(0.0), const(1.0)]]))
     inner = q8.sobolev_inner()
-    alloc = q8.Allocation(model, "pinv", np.zeros(4), np.ones(4))
+    alloc = RotorAllocation(model, "pinv", np.zeros(4), np.ones(4))
     loop = build_loop(lambda b: add_quadrotor(b), model, q8.PARTITION, inner, ref,
                       TimeProfiledForce(6, []), allocation=alloc)
     q0 = np.array([0.0, 0.0, 0.1, 0.0, 0.0, 1.3])
@@ -76,15 +77,15 @@ def test_figure8_projection_defect_is_what_breaks_586():
     u = law.generalized_input(q8.Q0, np.zeros(6), np.zeros(4), np.r_[qr, qdr, qddr])
     B = model.B(q8.Q0)
     defect = u - B @ (np.linalg.pinv(B) @ u)
-    Bp = q8.left_annihilator(B)
+    Bp = left_annihilator(B)
     assert np.linalg.norm(defect) > 1e-3 * np.linalg.norm(u)
     np.testing.assert_allclose(Bp.T @ (Bp @ defect), defect, atol=1e-9 * np.linalg.norm(u))
 
 
 def test_bad_allocation_name():
     with pytest.raises(ValueError, match="allocation"):
-        q8.Allocation(make_quadrotor_model(), "magic", np.zeros(4), np.ones(4))
-    alloc = q8.Allocation(make_quadrotor_model(), "bls", np.zeros(4), np.ones(4))
+        RotorAllocation(make_quadrotor_model(), "magic", np.zeros(4), np.ones(4))
+    alloc = RotorAllocation(make_quadrotor_model(), "bls", np.zeros(4), np.ones(4))
     with pytest.raises(RuntimeError, match="diverged"):  # a lost vehicle stops the run
         alloc(np.zeros(6), np.r_[1.5, 0, 0, 0, 0, 0], np.zeros(6))
 

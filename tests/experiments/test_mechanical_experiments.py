@@ -1,5 +1,4 @@
-"""Smoke runs of the chapter-5 mechanical experiments (manipulator, quadrotor-attitude) and the
-shared tuning harness."""
+"""Smoke runs of the chapter-5 mechanical experiments (manipulator, quadrotor-attitude)."""
 
 import json
 
@@ -7,31 +6,6 @@ import numpy as np
 import pytest
 
 from sobolev_drake.experiments import get
-from sobolev_drake.experiments._mechanical_common import hinf_surface, tune
-from sobolev_drake.synthesis.mechanical import controlled_gains
-
-
-def test_hinf_surface_matches_slow_factor_of_w_design():
-    g = controlled_gains([100], [500], [40], [0.072])
-    w1, w2, w3 = hinf_surface(g)
-    q, k, t = (g.blocks[n][0, 0] for n in "QKT")
-    s = np.sqrt(w2 ** 2 + 2 * w1 * w3)
-    assert s / w1 == pytest.approx(k / q) and w3 / w1 == pytest.approx(t / q)
-
-
-def test_tune_finds_target_of_monotone_index():
-    for decreasing, f in ((True, lambda w: 5.0 / w ** 1.5), (False, lambda w: 0.3 * w ** 0.7)):
-        best, run, hist = tune(lambda w: (f(w), {"w": w}), 2.0, 1.0, iters=12, decreasing=decreasing)
-        assert f(best) == pytest.approx(2.0, rel=0.02)
-        assert run["w"] == best and len(hist) <= 12
-
-
-def test_tune_treats_failed_runs_as_too_large():
-    f = lambda w: 1.0 / w  # noqa: E731
-    best, _, hist = tune(lambda w: (f(w), {"failed": "diverged" if w < 0.2 else ""}), 2.0, 0.1,
-                         iters=10)
-    assert hist[0][1] == np.inf
-    assert f(best) == pytest.approx(2.0, rel=0.02)
 
 
 @pytest.mark.parametrize("name", ["manipulator", "quadrotor-attitude"])

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from sobolev_drake.synthesis.mechanical import (controlled_closed_form, controlled_gains,
-                                                hinf_mechanical_gains, regulated_closed_form,
+                                                hinf_mechanical_gains, matched_hinf_surface,
+                                                regulated_closed_form,
                                                 regulated_gains, sobolev_gains,
                                                 stabilized_closed_form, stabilized_gains,
                                                 winf_gamma)
@@ -215,3 +216,14 @@ def test_hinf_bad_input():
         hinf_mechanical_gains(0, 1, 1, 1, 2)
     with pytest.raises(ValueError, match="omega2 must be >= 0"):
         hinf_mechanical_gains(1, -1, 1, 1, 2)
+
+
+def test_matched_hinf_surface_is_the_slow_factor_of_the_w_design():
+    # one DOF: the surface polynomial s² + (ω2² + 2ω1ω3)^½ s/ω1 + ω3/ω1 equals the slow factor
+    # s² + (k/q) s + t/q of the W closed loop
+    g = controlled_gains([100], [500], [40], [0.072])
+    w1, w2, w3 = matched_hinf_surface(g)
+    q, k, t = (g.blocks[n][0, 0] for n in "QKT")
+    s = np.sqrt(w2 ** 2 + 2 * w1 * w3)
+    assert w1 == 1.0
+    assert s / w1 == pytest.approx(k / q) and w3 / w1 == pytest.approx(t / q)

@@ -1,0 +1,300 @@
+"""The closed loop of the chapter-5 mechanical experiments (thesis 5.3).
+
+A plant, a :class:`~sobolev_drake.systems.mechanical_controller.MechanicalController` on a
+separate controller model, a reference, a disturbance and loggers are built into one diagram
+(:func:`build_loop`); every run (the W2/W∞ law, each step of an H∞ tuning search, each
+allocation variant) swaps only the controller's inner law and re-flies the same diagram
+(:func:`run_loop`), because Python LeafSystems are never freed (docs/design.md §8.6).
+:func:`sobolev_bound` checks Theorem 3 on a logged W2/W∞ run; :func:`bperp_signal` evaluates the
+unmatched disturbance of Assumption 8 along a run (Fig. 5.7).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.primitives import VectorLogSink
+from scipy.linalg import null_space
+
+from sobolev_drake import viz
+from sobolev_drake.synthesis.mechanical import winf_gamma
+from sobolev_drake.systems.mechanical_controller import MechanicalController
+
+__all__ = ["MechanicalLoop", "build_loop", "run_loop", "tracked_errors", "sobolev_bound",
+           "left_annihilator", "bperp_signal"]
+
+
+@dataclass
+class MechanicalLoop:
+    """A built closed loop: the diagram, its simulator, the plant handles, the controller, the
+    log sinks by label ("x", "u", "ref", "w", "ei") and the optional Meshcat recorder."""
+
+    diagram: object
+    simulator: object
+    handles: object
+    controller: MechanicalController
+    sinks: dict
+    meshcat: object = None
+    recorder: object = None
+    info: dict = field(default_factory=dict)
+
+
+def build_loop(add_plant: Callable, controller_model, partition, inner, reference, disturbance, *,
+               lower=None, upper=None, allocation=None, record=False) -> MechanicalLoop:
+    """Plant in closed loop with a MechanicalController on ``controller_model``.
+
+    Parameters
+    ----------
+    add_plant : callable
+        ``add_plant(builder) -> PlantHandles`` adds the simulated truth.
+    controller_model : MechanicalModel
+        The controller's model (separate from the truth).
+    partition : Partition
+        Controlled / stabilized / uncontrolled DOF.
+    inner : SobolevLaw or HinfLaw
+        The first inner law (:func:`run_loop` swaps it).
+    reference : LeafSystem
+        Output port "reference" ([q_r, q̇_r, q̈_r] of the tracked DOF).
+    disturbance : LeafSystem
+        Output port "generalized_force".
+    lower, upper : array_like, optional
+        Input limits of the controller.
+    allocation : callable, optional
+        Allocation hook ``(u*, q, q̇) -> u`` of the controller.
+    record : bool
+        Add a Meshcat recorder.
+
+    Returns
+    -------
+    MechanicalLoop
+    """
+    b = DiagramBuilder()
+    h = add_plant(b)
+    ref = b.AddSystem(reference)
+    dist = b.AddSystem(disturbance)
+    ctrl = b.AddSystem(MechanicalController(controller_model, partition, inner, lower=lower,
+                                            upper=upper, allocation=allocation))
+    b.Connect(h.x, ctrl.GetInputPort("x"))
+    b.Connect(ref.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
+    b.Connect(ctrl.GetOutputPort("u"), h.u)
+    b.Connect(dist.GetOutputPort("generalized_force"), h.disturbance)
+    sinks = {}
+    for name, port in (("x", h.x), ("u", ctrl.GetOutputPort("u")),
+                       ("ref", ref.GetOutputPort("reference")),
+                       ("w", dist.GetOutputPort("generalized_force")),
+                       ("ei", ctrl.GetOutputPort("error_integral"))):
+        sink = b.AddSystem(VectorLogSink(port.size()))
+        b.Connect(port, sink.get_input_port())
+        sinks[name] = sink
+    meshcat = recorder = None
+    if record:
+        meshcat = viz.start_meshcat()
+        recorder = viz.add_meshcat_recorder(b, h.scene_graph, meshcat)
+    diagram = b.Build()
+    sim = Simulator(diagram)
+    return MechanicalLoop(diagram, sim, h, ctrl, sinks, meshcat, recorder)
+
+
+def run_loop(loop: MechanicalLoop, inner, duration, q0, qd0, *, label="", accuracy=1e-4,
+             max_step=0.05, evals_per_second=20000):
+    """Reset the loop, swap the inner law, simulate; return the logged arrays (rows = samples).
+
+    A simulation that fails (divergence, NaN, or more than ``evals_per_second`` derivative
+    evaluations per simulated second — a saturated high-gain law chattering) is reported in
+    ``run["failed"]`` with the logs up to the failure instead of raising, so an experiment can
+    report what happened and a tuning search can treat it as "too aggressive".
+
+    Parameters
+    ----------
+    loop : MechanicalLoop
+        From :func:`build_loop`.
+    inner : SobolevLaw or HinfLaw
+        The inner law of this run.
+    duration : float
+        Simulated time (s).
+    q0, qd0 : array_like
+        Initial configuration and velocity of the plant.
+    label : str
+        Stored as ``run["label"]``.
+    accuracy : float
+        Target accuracy of the error-controlled RK3 integrator.
+    max_step : float
+        Largest integrator step (s).
+    evals_per_second : int
+        Derivative-evaluation budget per simulated second (deterministic, unlike wall time).
+
+    Returns
+    -------
+    dict
+        "x", "u", "ref", "w", "ei" (samples × size), "t", "failed" (empty or the reason),
+        "label".
+    """
+    loop.controller.set_inner(inner)
+    ctx = loop.simulator.get_mutable_context()
+    ctx.SetTime(0.0)
+    loop.handles.set_state(ctx, loop.diagram, q0, qd0)
+    cctx = loop.controller.GetMyMutableContextFromRoot(ctx)
+    cctx.SetContinuousState(np.zeros(loop.controller.law.nc))
+    for sink in loop.sinks.values():
+        sink.FindMutableLog(ctx).Clear()
+    failed = ""
+    budget = int(evals_per_second * float(duration)) + 2000
+    sim = loop.simulator
+    ResetIntegratorFromFlags(sim, "runge_kutta3", float(max_step))
+    integ = sim.get_mutable_integrator()
+    integ.set_target_accuracy(float(accuracy))
+    stop = []
+
+    def monitor(context):
+        if integ.get_num_derivative_evaluations() > budget:
+            stop.append(context.get_time())
+            return EventStatus.ReachedTermination(loop.diagram, "evaluation budget exceeded")
+        return EventStatus.Succeeded()
+
+    sim.set_monitor(monitor)
+    try:
+        sim.Initialize()
+        integ.ResetStatistics()
+        sim.AdvanceTo(float(duration))
+        if stop:
+            failed = (f"stopped at t = {stop[0]:.3f} s: {budget} derivative evaluations exceeded "
+                      "(stiff / chattering closed loop)")
+    except (RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
+        failed = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
+    sim.clear_monitor()
+    out = {name: sink.FindLog(ctx).data().T.copy() for name, sink in loop.sinks.items()}
+    out["t"] = loop.sinks["x"].FindLog(ctx).sample_times().copy()
+    out["failed"] = failed
+    out["label"] = label
+    return out
+
+
+def tracked_errors(run, law):
+    """Tracking errors of a logged run.
+
+    Parameters
+    ----------
+    run : dict
+        From :func:`run_loop`.
+    law : MechanicalLaw
+        The controller's law (``loop.controller.law``).
+
+    Returns
+    -------
+    (e, ė) : (ndarray, ndarray)
+        Samples × tracked DOF.
+    """
+    n, m = law.n, law.n_ref
+    idx = list(law.partition.tracked)
+    q, qd = run["x"][:, :n], run["x"][:, n:]
+    return q[:, idx] - run["ref"][:, :m], qd[:, idx] - run["ref"][:, m:2 * m]
+
+
+def sobolev_bound(run, law, truth_model):
+    """Theorem 3 on a logged W2/W∞ run of a fully actuated or reduced law.
+
+    ‖z‖²_W (z = ∫q̃c, with ë from the truth's forward dynamics) against γ²‖δ̄‖²_L2 + 2V(x0),
+    γ² = max over the run of λmax(M̄⁻¹ Y3 M̄⁻¹) ((5.56)), δ̄ = w_c − Mcu Muu⁻¹ w_u.
+
+    Parameters
+    ----------
+    run : dict
+        From :func:`run_loop` with the W2/W∞ law.
+    law : MechanicalLaw
+        The controller's law.
+    truth_model : MechanicalModel
+        The simulated plant's model (for M, C q̇, g, friction, B).
+
+    Returns
+    -------
+    dict
+        "z2", "w2", "gamma", "V0", "rhs", "holds".
+    """
+    g = law.law.controlled
+    n, nc = law.n, law.nc
+    ic, iu = law.ic, law.iu
+    Y = g.weights
+    t = run["t"]
+    e, ed = tracked_errors(run, law)
+    qddr = run["ref"][:, 2 * law.n_ref:]
+    cost, w2, gam2 = [], [], []
+    for k in range(len(t)):
+        q, qd = run["x"][k, :n], run["x"][k, n:]
+        M = truth_model.M(q)
+        h = truth_model.Cqdot(q, qd) + truth_model.g(q) + truth_model.friction(qd)
+        qdd = np.linalg.solve(M, truth_model.B(q) @ run["u"][k] + run["w"][k] - h)
+        edd = qdd[ic] - qddr[k, :nc]
+        ei = run["ei"][k]
+        cost.append(ei @ Y["Y0"] @ ei + e[k] @ Y["Y1"] @ e[k] + ed[k] @ Y["Y2"] @ ed[k]
+                    + edd @ Y["Y3"] @ edd)
+        w = run["w"][k]
+        if len(iu):
+            X = M[np.ix_(ic, iu)] @ np.linalg.inv(M[np.ix_(iu, iu)])
+            Mbar = M[np.ix_(ic, ic)] - X @ M[np.ix_(iu, ic)]
+            dbar = w[ic] - X @ w[iu]
+        else:
+            Mbar, dbar = M, w
+        w2.append(dbar @ dbar)
+        gam2.append(winf_gamma(Mbar, Y["Y3"]) ** 2)
+    z2 = float(np.trapezoid(cost, t))
+    wl2 = float(np.trapezoid(w2, t))
+    V0 = g.value(np.concatenate([ed[0], e[0], run["ei"][0]]))
+    gamma2 = float(max(gam2))
+    return {"z2": z2, "w2": wl2, "gamma": float(np.sqrt(gamma2)), "V0": V0,
+            "rhs": gamma2 * wl2 + 2 * V0, "holds": bool(z2 <= gamma2 * wl2 + 2 * V0)}
+
+
+def left_annihilator(B) -> np.ndarray:
+    """Full-rank left annihilator B⊥ of Assumption 8 (orthonormal rows, B⊥ B = 0).
+
+    Parameters
+    ----------
+    B : array_like
+        Input matrix (n × m).
+
+    Returns
+    -------
+    ndarray
+        (n − rank B) × n.
+    """
+    B = np.atleast_2d(np.asarray(B, dtype=float))
+    return null_space(B.T).T
+
+
+def bperp_signal(run, model, law, max_points: int = 1500):
+    """(t, ‖B⊥(w − d)‖²) of Fig. 5.7 on at most ``max_points`` logged samples.
+
+    d = g + M[0; q̈cr] + C(q, q̇)[0; q̇cr] ((5.65)), B⊥ of the controller model.
+
+    Parameters
+    ----------
+    run : dict
+        From :func:`run_loop`.
+    model : MechanicalModel
+        The controller's model.
+    law : MechanicalLaw
+        The controller's law.
+    max_points : int
+        Samples evaluated at most (evenly spread).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+    """
+    n, m = law.n, law.n_ref
+    idx = np.unique(np.linspace(0, len(run["t"]) - 1, min(max_points, len(run["t"]))).astype(int))
+    ic = list(law.partition.controlled)
+    out = np.empty(len(idx))
+    for j, k in enumerate(idx):
+        q, qd = run["x"][k, :n], run["x"][k, n:]
+        vr, ar = np.zeros(n), np.zeros(n)
+        vr[ic] = run["ref"][k, m:2 * m]
+        ar[ic] = run["ref"][k, 2 * m:]
+        d = model.g(q) + model.M(q) @ ar + model.C_times(q, qd, vr)
+        r = left_annihilator(model.B(q)) @ (run["w"][k] - d)
+        out[j] = float(r @ r)
+    return run["t"][idx], out
