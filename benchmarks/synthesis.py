@@ -35,7 +35,7 @@ import numpy as np
 
 from sobolev_drake.synthesis.certificates import hinf_norm
 from sobolev_drake.synthesis.hinf import output_feedback, state_feedback
-from sobolev_drake.synthesis.hinf_common import DynamicController
+from sobolev_drake.synthesis.problem import DynamicController
 from sobolev_drake.synthesis.random_plants import plant_family
 from sobolev_drake.synthesis.regions import disk
 

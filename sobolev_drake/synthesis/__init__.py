@@ -1,7 +1,8 @@
 """Controller design without simulation (pure maths: Riccati equations, LMIs, Galerkin).
 
 The names below are the public synthesis API; the modules hold the rest:
-``hinf`` (generalized-plant H∞ state and output feedback), ``sobolev`` (W∞ channels),
+``hinf`` (generalized-plant H∞ state and output feedback), ``problem`` (their plant and
+result types), ``sobolev`` (W∞ channels),
 ``interop`` (linear systems in, controllers out), ``mechanical`` (Sobolev gains of
 Euler–Lagrange systems), ``regions`` (LMI pole regions), ``certificates`` (independent
 checks), ``polytopic``, ``galerkin``, ``margins``.
@@ -12,8 +13,8 @@ from sobolev_drake.synthesis.certificates import hinf_norm
 # (``hinf.output_feedback``/``state_feedback`` are not re-exported: the first would hide the
 # module ``synthesis.output_feedback``; ``hinf_output_feedback``/``hinf_state_feedback`` are
 # the same functions, also taking linear systems)
-from sobolev_drake.synthesis.hinf import (DynamicController, GeneralizedPlant, SynthesisResult,
-                                          SynthesisWarning)
+from sobolev_drake.synthesis.problem import (DynamicController, GeneralizedPlant, SynthesisResult,
+                                             SynthesisWarning)
 from sobolev_drake.synthesis.interop import (HinfsynOutput, generalized_plant, hinf_output_feedback,
                                              hinf_state_feedback, hinfsyn, state_space_matrices,
                                              to_statespace)

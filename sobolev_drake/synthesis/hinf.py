@@ -31,11 +31,11 @@ import time
 
 import numpy as np
 
-from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, GeneralizedPlant,  # noqa: F401
-                          SynthesisResult, SynthesisWarning, check_gamma_request, certify_result, check_options,
-                          check_initial_states, transient_bound,
-                          first_lmi_attempt, regularization_ladder, publish_result, solve_lmi_program, strict_check, validate_plants,
-                          compress_performance)
+from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,  # noqa: F401
+                          compress_performance, first_lmi_attempt, publish_result,
+                          regularization_ladder, solve_lmi_program, strict_check, validate_plants)
+from .problem import (DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning,  # noqa: F401
+                      check_initial_states, transient_bound)
 from .lmi import LMIProgram, SynthesisError, bmat
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
 from .regions import region_lmi

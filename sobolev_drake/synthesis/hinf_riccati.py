@@ -26,8 +26,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from .certificates import brl_residual, parrott_bound
-from .hinf_common import (BRL_TOL, GeneralizedPlant, SynthesisResult, certify_result,
-                          validate_plants)
+from .hinf_common import BRL_TOL, certify_result, validate_plants
+from .problem import GeneralizedPlant, SynthesisResult
 from .lmi import InfeasibleLMIError, SynthesisError
 from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_controller,
                       normalize, output_feedback_test, rank_deficiency, state_feedback_test)

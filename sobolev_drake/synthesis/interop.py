@@ -23,7 +23,7 @@ import numpy as np
 
 from .certificates import as_matrix
 from .hinf import state_feedback
-from .hinf_common import DynamicController, GeneralizedPlant, SynthesisResult
+from .problem import DynamicController, GeneralizedPlant, SynthesisResult
 from .output_feedback import output_feedback
 
 __all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_statespace",

@@ -15,10 +15,10 @@ import time
 import numpy as np
 
 from .certificates import parrott_bound
-from .hinf_common import (COUPLING_MARGIN, EPS, DynamicController, SynthesisResult,
-                          check_gamma_request, certify_result, check_options, first_lmi_attempt, regularization_ladder, publish_result,
-                          solve_lmi_program, strict_check, validate_plants, check_initial_states,
-                          compress_performance, transient_bound)
+from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,
+                          compress_performance, first_lmi_attempt, publish_result,
+                          regularization_ladder, solve_lmi_program, strict_check, validate_plants)
+from .problem import DynamicController, SynthesisResult, check_initial_states, transient_bound
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller

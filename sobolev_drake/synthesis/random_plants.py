@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..validation import one_of
-from .hinf_common import GeneralizedPlant
+from .problem import GeneralizedPlant
 
 __all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family"]
 

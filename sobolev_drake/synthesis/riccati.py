@@ -1,6 +1,6 @@
 """Riccati (Glover-Doyle) characterization of the H∞ problem, for regular plants.
 
-For the generalized plant of ``hinf_common.GeneralizedPlant`` (D22 = 0) write
+For the generalized plant of ``problem.GeneralizedPlant`` (D22 = 0) write
 B = [B1 B2], C = [C1; C2], D1. = [D11 D12], D.1 = [D11; D21] and, at a level gamma,
 
     R  = D1.' D1. - diag(gamma^2 I_nw, 0_nu),      Rt = D.1 D.1' - diag(gamma^2 I_nz, 0_ny).
@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .certificates import parrott_bound
-from .hinf_common import DynamicController, GeneralizedPlant
+from .problem import DynamicController, GeneralizedPlant
 
 __all__ = [
     "RiccatiInfeasible", "rank_deficiency", "state_feedback_test", "Normalization", "normalize",

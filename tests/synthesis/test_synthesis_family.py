@@ -67,7 +67,7 @@ def test_output_feedback_against_python_control(case):
     same optimum from above.  Where it is not (measured on lightly damped and unstable plants:
     claimed gamma below the achieved norm, or an unstable closed loop), ours still certifies."""
     control = pytest.importorskip("control")
-    from sobolev_drake.synthesis.hinf_common import DynamicController
+    from sobolev_drake.synthesis.problem import DynamicController
     p = case.plant
     res = output_feedback(p)
     assert res.certificate.ok and res.method == "riccati"
