@@ -47,7 +47,8 @@ def main(argv=None):
                     help="TiltrotorParams.reverse_flow of plant and controller model")
     args = ap.parse_args(argv)
 
-    from sobolev_drake.experiments.tiltrotor_missions import score, simulate_mission
+    from sobolev_drake.tiltrotor.mission import simulate_mission
+    from sobolev_drake.tiltrotor.mission_metrics import score_mission
     from sobolev_drake.tiltrotor.params import TiltrotorParams
     params = TiltrotorParams(reverse_flow=args.reverse_flow)
 
@@ -60,7 +61,7 @@ def main(argv=None):
         sim = built["simulator"]
         runs[integrator] = (label, cpu, sim.get_num_steps_taken(),
                             sim.get_integrator().get_num_derivative_evaluations(), data,
-                            score(data, args.scenario, args.duration))
+                            score_mission(data, args.scenario, args.duration))
     ref = runs["runge_kutta5"]
     t_ref, x_ref = ref[4]["t"], ref[4]["x"]
     print(f"scenario {args.scenario}, {args.duration:g} s, reverse_flow={args.reverse_flow!r}; "

@@ -180,8 +180,8 @@ def floor_patches():
 
 
 def run(duration, args, breakdown=False, integrator=None, label=""):
-    from sobolev_drake.experiments.tiltrotor_missions import simulate_mission
-    import sobolev_drake.experiments.tiltrotor_missions as tm
+    from sobolev_drake.tiltrotor.mission import simulate_mission
+    import sobolev_drake.tiltrotor.mission as tm
 
     acc = None
     if breakdown:
@@ -242,7 +242,7 @@ def main(argv=None):
     ap.add_argument("--period", type=float, default=0.01, help="controller sampling period [s]")
     args = ap.parse_args(argv)
 
-    from sobolev_drake.experiments.tiltrotor_missions import build_mission, simulate_mission
+    from sobolev_drake.tiltrotor.mission import build_mission, simulate_mission
 
     # building (imports, URDF parse, gains) is timed separately from simulating
     t0 = time.perf_counter()

@@ -12,10 +12,24 @@ allocation    control allocation (7.84)–(7.89) and the thrust → propeller-sp
 law           the W∞ law composed with the model, allocation and propeller data (7.3.2)
 controller    the nonlinear W∞ controller LeafSystem of the missions (7.3.2)
 
+The experiments' pieces, from the linear hover designs (7.3.1) to the missions (7.3.2):
+
+linear_design      the linear W∞ hover designs of Table 7.2, their channel norms and margins
+linear_controller  the linear hover controller LeafSystem (u = u_trim + K Δx or dynamic)
+hover_flight       flights of the linear designs on the nonlinear plant and their indices
+mission            mission phases, disturbance profiles, the mission diagram and its flight
+mission_metrics    per-phase tracking, effort and bounds of a mission flight
+tables             result tables (ours beside Table 7.2, mission phases, effort, tilt schedule)
+plots              figures of the missions and of the linear hover flights
+
 Nothing outside this package depends on it except the experiments, benchmarks and tests.
 """
 
 from sobolev_drake.tiltrotor.controller import TiltrotorWInfController
+from sobolev_drake.tiltrotor.linear_controller import LinearHoverController
+from sobolev_drake.tiltrotor.linear_design import HoverDesign
+from sobolev_drake.tiltrotor.mission import build_mission, simulate_mission
+from sobolev_drake.tiltrotor.mission_metrics import score_mission
 from sobolev_drake.tiltrotor.params import TiltrotorParams
 from sobolev_drake.tiltrotor.plant import TiltrotorHandles, TiltrotorModel, add_tiltrotor, tiltrotor_urdf
 from sobolev_drake.tiltrotor.trim import Trim, linearize, trim_hover, trim_level_flight
@@ -23,4 +37,5 @@ from sobolev_drake.tiltrotor.trim import Trim, linearize, trim_hover, trim_level
 __all__ = [
     "TiltrotorParams", "TiltrotorModel", "TiltrotorHandles", "add_tiltrotor", "tiltrotor_urdf",
     "TiltrotorWInfController", "Trim", "trim_hover", "trim_level_flight", "linearize",
+    "HoverDesign", "LinearHoverController", "build_mission", "simulate_mission", "score_mission",
 ]

@@ -7,6 +7,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from sobolev_drake.experiments import tiltrotor_hover_linear as hl
+from sobolev_drake.tiltrotor import hover_flight as hf
+from sobolev_drake.tiltrotor import linear_design as ld
+from sobolev_drake.tiltrotor.linear_controller import LinearHoverController
 
 
 class _Trim:
@@ -17,7 +20,7 @@ class _Trim:
 
 def _build(ctrl, x, ref, integrals=None, velocity_reference="zero"):
     b = DiagramBuilder()
-    c = b.AddSystem(hl.LinearHoverController(ctrl, _Trim(), velocity_reference))
+    c = b.AddSystem(LinearHoverController(ctrl, _Trim(), velocity_reference))
     sx = b.AddSystem(ConstantVectorSource(x))
     sr = b.AddSystem(ConstantVectorSource(ref))
     b.Connect(sx.get_output_port(), c.GetInputPort("x"))
@@ -58,7 +61,7 @@ def test_state_feedback_output_and_integrators(velocity_reference):
 def test_dynamic_controller_output():
     rng = np.random.default_rng(1)
     nk = 3
-    C = hl.output_matrix()
+    C = ld.output_matrix()
     assert C.shape == (18, 20) and np.all(C[:, 13] == 0) and np.all(C[:, 14] == 0)
     ctrl = {"kind": "dyn", "AK": -np.eye(nk), "BK": rng.normal(size=(nk, 18)),
             "CK": rng.normal(size=(4, nk)), "DK": rng.normal(scale=0.01, size=(4, 18)), "C": C}
@@ -75,22 +78,22 @@ def test_dynamic_controller_output():
 
 def test_initial_error_literal_noise_and_bad_options(tmp_path):
     """Δx(0) of Table 7.1 / q(0) (7.3.1); the literal noise reading scales σ by √(Δt/π)."""
-    dx = hl.initial_error(_Trim())
+    dx = hf.initial_error(_Trim())
     assert np.allclose(dx[:8], [0.137, 0.137, 0, -0.137, 0, -1, 0, -1]) and not np.any(dx[8:])
-    dp = hl.initial_error(_Trim(), "path")  # the helix starts at 20·2π/35 = 3.59 m/s along x
+    dp = hf.initial_error(_Trim(), "path")  # the helix starts at 20·2π/35 = 3.59 m/s along x
     assert np.allclose(dp[13:16], [-20 * 2 * np.pi / 35, 0, -0.4]) and np.allclose(dp[:13], dx[:13])
-    lit = hl.literal_noise_turbulence()
+    lit = hf.literal_noise_turbulence()
     assert np.allclose(lit.sigma, np.array([1.0, 5, 3]) * np.sqrt(0.01 / np.pi))
     assert lit.offset == (-3.0, 0.0, 0.0) and (lit.t_on, lit.t_off) == (30.0, 170.0)
     with pytest.raises(ValueError, match="velocity_reference"):
-        hl.LinearHoverController({"kind": "sf", "K": np.zeros((4, 20))}, _Trim(), "wind")
+        LinearHoverController({"kind": "sf", "K": np.zeros((4, 20))}, _Trim(), "wind")
     with pytest.raises(ValueError, match="regularization"):
         hl.run(tmp_path, smoke=True, regularization="h2")
     with pytest.raises(ValueError, match="crossflow must be one of"):
         hl.run(tmp_path, smoke=True, crossflow="cosine")
     from sobolev_drake.tiltrotor.trim import linearize, trim_hover
     with pytest.raises(ValueError, match="initial_state"):
-        hl.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
+        ld.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
 
 
 def test_indices_ise_and_iadu_closed_form():
@@ -103,13 +106,13 @@ def test_indices_ise_and_iadu_closed_form():
     x[5] += a
     data = {"t": t, "x": x, "reference": np.zeros((12, t.size)),
             "du": np.vstack([s * t] * 4)}
-    idx = hl.indices(data, _Trim())
+    idx = hf.flight_indices(data, _Trim())
     assert idx["ise"] == pytest.approx(a**2 * T + a**2 * T**3 / 3, rel=1e-4)
     assert idx["iadu"] == pytest.approx(4 * s * T, rel=1e-9)
     assert idx["final_pos_err_m"] == pytest.approx(a)
     assert idx["ise_first_10s"] == pytest.approx(idx["ise"], rel=1e-12)  # T = 10 s: all of it
     half = {k: (v[..., : t.size // 2 + 1] if k != "t" else v[: t.size // 2 + 1]) for k, v in data.items()}
-    assert hl.indices(half, _Trim())["ise"] == pytest.approx(a**2 * 5 + a**2 * 5**3 / 3, rel=1e-4)
+    assert hf.flight_indices(half, _Trim())["ise"] == pytest.approx(a**2 * 5 + a**2 * 5**3 / 3, rel=1e-4)
 
 
 # --------------------------------------------------------------------------- smoke run
@@ -137,7 +140,7 @@ def test_smoke_design_certified_and_stable(smoke):
     lin = linearize(trim_hover())
     Acl = lin.A + lin.B @ K
     assert np.linalg.eigvals(Acl).real.max() < 0
-    cl = sb.winf_plant(lin.A, lin.B, lin.D, hl.GAMMA0, hl.GAMMA1).closed_loop(K=K)
+    cl = sb.winf_plant(lin.A, lin.B, lin.D, ld.GAMMA0, ld.GAMMA1).closed_loop(K=K)
     n_ham = hinf_norm(*cl)[0]
     n_sweep = hinf_norm_sweep(*cl)[0]
     assert n_sweep <= n_ham * (1 + 1e-6)
@@ -171,18 +174,29 @@ def test_smoke_nonlinear_flight_and_outputs(smoke):
     assert "21.4" in text and "2182" in text  # the thesis' W∞ row is beside ours
 
 
+def test_designs_are_values():
+    """Each design is a HoverDesign keyed by its label; the synthesis reads its fields."""
+    from sobolev_drake.tiltrotor.tables import THESIS_TABLE_7_2
+
+    assert ld.DESIGNS[0] == "W∞" and len(ld.DESIGNS) == 7
+    for label, spec in ld.DESIGN_SPECS.items():
+        assert isinstance(spec, ld.HoverDesign) and spec.label == label
+        assert spec.feedback in ("sf", "of") and spec.disturbance in ("none", "thesis", "augmented")
+        assert spec.column is None or spec.column in THESIS_TABLE_7_2
+    # the thesis puts its output-feedback designs in the disk; the well-posed W∞-D is one too
+    assert all(s.disk for s in ld.DESIGN_SPECS.values() if s.feedback == "of" or s.disturbance == "augmented")
+
+
 def test_bad_design_name_is_rejected(tmp_path):
     with pytest.raises(ValueError, match="designs must be names"):
         hl.run(tmp_path, smoke=True, designs=["W-infinity"])
-    from sobolev_drake.experiments._tiltrotor_linear_designs import design
     with pytest.raises(ValueError, match="which must be one of"):
-        design(None, "nope")
+        ld.design(None, "nope")
 
 
 def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
     """‖T_vz‖∞ (augmented plant) = sup_ω σ̄(T_ζz(jω) H_vK(jω)): the series connection evaluated
     pointwise from the un-augmented closed loop and the filter (7.58)–(7.60)."""
-    from sobolev_drake.experiments import _tiltrotor_linear_designs as dz
     from sobolev_drake.tiltrotor.trim import linearize, trim_hover
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.systems.wind import von_karman_state_space
@@ -190,7 +204,7 @@ def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
     out, res = smoke
     K = np.load(res.outputs["controllers_npz"])["d0_K"]
     lin = linearize(trim_hover())
-    Acl, Bcl, Ccl, Dcl = sb.winf_plant(lin.A, lin.B, lin.D, hl.GAMMA0, hl.GAMMA1).closed_loop(K=K)
+    Acl, Bcl, Ccl, Dcl = sb.winf_plant(lin.A, lin.B, lin.D, ld.GAMMA0, ld.GAMMA1).closed_loop(K=K)
     Ad, Bd, Cd, _ = von_karman_state_space()
     w = np.concatenate([[0.0], np.logspace(-3, 3, 600)])
 
@@ -200,7 +214,7 @@ def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
         return np.linalg.norm(T @ H, 2)
 
     sweep = max(gain(om) for om in w)
-    g = dz.common_channel_norm(lin, {"kind": "sf", "K": K})
+    g = ld.common_channel_norm(lin, {"kind": "sf", "K": K})
     assert sweep <= g * (1 + 1e-6)
     assert sweep >= 0.99 * g
     assert g == pytest.approx(res.metrics["W∞"]["gamma_common"], rel=1e-9)
@@ -213,8 +227,8 @@ def test_thesis_disturbance_model_weight_is_singular():
     from sobolev_drake.systems.wind import von_karman_state_space
 
     Ad, Bd, Cd, _ = von_karman_state_space()
-    for ups1 in (hl.UPSILON1_SF, hl.UPSILON1_OF):
-        rep = sb.disturbance_model_degeneracy(Ad, Bd, Cd, hl.UPSILON0, ups1)
+    for ups1 in (ld.UPSILON1_SF, ld.UPSILON1_OF):
+        rep = sb.disturbance_model_degeneracy(Ad, Bd, Cd, ld.UPSILON0, ups1)
         assert rep.singular and rep.kernel_dim == 5
         assert np.linalg.matrix_rank(rep.weight) == 6
 
@@ -224,6 +238,6 @@ def test_flight_monitor_stops_early_and_says_why():
     same monitor stops lost aircraft, |φ| or |θ| > 90°, and non-finite states)."""
     from sobolev_drake.tiltrotor.trim import trim_hover
 
-    d = hl.simulate_design({"kind": "sf", "K": np.zeros((4, 20))}, trim_hover(), 5.0, max_wall_s=0.0)
+    d = hf.simulate_design({"kind": "sf", "K": np.zeros((4, 20))}, trim_hover(), 5.0, max_wall_s=0.0)
     assert d["stopped"].startswith("stopped at t = ") and "wall time > 0 s" in d["stopped"]
     assert d["t"][-1] < 0.5

@@ -102,7 +102,8 @@ def test_envelope_is_the_flagship():
 
 
 def test_phase_bookkeeping_and_pulses():
-    from sobolev_drake.experiments import tiltrotor_missions as tm
+    from sobolev_drake.tiltrotor import mission as tm
+    from sobolev_drake.tiltrotor.mission_metrics import phase_metrics
     ph = tm.scenario_2_phases(250.0)
     assert [p[0] for p in ph] == ["accelerate_climb", "cruise_1", "turn", "cruise_2",
                                   "decelerate_descend", "hold"]
@@ -116,7 +117,7 @@ def test_phase_bookkeeping_and_pulses():
     pos = np.zeros((3, 101))
     ref = np.zeros((3, 101))
     pos[0, tt >= 5] = 2.0
-    rows = tm.phase_metrics(tt, pos, ref, [("a", 0, 5, "hover"), ("b", 5, 10, "cruise")])
+    rows = phase_metrics(tt, pos, ref, [("a", 0, 5, "hover"), ("b", 5, 10, "cruise")])
     assert rows[0]["rms_m"] == 0 and rows[1]["rms_m"] == pytest.approx(2.0)
     assert rows[0]["goal_met"] and rows[1]["goal_met"]
 
@@ -213,7 +214,7 @@ def test_mission_steps_once_per_sample_and_record_splits():
     """The mission integrates one RK3 step per controller sample (no ulp-sized extra steps from
     max_step = period or from log events a rounding apart), and the one C++ log of the
     controller's sample record splits into the named signals of its output ports."""
-    from sobolev_drake.experiments.tiltrotor_missions import simulate_mission
+    from sobolev_drake.tiltrotor.mission import simulate_mission
 
     built, data = simulate_mission(2, 1.0)
     sim, ctrl = built["simulator"], built["controller"]
@@ -237,7 +238,7 @@ def test_frictionless_flag_is_truthful(law):
 
 
 def test_mission_params_reach_plant_and_controller_model():
-    from sobolev_drake.experiments.tiltrotor_missions import build_mission
+    from sobolev_drake.tiltrotor.mission import build_mission
     from sobolev_drake.tiltrotor.params import TiltrotorParams
 
     built = build_mission(1, 1.0, params=TiltrotorParams(reverse_flow="mirrored"))

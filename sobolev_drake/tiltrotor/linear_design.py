@@ -1,12 +1,14 @@
-"""Synthesis of the helicopter-mode linear designs of thesis §7.3.1 (Table 7.2).
+"""Linear W∞ hover designs of thesis §7.3.1 (Table 7.2) and their channel norms and margins.
 
-Helpers of :mod:`sobolev_drake.experiments.tiltrotor_hover_linear`.  Every design is solved
-on the hover linearization (7.57) with the thesis' Γ0, Γ1 and checked by an independent
-certificate (closed-loop eigenvalues, region, ‖T‖∞ by Hamiltonian bisection).  Besides each
-design's own certificate, every controller is scored on one common channel, the well-posed
-disturbance-model channel v → z of the augmented plant (von Kármán filter states in the plant,
-v the filters' white-noise input), so the state- and disturbance-model designs can be compared
-on the same number.
+Every design is solved on the hover linearization (7.57) with the thesis' Γ0, Γ1 and checked
+by an independent certificate (closed-loop eigenvalues, region, ‖T‖∞ by Hamiltonian
+bisection).  Besides each design's own certificate, every controller is scored on one common
+channel, the well-posed disturbance-model channel v → z of the augmented plant (von Kármán
+filter states in the plant, v the filters' white-noise input), so the state- and
+disturbance-model designs can be compared on the same number.
+
+A design is a value (:class:`HoverDesign`) and the synthesis dispatches on its fields; its
+``label`` is only the row name of the tables and the key of the metrics.
 
 See docs/experiments/tiltrotor-hover-linear.md.
 """
@@ -15,8 +17,13 @@ from __future__ import annotations
 
 import time
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
+
+__all__ = ["GAMMA0", "GAMMA1", "UPSILON0", "UPSILON1_SF", "UPSILON1_OF", "DISK_RADIUS",
+           "HoverDesign", "DESIGN_SPECS", "DESIGNS", "OF_MEASURED", "output_matrix", "design",
+           "common_channel_norm", "wind_channel_norm", "loop_margins"]
 
 GAMMA0 = np.diag([4.77, 4.77, 0.47, 3.82, 1.27, 5, 10, 10, 7.32, 7.32, 1.91, 6.36, 2.54, 1.66,
                   1.66, 1.66, 100, 100, 100, 100])
@@ -27,27 +34,60 @@ UPSILON1_SF = np.diag([16.0, 9.5, 14.7])
 UPSILON1_OF = np.diag([0.1, 0.1, 0.1])
 DISK_RADIUS = 250.0
 
-#: design name -> (kind, LMI of the thesis, Table 7.2 column or None)
-#:   "sf"   : state feedback (6.7);              "of": output feedback (6.22) + disk (6.40)
-#:   "sf_disk": (6.7) + disk (an extra row: shows what the region costs the state feedback)
-#:   "dm_thesis_sf/of": (6.31)/(6.36) as written (non-strict: the strict LMI is infeasible)
-#:   "dm_sf/of": well-posed disturbance-model design (augmented plant, d unmeasured)
-DESIGN_SPECS = {  # cheapest first: an interrupted full run still has the state-feedback rows
-    "W∞": ("sf", "W∞"),
-    "W∞ (disk r=250)": ("sf_disk", None),
-    "W∞-D (thesis LMI)": ("dm_thesis_sf", "W∞-D"),
-    "W∞-O.F.": ("of", "W∞-O.F."),
-    "W∞-D": ("dm_sf", "W∞-D"),  # dynamic (d unmeasured): gets the disk like the O.F. designs
-    "W∞-O.F.D": ("dm_of", "W∞-O.F.D"),
-    "W∞-O.F.D (thesis LMI)": ("dm_thesis_of", "W∞-O.F.D"),  # slowest: singular weight, margin 0
-}
+
+@dataclass(frozen=True)
+class HoverDesign:
+    """One linear hover design: what is synthesized, and where it sits in Table 7.2.
+
+    Attributes
+    ----------
+    label : str
+        Row label of the tables and key of the metrics.
+    feedback : str
+        ``"sf"``: state feedback on Δx; ``"of"``: output feedback on y = C Δx
+        (:func:`output_matrix`).
+    disturbance : str
+        ``"none"``: the W∞ channel (6.1) (state feedback (6.7), output feedback (6.22));
+        ``"thesis"``: the disturbance-model LMI (6.31)/(6.36) as written (non-strict);
+        ``"augmented"``: the well-posed disturbance-model design (filter states in the plant,
+        unmeasured).
+    disk : bool
+        Closed-loop poles inside the disk of radius :data:`DISK_RADIUS` (6.40).
+    column : str or None
+        The Table 7.2 column it is compared with (None: a row of our own).
+    """
+
+    label: str
+    feedback: str
+    disturbance: str = "none"
+    disk: bool = False
+    column: str | None = None
+
+
+#: label -> design, cheapest first: an interrupted full run still has the state-feedback rows.
+#: The well-posed W∞-D is an output-feedback synthesis (filter states unmeasured) and gets the
+#: disk like the O.F. designs; the (6.36) design is the slowest (singular weight, margin 0).
+DESIGN_SPECS = {d.label: d for d in (
+    HoverDesign("W∞", "sf", column="W∞"),
+    HoverDesign("W∞ (disk r=250)", "sf", disk=True),  # what the region costs the state feedback
+    HoverDesign("W∞-D (thesis LMI)", "sf", "thesis", column="W∞-D"),
+    HoverDesign("W∞-O.F.", "of", disk=True, column="W∞-O.F."),
+    HoverDesign("W∞-D", "sf", "augmented", disk=True, column="W∞-D"),
+    HoverDesign("W∞-O.F.D", "of", "augmented", disk=True, column="W∞-O.F.D"),
+    HoverDesign("W∞-O.F.D (thesis LMI)", "of", "thesis", disk=True, column="W∞-O.F.D"),
+)}
 DESIGNS = tuple(DESIGN_SPECS)
 #: measured outputs of the output-feedback designs: all of Δx except Δẋ, Δẏ (indices 13, 14)
 OF_MEASURED = [i for i in range(20) if i not in (13, 14)]
 
 
 def output_matrix():
-    """y = C Δx of the output-feedback designs (18 × 20)."""
+    """y = C Δx of the output-feedback designs.
+
+    Returns
+    -------
+    ndarray, shape (18, 20)
+    """
     return np.eye(20)[OF_MEASURED]
 
 
@@ -81,8 +121,23 @@ def _closed_loop_norm(plant, ctrl, extra_states=0):
 def common_channel_norm(lin, ctrl):
     """‖T_vz‖∞ of the augmented (x, d) plant closed with ``ctrl`` (acting on x or y = C x).
 
-    v → d → ζ = Cd d is the von Kármán model; z = [Γ0^½ Δx; Γ1^½ Δẋ].  Same yardstick for
-    every design (the well-posed disturbance-model designs minimize exactly this)."""
+    v → d → ζ = Cd d is the von Kármán model (7.58)–(7.60); z = [Γ0^½ Δx; Γ1^½ Δẋ].  Same
+    yardstick for every design (the well-posed disturbance-model designs minimize exactly
+    this).
+
+    Parameters
+    ----------
+    lin : Linearization
+        The hover linearization (7.57) (fields A, B, D).
+    ctrl : dict
+        A design dict of :func:`design` (``kind`` "sf" with ``K`` or "dyn" with ``AK`` …
+        ``DK`` and ``C``).
+
+    Returns
+    -------
+    float
+        inf when the closed loop is unstable.
+    """
     from sobolev_drake.synthesis import sobolev as sb
 
     Ad, Bd, Cd = _disturbance_model()
@@ -92,14 +147,27 @@ def common_channel_norm(lin, ctrl):
 
 
 def wind_channel_norm(lin, ctrl):
-    """‖T_ζz‖∞ of the W∞ channel (6.1): wind ζ → z = [Γ0^½ Δx; Γ1^½ Δẋ], any controller."""
+    """‖T_ζz‖∞ of the W∞ channel (6.1): wind ζ → z = [Γ0^½ Δx; Γ1^½ Δẋ], any controller.
+
+    Parameters
+    ----------
+    lin : Linearization
+        The hover linearization (7.57) (fields A, B, D).
+    ctrl : dict
+        A design dict of :func:`design`.
+
+    Returns
+    -------
+    float
+        inf when the closed loop is unstable.
+    """
     from sobolev_drake.synthesis import sobolev as sb
 
     C = None if ctrl["kind"] == "sf" else ctrl["C"]
     return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1, C), ctrl)
 
 
-def _solve(lin, kind, backend, x0=None):
+def _solve(lin, spec, backend, x0=None):
     """Returns (SynthesisResult, C or None, extra notes); ``x0``: see :func:`design`."""
     from sobolev_drake.synthesis import hinf, regions
     from sobolev_drake.synthesis import sobolev as sb
@@ -107,6 +175,8 @@ def _solve(lin, kind, backend, x0=None):
 
     A, B, D = lin.A, lin.B, lin.D
     disk = regions.disk(DISK_RADIUS)
+    region = disk if spec.disk else None
+    of = spec.feedback == "of"
     notes = []
     # Default backends: "auto" (own IPM, kept only when its certificate and the BRL re-check
     # pass, else the Clarabel chain) for the W∞ state/output feedback, where it is faster
@@ -114,21 +184,19 @@ def _solve(lin, kind, backend, x0=None):
     # plain Clarabel without the fallback chain, whose CSDP step does not return on (6.36).
     # The optimum of the well-posed disturbance-model designs is pinned to Clarabel below
     # (dm_backend).
-    thesis_form = kind.startswith("dm_thesis")
+    thesis_form = spec.disturbance == "thesis"
     dm_backend = backend or "clarabel"
     if backend is None:
         backend = "clarabel" if thesis_form else "auto"
-    if kind in ("sf", "sf_disk"):
+    if spec.disturbance == "none" and not of:
         return sb.winf_state_feedback(A, B, D, GAMMA0, GAMMA1, backend=backend, initial_states=x0,
-                                      region=disk if kind == "sf_disk" else None,
-                                      time_limit=None), None, notes
-    if kind == "of":
+                                      region=region, time_limit=None), None, notes
+    if spec.disturbance == "none":
         C = output_matrix()
-        return hinf.output_feedback(sb.winf_plant(A, B, D, GAMMA0, GAMMA1, C), region=disk,
+        return hinf.output_feedback(sb.winf_plant(A, B, D, GAMMA0, GAMMA1, C), region=region,
                                     backend=backend, initial_states=x0, time_limit=None), C, notes
     Ad, Bd, Cd = _disturbance_model()
-    if kind.startswith("dm_thesis"):
-        of = kind.endswith("of")
+    if thesis_form:
         ups1 = UPSILON1_OF if of else UPSILON1_SF
         rep = sb.disturbance_model_degeneracy(Ad, Bd, Cd, UPSILON0, ups1)
         notes.append(f"({'6.36' if of else '6.31'}): {rep.message}")
@@ -144,7 +212,7 @@ def _solve(lin, kind, backend, x0=None):
                   time_limit=None)
         try:
             if of:
-                r = hinf.output_feedback(plant, region=disk, **kw)
+                r = hinf.output_feedback(plant, region=region, **kw)
             else:
                 r = hinf.state_feedback(plant, **kw)
         except InfeasibleLMIError as exc:
@@ -152,7 +220,7 @@ def _solve(lin, kind, backend, x0=None):
                                      exc.status) from None
         notes.append("non-strict solve: γ is the solver's value, not a verified bound")
         return r, C, notes
-    C = None if kind == "dm_sf" else output_matrix()
+    C = output_matrix() if of else None
     plant = sb.augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, GAMMA0, GAMMA1, C)
     notes.append("well-posed: filter states in the plant, unmeasured; γ bounds ‖T_vz‖∞")
     # The thesis adds the disk to its output-feedback designs against "undesired fast poles";
@@ -164,35 +232,47 @@ def _solve(lin, kind, backend, x0=None):
     # optimum flies) and flown as solved, without a transient or least-gain re-solve: those
     # were measured not to fly better (docs/experiments/tiltrotor-hover-linear.md).  The
     # optimum can still differ between machines (it depends on Clarabel's thread count).
-    r = hinf.output_feedback(plant, region=disk, backend=dm_backend, time_limit=None)
+    r = hinf.output_feedback(plant, region=region, backend=dm_backend, time_limit=None)
     return r, (np.eye(20) if C is None else C), notes
 
 
 def design(lin, which, *, backend=None, initial_state=None):
-    """Synthesize one of :data:`DESIGNS` on the linearization ``lin`` (fields A, B, D).
+    """Synthesize one of :data:`DESIGNS` on the linearization ``lin``.
 
-    ``initial_state``: Δx(0) (20,) of the flight.  Given, the designs whose γ is fixed at
-    (1+δ)γ* (W∞, W∞-O.F.: optimum on the feedthrough bound) minimize the guaranteed transient
-    cost Δx(0)ᵀ P Δx(0) at that γ instead of a gain bound (``initial_states`` of the
-    synthesis).  The thesis-form LMIs are solved as written; the well-posed W∞-D, W∞-O.F.D
-    keep their solver optimum either way (re-solves measured not to help, see ``_solve``).
-    None: least-gain regularization.
+    Given an ``initial_state``, the designs whose γ is fixed at (1+δ)γ* (W∞, W∞-O.F.: optimum
+    on the feedthrough bound) minimize the guaranteed transient cost Δx(0)ᵀ P Δx(0) at that γ
+    instead of a gain bound (``initial_states`` of the synthesis).  The thesis-form LMIs are
+    solved as written; the well-posed W∞-D, W∞-O.F.D keep their solver optimum either way
+    (re-solves were measured not to help).
 
-    ``backend``: LMI backend; None picks "auto" for the W∞ state/output-feedback designs and
-    "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate LMIs
-    whose controller depends on the solver: see ``_solve``).
+    Parameters
+    ----------
+    lin : Linearization
+        The hover linearization (7.57) (fields A, B, D).
+    which : str or HoverDesign
+        A label of :data:`DESIGNS` or the design itself.
+    backend : str, optional
+        LMI backend; None picks "auto" for the W∞ state/output-feedback designs and
+        "clarabel" (no fallback chain) for the disturbance-model ones (singular / degenerate
+        LMIs whose controller depends on the solver).
+    initial_state : array_like, shape (20,), optional
+        Δx(0) of the flight; None: least-gain regularization.
 
-    Returns a dict: ``kind`` ("sf" with ``K`` or "dyn" with ``AK, BK, CK, DK`` acting on
-    y = ``C`` Δx), ``gamma``, ``certified`` (None when there is no verified bound to check),
-    ``achieved`` (‖T‖∞ of the design's own channel), ``gamma_wind`` (‖T_ζz‖∞,
-    :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`),
-    ``max_real``/``max_abs`` (closed-loop poles), ``delay_margin_s``/``gain_margins``
-    (:func:`loop_margins`), ``solve_s``, ``notes`` (list of str)."""
+    Returns
+    -------
+    dict
+        ``kind`` ("sf" with ``K`` or "dyn" with ``AK, BK, CK, DK`` acting on y = ``C`` Δx),
+        ``gamma``, ``certified`` (None when there is no verified bound to check),
+        ``achieved`` (‖T‖∞ of the design's own channel), ``gamma_wind`` (‖T_ζz‖∞,
+        :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`),
+        ``max_real``/``max_abs`` (closed-loop poles), ``delay_margin_s``/``gain_margins``
+        (:func:`loop_margins`), ``solve_s``, ``notes`` (list of str), ``result``.
+    """
     from sobolev_drake.synthesis.lmi import SynthesisError
 
-    if which not in DESIGN_SPECS:
+    spec = which if isinstance(which, HoverDesign) else DESIGN_SPECS.get(which)
+    if spec is None:
         raise ValueError(f"which must be one of {DESIGNS}, got {which!r}")
-    kind = DESIGN_SPECS[which][0]
     x0 = None if initial_state is None else np.asarray(initial_state, float)
     if x0 is not None and (x0.shape != (20,) or not np.all(np.isfinite(x0))):
         raise ValueError(f"initial_state must be a finite Δx(0) of shape (20,), got shape {x0.shape}")
@@ -200,7 +280,7 @@ def design(lin, which, *, backend=None, initial_state=None):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            r, C, notes = _solve(lin, kind, backend, x0)
+            r, C, notes = _solve(lin, spec, backend, x0)
             failed = None
         except SynthesisError as exc:
             failed = exc
@@ -217,12 +297,11 @@ def design(lin, which, *, backend=None, initial_state=None):
         c = r.controller
         out.update(kind="dyn", AK=c.AK, BK=c.BK, CK=c.CK, DK=c.DK, C=C, order=int(c.AK.shape[0]))
     cert = r.certificate
-    thesis_form = kind.startswith("dm_thesis")
     if cert is not None:
         ev = cert.eigenvalues
         out.update(achieved=float(cert.achieved), max_real=float(cert.max_real_eig),
                    max_abs=float(np.abs(ev).max()) if ev.size else np.nan,
-                   certified=None if thesis_form else bool(cert.ok),
+                   certified=None if spec.disturbance == "thesis" else bool(cert.ok),
                    certificate_failures=list(cert.failures))
     out["gamma_wind"] = wind_channel_norm(lin, out)
     out["gamma_common"] = common_channel_norm(lin, out)
@@ -231,9 +310,23 @@ def design(lin, which, *, backend=None, initial_state=None):
 
 
 def loop_margins(lin, ctrl):
-    """``delay_margin_s`` and ``gain_margins`` (k_low, k_high) of ``ctrl`` at the plant input of
-    the linearization (uniform on all four inputs, :mod:`sobolev_drake.synthesis.margins`);
-    None when the nominal loop is unstable."""
+    """Delay and gain margins of ``ctrl`` at the plant input of the linearization.
+
+    Uniform on all four inputs (:mod:`sobolev_drake.synthesis.margins`).
+
+    Parameters
+    ----------
+    lin : Linearization
+        The hover linearization (7.57) (fields A, B).
+    ctrl : dict
+        A design dict of :func:`design`.
+
+    Returns
+    -------
+    dict
+        ``delay_margin_s`` and ``gain_margins`` (k_low, k_high); both None when the nominal
+        loop is unstable.
+    """
     from sobolev_drake.synthesis.margins import input_delay_margin, input_gain_margins
 
     K, C = (ctrl["K"], None) if ctrl["kind"] == "sf" else (_dynamic_controller(ctrl), ctrl["C"])

@@ -1,0 +1,148 @@
+"""Figures of the tilt-rotor flights: a mission (§7.3.2) and the linear hover designs (§7.3.1).
+
+See docs/experiments/tiltrotor-hover.md, docs/experiments/tiltrotor-envelope.md and
+docs/experiments/tiltrotor-hover-linear.md.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_mission", "plot_hover_flights"]
+
+
+def plot_mission(data, out_dir, stem):
+    """PNG figures of a mission flight: 3-D path, positions, attitude, tilt angles, propeller
+    speeds, servo torques, δe/δr, wind, tracking errors and allocation residual.
+
+    Parameters
+    ----------
+    data : dict
+        Logs of :func:`~sobolev_drake.tiltrotor.mission.simulate_mission`.
+    out_dir : path-like
+        Folder of the PNG files.
+    stem : str
+        File-name prefix.
+
+    Returns
+    -------
+    dict
+        {label: path}.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sobolev_drake.viz import save_figure
+
+    t, x, ref = data["t"], data["x"], data["reference"]
+    q, pr = x[:8], ref[0:4]
+    tau = data["tau_bar"]
+    out = {}
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(pr[0], pr[1], pr[2], "k--", lw=1, label="reference")
+    ax.plot(q[5], q[6], q[7], "C0", lw=1.5, label="W∞ + allocation")
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
+    ax.legend()
+    out["path_3d"] = save_figure(fig, Path(out_dir) / f"{stem}_path3d.png")
+
+    def panel(rows, title, fname):
+        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.6), sharex=True)
+        axes = np.atleast_1d(axes)
+        for axis, (lab, curves) in zip(axes, rows):
+            for y, style, name in curves:
+                axis.plot(t, y, style, lw=1, label=name)
+            axis.set_ylabel(lab)
+            axis.grid(alpha=0.3)
+            if len(curves) > 1:
+                axis.legend(fontsize=7, loc="upper right")
+        axes[-1].set_xlabel("time [s]")
+        fig.suptitle(title)
+        fig.tight_layout()
+        return save_figure(fig, Path(out_dir) / f"{stem}_{fname}.png")
+
+    deg = 180 / np.pi
+    out["positions"] = panel([(n, [(q[5 + i], "C0", "q"), (pr[i], "k--", "ref")])
+                              for i, n in enumerate(["x [m]", "y [m]", "z [m]"])],
+                             "position", "positions")
+    out["attitude"] = panel([("φ [deg]", [(q[2] * deg, "C0", "φ")]),
+                             ("θ [deg]", [(q[3] * deg, "C0", "θ")]),
+                             ("ψ [deg]", [(q[4] * deg, "C0", "ψ"), (pr[3] * deg, "k--", "ψ_r")])],
+                            "attitude", "attitude")
+    out["tilt"] = panel([("αR [deg]", [(q[0] * deg, "C0", "αR")]),
+                         ("αL [deg]", [(q[1] * deg, "C1", "αL")])], "tilt angles", "tilt")
+    sp = data["propeller_speed"]
+    out["actuators"] = panel([("n [rev/s]", [(sp[0], "C0", "nR"), (sp[1], "C1", "nL")]),
+                              ("τs [N m]", [(tau[2], "C0", "τsR"), (tau[3], "C1", "τsL")]),
+                              ("δ [deg]", [(0.5 * (tau[6] + tau[7]) * deg, "C0", "δe"),
+                                           (0.5 * (tau[6] - tau[7]) * deg, "C1", "δr"),
+                                           (tau[4] * deg, "C2", "δWR"), (tau[5] * deg, "C3", "δWL")])],
+                             "actuators", "actuators")
+    w, f = data["wind"], data["force"]
+    out["disturbances"] = panel([("wind [m/s]", [(w[i], f"C{i}", f"ζ{a}") for i, a in enumerate("xyz")]),
+                                 ("force [N]", [(f[i], f"C{i}", f"f{a}") for i, a in enumerate("xyz")])],
+                                "wind and force disturbances", "disturbances")
+    err = q[5:8] - pr[:3]
+    out["errors"] = panel([("e [m]", [(err[i], f"C{i}", f"e{a}") for i, a in enumerate("xyz")]),
+                           ("‖u*−Bτ̄‖", [(data["allocation_residual"][0], "C3", "residual")])],
+                          "tracking error and allocation residual", "errors")
+    return out
+
+
+def plot_hover_flights(all_data, out_dir):
+    """3-D paths, tracking errors / tilt / propeller speed of the linear hover flights, and the
+    wind of the first flight (PNG files ``tiltrotor-hover-linear_*.png``).
+
+    Parameters
+    ----------
+    all_data : dict
+        {design label: logs of :func:`~sobolev_drake.tiltrotor.hover_flight.simulate_design`}.
+    out_dir : path-like
+        Folder of the PNG files.
+
+    Returns
+    -------
+    dict
+        {label: path}.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from sobolev_drake.viz import save_figure
+
+    out = {}
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    first = next(iter(all_data.values()))
+    r = first["reference"]
+    ax.plot(r[0], r[1], r[2], "k--", lw=1, label="reference")
+    for i, (name, d) in enumerate(all_data.items()):
+        ax.plot(d["x"][5], d["x"][6], d["x"][7], f"C{i}", lw=1, label=name)
+    ax.legend()
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
+    out["path_3d"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_path3d.png")
+    fig, axes = plt.subplots(5, 1, figsize=(8, 11), sharex=True)
+    for i, (name, d) in enumerate(all_data.items()):
+        t, x, r = d["t"], d["x"], d["reference"]
+        for k in range(3):
+            axes[k].plot(t, x[5 + k] - r[k], f"C{i}", lw=1, label=name)
+        axes[3].plot(t, np.degrees(x[0]), f"C{i}", lw=1)
+        axes[4].plot(t, d["n"][0], f"C{i}", lw=1)
+    for k, lab in enumerate(["e_x [m]", "e_y [m]", "e_z [m]", "αR [deg]", "nR [rev/s]"]):
+        axes[k].set_ylabel(lab)
+        axes[k].grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    out["errors"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_errors.png")
+    fig, ax = plt.subplots(figsize=(8, 3))
+    w = first["wind"]
+    for k, a in enumerate("xyz"):
+        ax.plot(first["t"], w[k], f"C{k}", lw=0.8, label=f"ζ{a}")
+    ax.set_xlabel("time [s]"), ax.set_ylabel("wind [m/s]"), ax.legend()
+    fig.tight_layout()
+    out["wind"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_wind.png")
+    return out
