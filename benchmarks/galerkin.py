@@ -39,12 +39,13 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from sobolev_drake.experiments.balance_sgaa import _problem, u0  # noqa: E402
+from sobolev_drake.models.two_wheeled_design import design_model  # noqa: E402
+from sobolev_drake.synthesis.galerkin_balance import WINF, sgaa_problem, u0  # noqa: E402
 
 
 def time_design(nodes: int, method: str) -> dict:
     w0, c0 = time.perf_counter(), time.process_time()
-    prob = _problem("W∞", nodes)
+    prob = sgaa_problem(WINF, design_model(), nodes)
     w1, c1 = time.perf_counter(), time.process_time()
     res = prob.solve(u0, tol=1e-8, method=method, check_u0="simulate")
     w2, c2 = time.perf_counter(), time.process_time()

@@ -5,6 +5,11 @@ import warnings
 import numpy as np
 
 from sobolev_drake.experiments import linear_simple as ls
+from sobolev_drake.models import simple_linear as sl
+from sobolev_drake.models.simple_linear import SIMPLE, X0
+from sobolev_drake.rigs.linear_simple import simulate, simulate_exact
+from sobolev_drake.synthesis import closed_loop_bounds as clb
+from sobolev_drake.synthesis.sobolev import winf_plant, winf_state_feedback
 
 warnings.simplefilter("ignore", UserWarning)
 
@@ -12,9 +17,9 @@ warnings.simplefilter("ignore", UserWarning)
 def test_linear_simple_drake_diagram_matches_exact_discretization():
     """The Drake diagram (LinearSystem plant + LeafSystem controller) and the exact ZOH
     discretization agree for the (non-stiff) regularized W∞ state feedback."""
-    r = ls.winf_state_feedback(ls.A, ls.B, ls.D, ls.GAMMA0, ls.GAMMA1)
-    d = ls.simulate("sf", r.K, 0.5)
-    e = ls.simulate_exact("sf", r.K, 0.5)
+    r = winf_state_feedback(sl.A, sl.B, sl.D, sl.GAMMA0, sl.GAMMA1)
+    d = simulate(sl.WINF, r.K, 0.5)
+    e = simulate_exact(sl.WINF, r.K, 0.5)
     xd = np.array([np.interp(e["t"], d["t"], d["x"][:, i]) for i in range(2)]).T
     assert np.max(np.abs(xd - e["x"])) < 2e-3 * np.max(np.abs(e["x"]))
 
@@ -38,7 +43,7 @@ import pytest  # noqa: E402
 def simple_designs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ctrls, _ = ls.design()
+        ctrls, _ = sl.design()
     return ctrls
 
 
@@ -47,74 +52,75 @@ def test_linear_simple_runs_superpose_initial_condition_and_disturbance(simple_d
     (same seed), for the static and for a dynamic controller; the v-only run of the
     disturbance-model design is tiny (the matched disturbance is estimated and cancelled)."""
     for name in ("W∞", "W∞-D"):
-        kind, data, _ = simple_designs[name]
-        full = ls.simulate_exact(kind, data, 3.0)
-        ic = ls.simulate_exact(kind, data, 3.0, noise=False)
-        vo = ls.simulate_exact(kind, data, 3.0, x0=[0.0, 0.0])
+        spec, data, _ = simple_designs[name]
+        full = simulate_exact(spec, data, 3.0)
+        ic = simulate_exact(spec, data, 3.0, noise=False)
+        vo = simulate_exact(spec, data, 3.0, x0=[0.0, 0.0])
         scale = np.abs(full["x"]).max()
         np.testing.assert_allclose(full["x"], ic["x"] + vo["x"], atol=1e-9 * scale)
         np.testing.assert_allclose(full["u"], ic["u"] + vo["u"], atol=1e-9 * np.abs(full["u"]).max())
-    kind, data, _ = simple_designs["W∞-D"]
+    spec, data, _ = simple_designs["W∞-D"]
     kb, datab, _ = simple_designs["W∞"]
-    vD = ls._indices(ls.simulate_exact(kind, data, 3.0, x0=[0.0, 0.0]))[0]
-    vB = ls._indices(ls.simulate_exact(kb, datab, 3.0, x0=[0.0, 0.0]))[0]
+    vD = ls._indices(simulate_exact(spec, data, 3.0, x0=[0.0, 0.0]))[0]
+    vB = ls._indices(simulate_exact(kb, datab, 3.0, x0=[0.0, 0.0]))[0]
     assert vD < 1e-3 * vB
 
 
 def test_linear_simple_initial_condition_energy_matches_simulation(simple_designs):
     """||z||^2 from the Gramian equals the integral of |Gamma0^1/2 x|^2 + |xdot|^2 of a long
     x(0)-only run (xdot by finite differences)."""
-    kind, data, _ = simple_designs["W∞"]
-    s = ls.simulate_exact(kind, data, 2.0, noise=False, dt=1e-4)
+    spec, data, _ = simple_designs["W∞"]
+    s = simulate_exact(spec, data, 2.0, noise=False, dt=1e-4)
     t, x = s["t"], s["x"]
     xd = np.gradient(x, t, axis=0)
     sim = np.trapezoid(10 * np.sum(x ** 2, 1) + np.sum(xd ** 2, 1), t)
-    assert ls.initial_condition_energy(kind, data) == pytest.approx(sim, rel=2e-3)
+    assert clb.initial_condition_energy(SIMPLE, spec, data, X0) == pytest.approx(sim, rel=2e-3)
 
 
 def test_linear_simple_lyapunov_bound_6_33_and_consistent_controller_state(simple_designs):
     """(6.33) with v = 0: ||z||^2 <= V(xi(0)) for every design; x_K(0) = argmin V is a
     stationary point of V (gradient zero), lowers V and the transient energy of W∞-D."""
-    for name, (kind, data, res) in simple_designs.items():
-        z2 = ls.initial_condition_energy(kind, data)
-        V = ls.lyapunov_bound(kind, data, res)
+    for name, (spec, data, res) in simple_designs.items():
+        z2 = clb.initial_condition_energy(SIMPLE, spec, data, X0)
+        V = clb.lyapunov_bound(SIMPLE, spec, data, res, X0)
         assert 0 < z2 <= V * (1 + 1e-6), name
-    kind, data, res = simple_designs["W∞-D"]
-    xk = ls.consistent_controller_state(res)
+    spec, data, res = simple_designs["W∞-D"]
+    xk = clb.consistent_controller_state(SIMPLE, res, X0)
     P = res.P
-    xi = np.concatenate([ls.X0, np.zeros(2), xk])
+    xi = np.concatenate([X0, np.zeros(2), xk])
     grad = (P @ xi)[4:]
-    assert np.linalg.norm(grad) <= 1e-8 * np.linalg.norm(P @ np.concatenate([ls.X0, np.zeros(2 + xk.size)]))
-    V0, V1 = ls.lyapunov_bound(kind, data, res), ls.lyapunov_bound(kind, data, res, xk0=xk)
+    assert np.linalg.norm(grad) <= 1e-8 * np.linalg.norm(P @ np.concatenate([X0, np.zeros(2 + xk.size)]))
+    V0 = clb.lyapunov_bound(SIMPLE, spec, data, res, X0)
+    V1 = clb.lyapunov_bound(SIMPLE, spec, data, res, X0, xk0=xk)
     assert V1 < 1e-2 * V0
-    z1 = ls.initial_condition_energy(kind, data, xk0=xk)
-    assert z1 <= V1 * (1 + 1e-6) and z1 < ls.initial_condition_energy(kind, data)
+    z1 = clb.initial_condition_energy(SIMPLE, spec, data, X0, xk0=xk)
+    assert z1 <= V1 * (1 + 1e-6) and z1 < clb.initial_condition_energy(SIMPLE, spec, data, X0)
 
 
 def test_linear_simple_bad_initial_states(simple_designs):
-    kind, data, res = simple_designs["W∞-D"]
+    spec, data, res = simple_designs["W∞-D"]
     with pytest.raises(ValueError, match="xk0 must have 4 entries"):
-        ls.simulate_exact(kind, data, 0.1, xk0=[0.0, 0.0])
+        simulate_exact(spec, data, 0.1, xk0=[0.0, 0.0])
     with pytest.raises(ValueError, match="x0 must have 2 entries"):
-        ls.initial_condition_energy(kind, data, x0=[1.0, 2.0, 3.0])
+        clb.initial_condition_energy(SIMPLE, spec, data, [1.0, 2.0, 3.0])
     _, _, rsf = simple_designs["W∞"]
     with pytest.raises(ValueError, match="dynamic-controller result"):
-        ls.consistent_controller_state(rsf)
+        clb.consistent_controller_state(SIMPLE, rsf, X0)
     _, _, rof = simple_designs["W∞-O.F."]  # P on [x; x_K]: no disturbance states
     with pytest.raises(ValueError, match=r"res.P must be the Lyapunov matrix on \[x; d; x_K\]"):
-        ls.consistent_controller_state(rof)
+        clb.consistent_controller_state(SIMPLE, rof, X0)
 
 
 def test_linear_simple_brl_scale_is_normalization_free(simple_designs):
     """brl_scale finds the factor that turns the stored P into a gamma^2-form bounded-real
     certificate: ~1 for the state feedback (gamma^2 form), and scaling P by c divides it by c;
     an indefinite P is rejected."""
-    kind, K, res = simple_designs["W∞"]
-    plant = ls.winf_plant(ls.A, ls.B, ls.D, ls.GAMMA0, ls.GAMMA1)
+    spec, K, res = simple_designs["W∞"]
+    plant = winf_plant(sl.A, sl.B, sl.D, sl.GAMMA0, sl.GAMMA1)
     cl = plant.closed_loop(K=K)
-    s1 = ls.brl_scale(*cl, res.P, res.gamma)
+    s1 = clb.brl_scale(*cl, res.P, res.gamma)
     assert s1 == pytest.approx(1.0, rel=1e-3)
-    assert ls.brl_scale(*cl, 7.0 * res.P, res.gamma) == pytest.approx(s1 / 7.0, rel=1e-5)
+    assert clb.brl_scale(*cl, 7.0 * res.P, res.gamma) == pytest.approx(s1 / 7.0, rel=1e-5)
     # the certificate it returns holds: s P satisfies the inequality (up to the tolerance)
     P = s1 * res.P
     A_, B_, C_, D_ = cl
@@ -122,4 +128,14 @@ def test_linear_simple_brl_scale_is_normalization_free(simple_designs):
                   [(P @ B_ + C_.T @ D_).T, D_.T @ D_ - res.gamma ** 2 * np.eye(B_.shape[1])]])
     assert np.linalg.eigvalsh(M).max() <= 1e-6 * np.abs(M).max()
     with pytest.raises(ValueError, match="bounded-real"):
-        ls.brl_scale(*cl, -np.eye(2), res.gamma)
+        clb.brl_scale(*cl, -np.eye(2), res.gamma)
+
+
+def test_linear_simple_designs_are_values():
+    """The rows of Table 6.1 are LoopDesign values (dispatched on their fields), in table order;
+    an unknown feedback is rejected."""
+    assert [d.label for d in sl.DESIGNS] == ["W∞", "W∞-D", "W∞-O.F.", "W∞-O.F.D"]
+    assert [d.feedback for d in sl.DESIGNS] == ["sf", "of_x", "of_y", "of_y"]
+    assert [d.disturbance_model for d in sl.DESIGNS] == [False, True, False, True]
+    with pytest.raises(ValueError, match="feedback must be one of"):
+        clb.LoopDesign("W∞", "static")

@@ -198,7 +198,7 @@ def test_hinf_nonlinear_known_value_residual_falls_with_degree():
 
 # --- the balance design model (closed forms of (4.30)) ---------------------------------------
 def balance_problem(kind="w2", gamma=5.0, degree=2, nodes=6, rho=1.6):
-    from sobolev_drake.experiments.balance_sgaa import design_model
+    from sobolev_drake.models.two_wheeled_design import design_model
     f, g, k = design_model()
     box = Box([-np.pi / 4, -3, -1.2], [np.pi / 4, 3, 1.2])
     h = lambda X: X
@@ -314,7 +314,8 @@ def test_divergence_is_reported_without_coefficients():
 def test_thesis_initial_gain_is_the_lqr_of_the_linearized_design_model():
     """(4.34) is reproduced (to 0.1 %) by LQR with Q = diag(10, 1, 2), R = 1 on the linearization
     of our f, g, with u = +Kx: a check of the model, the state order and the sign convention."""
-    from sobolev_drake.experiments.balance_sgaa import K_THESIS, design_model
+    from sobolev_drake.models.two_wheeled_design import design_model
+    from sobolev_drake.synthesis.galerkin_balance import K_THESIS
     from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
 
     f, g, _ = design_model()
@@ -328,7 +329,7 @@ def test_thesis_initial_gain_is_the_lqr_of_the_linearized_design_model():
 def test_balance_design_linear_part_matches_riccati_of_linearization(kind):
     """Near the origin the HJB/HJBI solution is the Riccati solution of the linearized problem,
     so the SGAA control's Jacobian at 0 must match the (independently computed) Riccati gain."""
-    from sobolev_drake.experiments.balance_sgaa import design_model
+    from sobolev_drake.models.two_wheeled_design import design_model
     from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
 
     f, g, k = design_model()
@@ -376,7 +377,7 @@ def test_winf_law_satisfies_the_dissipation_inequality():
     assert np.sqrt(np.mean(h_star ** 2)) < 1e-3 * scale
     # integrated along simulated trajectories of the design model (batch RK4): with pulses the
     # inequality holds; with the worst case w = w*(x) it is an equality (up to the residual)
-    from sobolev_drake.experiments.balance_sgaa import design_model
+    from sobolev_drake.models.two_wheeled_design import design_model
     f, g, k = design_model()
     s0, s1 = np.eye(3), np.diag([0.64, 0.1, 0.1])
     x0 = np.array([[0.3, 0.0, 0.0], [-0.2, 0.5, 0.0], [0.1, -1.0, 0.2]])

@@ -6,12 +6,14 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from sobolev_drake.experiments import balance_sgaa as bal
+from sobolev_drake.models.two_wheeled_design import cross_check_design_model, design_model
+from sobolev_drake.synthesis.galerkin_balance import K_THESIS, SIGMA1, WINF, sgaa_design
 from sobolev_drake.systems.galerkin_controller import GalerkinController, selection_matrix
 
 
 @pytest.fixture(scope="module")
 def winf_law():
-    return bal.design("W∞", nodes=6, check_u0="linearization")
+    return sgaa_design(WINF, design_model(), nodes=6, check_u0="linearization")
 
 
 def test_controller_output_equals_law_with_selection_and_limits(winf_law):
@@ -30,9 +32,9 @@ def test_controller_output_equals_law_with_selection_and_limits(winf_law):
     expected = winf_law.control(x_plant[None, 1:])[0]
     assert np.allclose(u, expected, rtol=1e-12)
     # (4.20) by hand: u = −R⁻¹gᵀ(∇V + Bf + Bk w*), R = gᵀBg, B = σ₁ (h = x)
-    f, g, k = bal.design_model()
+    f, g, k = design_model()
     X = x_plant[None, 1:]
-    Bm = bal.SIGMA1
+    Bm = SIGMA1
     G, Kd, F = g(X)[0], k(X)[0], f(X)[0]
     w = winf_law.disturbance(X)[0]
     R = G.T @ Bm @ G
@@ -52,11 +54,11 @@ def test_controller_rejects_bad_selection(winf_law):
 
 
 def test_design_model_matches_drake_model_and_sign_convention():
-    assert bal.cross_check_design_model() < 1e-9
+    assert cross_check_design_model() < 1e-9
     from sobolev_drake.synthesis.galerkin import closed_loop_jacobian
-    f, g, _ = bal.design_model()
+    f, g, _ = design_model()
     for sign, stable in ((+1, True), (-1, False)):
-        J = closed_loop_jacobian(lambda X: f(X) + g(X)[:, :, 0] * (sign * X @ bal.K_THESIS)[:, None], 3)
+        J = closed_loop_jacobian(lambda X: f(X) + g(X)[:, :, 0] * (sign * X @ K_THESIS)[:, None], 3)
         assert (np.linalg.eigvals(J).real.max() < 0) == stable
 
 
@@ -70,3 +72,15 @@ def test_balance_sgaa_smoke(tmp_path):
         assert np.isfinite(idx[name]["IADU"]) and idx[name]["ISE θ"] > 0
     # the pendulum is being brought back: θ is well below π/4 at the end of the short run
     assert "IADU" in res.table_markdown
+
+
+def test_sgaa_designs_are_values():
+    """The columns of Table 4.2 are SgaaDesign values dispatched on their cost, in table order;
+    an unknown cost is rejected."""
+    from sobolev_drake.synthesis.galerkin_balance import SgaaDesign
+
+    assert [(d.label, d.cost, d.disturbance) for d in bal.DESIGNS] == [
+        ("H∞", "hinf", True), ("W∞", "winf", True), ("W2", "w2", False)]
+    assert bal.CONTROLLERS == ("H∞", "W∞", "W2")
+    with pytest.raises(ValueError, match="cost must be one of"):
+        SgaaDesign("W∞", "W∞")
