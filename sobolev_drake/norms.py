@@ -265,10 +265,7 @@ def ise(t, e):
     float or ndarray, shape (p,)
         The ISE (trapezoid rule), per channel.
     """
-    t = check_time(t)
-    e2, was_1d = _signal("e", e, t.size)
-    out = np.trapezoid(e2 ** 2, t, axis=0)
-    return float(out[0]) if was_1d else out
+    return _channel_integral(t, e, np.square)
 
 
 def iae(t, e):
@@ -286,9 +283,14 @@ def iae(t, e):
     float or ndarray, shape (p,)
         The IAE per channel (a float for 1-D ``e``).
     """
+    return _channel_integral(t, e, np.abs)
+
+
+def _channel_integral(t, e, integrand):
+    """∫ integrand(e(t)) dt per channel by the trapezoid rule; a float for 1-D ``e``."""
     t = check_time(t)
     e2, was_1d = _signal("e", e, t.size)
-    out = np.trapezoid(np.abs(e2), t, axis=0)
+    out = np.trapezoid(integrand(e2), t, axis=0)
     return float(out[0]) if was_1d else out
 
 
