@@ -15,6 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from sobolev_drake.experiments._balance_linear_designs import (C_OF, DESIGN_SPECS, GAMMA0_OF, GAMMA1_OF,
+                                                               OF_BACKEND, RADIUS, design)
+from sobolev_drake.harness import quiet
+from sobolev_drake.rigs.balance_linear import result_gains, theta_settling_time
+
 #: frequencies [rad/s] of the controller peak-gain sweep (the disk radius is 150 rad/s)
 OMEGA = np.logspace(-2, 4, 400)
 
@@ -37,7 +42,6 @@ def gain_growth(plant, region, gamma_opt, deltas=(0.2, 0.1, 0.05, 0.02), *, back
     Returns a list of dicts (delta, gamma, norm_Y (γ² normalization), DK, peak_gain,
     certified) or (delta, error) when the solver fails (it does close to a non-attained
     infimum: the problem becomes ill-conditioned)."""
-    from sobolev_drake.harness import quiet
     from sobolev_drake.synthesis.hinf import output_feedback
     from sobolev_drake.synthesis.lmi import SynthesisError
     if not gamma_opt > 0:
@@ -63,8 +67,6 @@ def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), 
     (1+δ) times that backend's own γ*, and — with ``gamma``/``plant``/``region`` — the
     least-gain controller at that fixed γ.  Per row: γ, γ*, ‖Y‖, D_K, controller peak gain
     and the θ settling time on the nonlinear rig (or ``error``)."""
-    from sobolev_drake.experiments import balance_linear as bl
-    from sobolev_drake.harness import quiet
     from sobolev_drake.synthesis.hinf import output_feedback
     from sobolev_drake.synthesis.lmi import SynthesisError
     modes = ["LMI optimum", "regularized δ"] + (["fixed γ"] if gamma is not None else [])
@@ -76,16 +78,16 @@ def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), 
                 if mode == "fixed γ":
                     r, _ = quiet(output_feedback, plant, region=region, gamma=gamma, backend=be)
                 else:
-                    r, _, _ = bl.design(which, lin, rho=rho, backend=be, regularize=mode != "LMI optimum")
+                    r, _, _ = design(which, lin, rho=rho, backend=be, regularize=mode != "LMI optimum")
             except SynthesisError as e:
                 rows.append({**row, "error": str(e)[:160]})
                 continue
-            d = rig.run(bl.result_gains(r), duration)
+            d = rig.run(result_gains(r), duration)
             rows.append({**row, "gamma": float(r.gamma), "gamma_opt": float(r.gamma_opt),
                          "norm_Y": float(np.linalg.norm(r.Y, 2)), "norm_X": float(np.linalg.norm(r.X, 2)),
                          "DK": np.asarray(r.controller.DK).ravel().tolist(),
                          "peak_gain": controller_peak_gain(r.controller), "certified": bool(r.certificate.ok),
-                         "settling_s": bl.settling_time(d["t"], d["x"][1]),
+                         "settling_s": theta_settling_time(d),
                          "max_abs_u": float(np.abs(d["u"]).max())})
     return rows
 
@@ -127,8 +129,6 @@ POSEDNESS_COLUMNS = ["design", "ρ", "synthesis", "backend", "γ", "‖Y‖", "D
 def diagnose(res, lin, rig_of, designs, out_dir):
     """O.F. well-posedness table (see :mod:`._balance_linear_posedness`) and its claims."""
     from sobolev_drake.experiments import Claim
-    from sobolev_drake.experiments.balance_linear import (C_OF, DESIGN_SPECS, GAMMA0_OF, GAMMA1_OF,
-                                                          OF_BACKEND, RADIUS)
     from sobolev_drake.report import write_table
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb

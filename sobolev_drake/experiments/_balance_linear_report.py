@@ -7,10 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from sobolev_drake.experiments._balance_linear_designs import DESIGNS, LOWER, THESIS_TABLE_6_2
+from sobolev_drake.rigs.balance_linear import DISTURBANCE_START, SETTLE_FRACTION, THETA0
+
 
 def plot_runs(runs, out_dir):
     """State/input time series (cf. Figure 6.3) and the θ settling plot (cf. Figure 6.2)."""
-    from sobolev_drake.experiments.balance_linear import DESIGNS, SETTLE_FRACTION, SETTLE_WINDOW, THETA0
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -36,7 +38,7 @@ def plot_runs(runs, out_dir):
     for i, name in enumerate(DESIGNS):
         if name in runs:
             d = runs[name]
-            sel = d["t"] <= SETTLE_WINDOW
+            sel = d["t"] <= DISTURBANCE_START
             ax.plot(d["t"][sel], d["x"][1][sel], f"C{i}", lw=1, label=name)
     ax.axhspan(-SETTLE_FRACTION * THETA0, SETTLE_FRACTION * THETA0, color="0.85")
     ax.set_xlabel("t [s]"), ax.set_ylabel("θ [rad]"), ax.legend(), ax.grid(alpha=0.3)
@@ -48,7 +50,6 @@ def plot_runs(runs, out_dir):
 def add_claims(res, metrics, *, full):
     """The thesis' Table 6.2 statements (and the pole-disk constraints) evaluated on ``metrics``."""
     from sobolev_drake.experiments import Claim
-    from sobolev_drake.experiments.balance_linear import LOWER, THESIS_TABLE_6_2
     for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
         ma, mb = metrics[a], metrics[b]
         res.claims.append(Claim(f"{b} and {a} tuned to similar θ settling time (2 %, within 10 %)",

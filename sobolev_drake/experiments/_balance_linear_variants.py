@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from sobolev_drake.experiments._balance_linear_designs import LOWER, RADIUS, RHO_GRID, design
 from sobolev_drake.harness import quiet
+from sobolev_drake.rigs.balance_linear import DISTURBANCE_START, flight_indices, result_gains, theta_settling_time
 from sobolev_drake.tuning import match_parameter
 
 KEYS = ("settling_s", "ise_theta", "ise_phidot", "iadu", "gain", "max_abs_u")
@@ -26,12 +28,10 @@ KEYS = ("settling_s", "ise_theta", "ise_phidot", "iadu", "gain", "max_abs_u")
 def variant_pair(label, w_res, h_of_rho, rig, grid, duration):
     """Match ρ of ``h_of_rho`` to the settling time of ``w_res`` on ``rig``; fly both for
     ``duration`` s.  Returns a dict with rho, the search history and both index sets."""
-    from sobolev_drake.experiments import balance_linear as bl
     from sobolev_drake.synthesis.lmi import SynthesisError
 
     def settle(res):
-        d = rig.run(bl.result_gains(res), bl.SETTLE_WINDOW)
-        return bl.settling_time(d["t"], d["x"][1])
+        return theta_settling_time(rig.run(result_gains(res), DISTURBANCE_START))
 
     cache = {}
 
@@ -44,27 +44,26 @@ def variant_pair(label, w_res, h_of_rho, rig, grid, duration):
 
     target = settle(w_res)
     rho, ts, hist = match_parameter(f, target, grid, refine=3)
-    iw = bl.indices(rig.run(bl.result_gains(w_res), duration))
-    ih = bl.indices(rig.run(bl.result_gains(cache[rho]), duration))
+    iw = flight_indices(rig.run(result_gains(w_res), duration))
+    ih = flight_indices(rig.run(result_gains(cache[rho]), duration))
     return {"label": label, "rho": float(rho), "search": [(float(p), float(v)) for p, v in hist],
             "W": {k: iw[k] for k in KEYS}, "H": {k: ih[k] for k in KEYS}}
 
 
 def run_variants(lin, rigs, designs, duration):
     """The variants of the module docstring; returns a list of :func:`variant_pair` dicts."""
-    from sobolev_drake.experiments import balance_linear as bl
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
     A, B, D = lin
-    w_raw, _, _ = bl.design("W∞-O.F.", lin, regularize=False)
+    w_raw, _, _ = design("W∞-O.F.", lin, regularize=False)
     out = [variant_pair("O.F., LMI optimum (both)", w_raw,
-                        lambda rho: bl.design("H∞-O.F.", lin, rho=rho, regularize=False)[0],
-                        rigs["of"], bl.RHO_GRID["of"], duration)]
-    disk = regions.disk(bl.RADIUS["sf"])
+                        lambda rho: design("H∞-O.F.", lin, rho=rho, regularize=False)[0],
+                        rigs["of"], RHO_GRID["of"], duration)]
+    disk = regions.disk(RADIUS["sf"])
     out.append(variant_pair("S.F., H∞ with Q = I", designs["W∞"]["res"],
                             lambda rho: quiet(sb.hinf_state_feedback_qr, A, B, D, np.eye(3),
                                                  np.array([[rho]]), region=disk)[0],
-                            rigs["sf"], bl.RHO_GRID["sf"], duration))
+                            rigs["sf"], RHO_GRID["sf"], duration))
     return out
 
 
@@ -89,7 +88,6 @@ VARIANT_COLUMNS = ["variant", "design", "ρ", "θ settling [s]", "ISE θ", "ISE 
 def variant_claims(variants):
     """(text, held, detail) per variant: does W∞ beat H∞ on ISE ϕ̇, IADU and gain (thesis)?
     "Beat" means below ``LOWER`` times the H∞ value."""
-    from sobolev_drake.experiments.balance_linear import LOWER
     out = []
     for v in variants:
         w, h = v["W"], v["H"]

@@ -14,16 +14,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sobolev_drake.experiments import balance_linear as bl
+from sobolev_drake.experiments import _balance_linear_designs as bl
 from sobolev_drake.tuning import match_parameter
-from sobolev_drake.experiments import balance_linear_table as blt
+from sobolev_drake.experiments import balance_linear as blt
 from sobolev_drake.experiments import quadrotor_polytopic as qp
+from sobolev_drake.models import quadrotor_linear as ql
+from sobolev_drake.models import two_wheeled_linear as twl
+from sobolev_drake.rigs import balance_linear as blr
 
 
 # ----------------------------------------------------------------------------- linearizations
 def test_balance_linearization_matches_closed_form_4_30():
-    A, B, D = bl.linearize()
-    A2, B2, D2 = bl.closed_form_linearization()
+    A, B, D = twl.linearize()
+    A2, B2, D2 = twl.closed_form_linearization()
     np.testing.assert_allclose(A, A2, atol=1e-8)
     np.testing.assert_allclose(B, B2, atol=1e-8)
     np.testing.assert_allclose(D, D2, atol=1e-8)
@@ -35,17 +38,18 @@ def test_balance_linearization_matches_closed_form_4_30():
 def test_balance_linearization_other_parameters():
     from sobolev_drake.models.two_wheeled import TwoWheeledParams, make_two_wheeled_model
     p = TwoWheeledParams(l=0.3, k=0.05, m=4.0)
-    A, B, D = bl.linearize(make_two_wheeled_model(p))
-    A2, B2, D2 = bl.closed_form_linearization(p)
+    A, B, D = twl.linearize(make_two_wheeled_model(p))
+    A2, B2, D2 = twl.closed_form_linearization(p)
     for X, Y in ((A, A2), (B, B2), (D, D2)):
         np.testing.assert_allclose(X, Y, atol=1e-7)
     assert abs(A[1, 1]) > 1e-3  # the friction k ϕ̇ reaches the linear model
 
 
 def test_quadrotor_linearization_matches_hover_closed_form():
-    p = qp._params()
-    A, B, D = qp.linearize(p)
-    A2, B2, D2 = qp.closed_form_linearization(p.m, p.Ixx, p.Iyy, p.Izz, params=p)
+    from sobolev_drake.models.quadrotor import QuadrotorParams
+    p = QuadrotorParams.chapter6_nominal()
+    A, B, D = ql.linearize(p)
+    A2, B2, D2 = ql.closed_form_linearization(p.m, p.Ixx, p.Iyy, p.Izz, params=p)
     np.testing.assert_allclose(A, A2, atol=1e-6)
     np.testing.assert_allclose(B, B2, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(D, D2, rtol=1e-7, atol=1e-9)
@@ -54,14 +58,14 @@ def test_quadrotor_linearization_matches_hover_closed_form():
     np.testing.assert_allclose(B[11], p.b * np.cos(p.alpha) / p.m, rtol=1e-9)
     # at a vertex of the ±10 % box (different m and inertia) the Drake model still agrees
     pv = replace(p, m=1.1 * p.m, Ixx=0.9 * p.Ixx, Iyy=1.1 * p.Iyy, Izz=0.9 * p.Izz)
-    Av, Bv, Dv = qp.linearize(pv)
-    A3, B3, D3 = qp.closed_form_linearization(pv.m, pv.Ixx, pv.Iyy, pv.Izz, params=p)
+    Av, Bv, Dv = ql.linearize(pv)
+    A3, B3, D3 = ql.closed_form_linearization(pv.m, pv.Ixx, pv.Iyy, pv.Izz, params=p)
     np.testing.assert_allclose(Bv, B3, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(Dv, D3, rtol=1e-7, atol=1e-9)
 
 
 def test_quadrotor_vertices_are_the_thesis_box():
-    vs = qp.vertices()
+    vs = ql.vertices()
     assert len(vs) == 16
     ms = sorted({round(pv["m"], 4) for pv, _ in vs})
     ixx = sorted({round(pv["Ixx"], 5) for pv, _ in vs})
@@ -100,15 +104,19 @@ def test_settling_time_of_an_exponential():
     """2 % settling of θ0 e^(-t/τ) is τ ln 50 (linear interpolation between 1 ms samples)."""
     tau = 0.3
     t = np.arange(0.0, 5.0, 1e-3)
-    ts = bl.settling_time(t, bl.THETA0 * np.exp(-t / tau))
+
+    def settling_time(t, theta):  # a flight logging θ as the plant's second state
+        return blr.theta_settling_time({"t": t, "x": np.vstack([np.zeros_like(theta), theta])})
+
+    ts = settling_time(t, blr.THETA0 * np.exp(-t / tau))
     assert ts == pytest.approx(tau * np.log(50.0), abs=1e-6)
     # an undershoot that re-enters the band counts until it is inside for good
     from scipy.optimize import brentq
     shape = lambda s: np.exp(-s / 0.1) - 0.05 * np.exp(-s / 1.0)  # noqa: E731
-    ts2 = bl.settling_time(t, bl.THETA0 * shape(t))
+    ts2 = settling_time(t, blr.THETA0 * shape(t))
     exact = brentq(lambda s: shape(s) + 0.02, 0.5, 2.0)  # the slow negative tail decides
     assert ts2 == pytest.approx(exact, abs=1e-6) and exact == pytest.approx(np.log(2.5), abs=0.01)
-    assert bl.settling_time(t, np.zeros_like(t)) == 0.0
+    assert settling_time(t, np.zeros_like(t)) == 0.0
 
 
 # ----------------------------------------------------------------------------- smoke runs
@@ -141,7 +149,7 @@ def test_balance_smoke_table_and_finite_numbers(balance_smoke):
 
 def test_balance_closed_loop_poles_in_disks(balance_smoke):
     _, res = balance_smoke
-    A, B, D = bl.linearize()
+    A, B, D = twl.linearize()
     for name in bl.DESIGNS:
         m = res.metrics[name]
         if "K" in m:
@@ -163,7 +171,7 @@ def test_balance_tuned_rho_gives_equal_settling_on_nonlinear_plant(balance_smoke
     _, res = balance_smoke
     for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):
         ta, tb = res.metrics[a]["settling_s"], res.metrics[b]["settling_s"]
-        assert 0.2 < tb < bl.SETTLE_WINDOW - 1, (b, tb)  # settled well inside the window
+        assert 0.2 < tb < blr.DISTURBANCE_START - 1, (b, tb)  # settled well inside the window
         assert abs(ta - tb) <= 0.1 * tb, (a, ta, b, tb)
         assert res.metrics[a]["rho"] == bl.RHO_TUNED[a]
 
@@ -187,7 +195,7 @@ def test_balance_of_designs_regularized_and_certified_independently(balance_smok
     """O.F. designs are the regularized ones (γ = (1+δ)γ*), and the W∞-O.F. γ bounds the
     W∞ channel of the closed loop assembled independently (frequency sweep)."""
     _, res = balance_smoke
-    A, B, D = bl.linearize()
+    A, B, D = twl.linearize()
     for name in ("H∞-O.F.", "W∞-O.F."):
         m = res.metrics[name]
         assert m["regularized"] and m["gamma"] == pytest.approx((1 + bl.OF_REG_DELTA) * m["gamma_opt"], rel=1e-6)
@@ -202,10 +210,11 @@ def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backen
     γ = (1+δ)γ* needs a Lyapunov variable Y and a controller peak gain that grow as δ → 0.
     Given γ, the least-gain controller is the same with Clarabel and Drake/Clarabel."""
     from sobolev_drake.experiments import _balance_linear_posedness as bp
+    from sobolev_drake.harness import quiet
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.synthesis.hinf import output_feedback
-    lin = bl.linearize()
+    lin = twl.linearize()
     A, B, D = lin
     disk = regions.disk(bl.RADIUS["of"])
     rho = bl.RHO_TUNED["H∞-O.F."]
@@ -220,7 +229,7 @@ def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backen
     rw, _, _ = bl.design("W∞-O.F.", lin)
     assert rw.regularized and rw.certificate.ok and rw.solver.lower().startswith("clarabel")
     pw = sb.winf_plant(A, B, D, bl.GAMMA0_OF, bl.GAMMA1_OF, bl.C_OF)
-    rd, _ = bl.quiet(output_feedback, pw, region=disk, gamma=rw.gamma, backend="drake")
+    rd, _ = quiet(output_feedback, pw, region=disk, gamma=rw.gamma, backend="drake")
     np.testing.assert_allclose(rd.controller.DK, rw.controller.DK, rtol=1e-2, atol=0.05)
     pk = [bp.controller_peak_gain(r.controller) for r in (rw, rd)]
     assert abs(pk[0] - pk[1]) <= 1e-2 * max(pk)
@@ -249,7 +258,7 @@ def test_balance_controller_peak_gain_and_bad_input():
     with pytest.raises(ValueError, match="ctrl"):
         bp.controller_peak_gain((np.eye(2), np.ones((3, 1)), np.ones((1, 2)), np.zeros((1, 1))))
     with pytest.raises(ValueError, match="regularize"):
-        bl.design("W∞-O.F.", bl.closed_form_linearization(), regularize="yes")
+        bl.design("W∞-O.F.", twl.closed_form_linearization(), regularize="yes")
 
 
 def test_quadrotor_smoke_table_and_finite_numbers(quad_smoke):
@@ -283,7 +292,7 @@ def test_quadrotor_polytopic_certificate_every_vertex_and_inside(quad_smoke):
         assert np.linalg.eigvalsh(P).min() > 0
         verts = []
         for pv in m["vertex_params"]:
-            A, B, D = qp.closed_form_linearization(**{k: pv[k] for k in qp.UNCERTAIN})
+            A, B, D = ql.closed_form_linearization(**{k: pv[k] for k in ql.UNCERTAIN})
             verts.append((A, B, D))  # B in Ω² units, as designed
         pts = verts + random_interior_points(verts, 3, rng=1)
         for A, B, D in pts:
@@ -301,8 +310,8 @@ def test_quadrotor_polytopic_certificate_every_vertex_and_inside(quad_smoke):
 
 def test_quadrotor_design_rejects_bad_input():
     with pytest.raises(ValueError, match="rho"):
-        qp.design("H∞", [], rho=None)
-    with pytest.raises(ValueError, match="which"):
-        qp.design("LQR", [])
+        qp.design(qp.HINF, [], rho=None)
+    with pytest.raises(ValueError, match="norm"):
+        qp.design(qp.Design("LQR", "lqr"), [])
     with pytest.raises(ValueError, match="rho"):
-        bl.design("H∞", bl.closed_form_linearization(), rho=-1.0)
+        bl.design("H∞", twl.closed_form_linearization(), rho=-1.0)

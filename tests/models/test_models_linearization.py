@@ -13,7 +13,7 @@ def test_central_jacobian_of_a_quadratic_is_exact():
 
 
 def test_two_wheeled_full_state_matches_closed_form_4_30():
-    from sobolev_drake.experiments.balance_linear import closed_form_linearization
+    from sobolev_drake.models.two_wheeled_linear import closed_form_linearization
     from sobolev_drake.models.two_wheeled import make_two_wheeled_model
     model = make_two_wheeled_model()
     A, B, D = linearize_mechanical(model, np.zeros(2), np.zeros(2), [0.0])

@@ -1,0 +1,140 @@
+"""Linear hover feedback flown on the nonlinear Drake quadrotor along the Table 6.3 path
+(thesis 6.5.3), and the Table 6.4 indices of a flight.
+
+Scenario: q(0) = :data:`Q0`, q̇(0) = 0; δy = 10 N on 10–15 s and δz = 10 sin(0.4πt) N on
+25–30 s; Ω² = Ω²_hover + K(x̂ − x̂_r) clipped to [0, :data:`U_MAX_FACTOR` Ω²_hover].  A flight
+whose tilt exceeds :data:`DIVERGED_TILT` is stopped.  See docs/experiments/quadrotor-polytopic.md.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.primitives import MatrixGain
+
+from sobolev_drake.harness import LoggedLoop
+from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor
+from sobolev_drake.norms import iadu, ise
+from sobolev_drake.simulation import simulate
+from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.linear_controllers import LinearStateFeedback
+from sobolev_drake.systems.reference_catalogue import table_6_3
+
+__all__ = ["Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "flight_indices"]
+
+#: initial configuration [ϕ θ ψ x y z] of every flight
+Q0 = np.array([0, 0, 0, 4.0, 0, 1.0])
+U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), docs/design.md §8.1
+DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) beyond this tilt
+
+
+class QuadrotorHoverRig(LoggedLoop):
+    """The nonlinear closed loop of the scenario above (one diagram, reused for every run).
+
+    Logs ``x``, ``x_ref`` (x̂_r), ``u`` (clipped Ω²), ``u_raw`` and ``w``.
+
+    Parameters
+    ----------
+    record : bool
+        Add a Meshcat recorder.
+    log_period : float
+        Sampling period of the logs (s).
+    params : QuadrotorParams, optional
+        The vehicle; ``QuadrotorParams.chapter6_nominal()`` by default.
+    """
+
+    def __init__(self, *, record=False, log_period=0.01, params=None):
+        p = params or QuadrotorParams.chapter6_nominal()
+        self.hover = p.hover_input()
+        b = DiagramBuilder()
+        self.h = add_quadrotor(b, p)
+        self.ctrl = b.AddSystem(LinearStateFeedback(np.zeros((4, 12)), u_r=np.full(4, self.hover),
+                                                    reference_port=True, u_min=0.0,
+                                                    u_max=U_MAX_FACTOR * self.hover))
+        self.ref = b.AddSystem(table_6_3())
+        sel = np.zeros((12, 9))  # [p_r; ṗ_r; p̈_r] → x̂_r = [0 0 0 p_r 0 0 0 ṗ_r]
+        sel[3:6, 0:3] = np.eye(3)
+        sel[9:12, 3:6] = np.eye(3)
+        to_x = b.AddSystem(MatrixGain(sel))
+        pulses = [{"index": 4, "value": 10.0, "from": 10.0, "to": 15.0},
+                  {"index": 5, "value": lambda t: 10.0 * np.sin(0.4 * np.pi * t), "from": 25.0, "to": 30.0}]
+        self.w = b.AddSystem(TimeProfiledForce(6, pulses))
+        b.Connect(self.ref.GetOutputPort("reference"), to_x.get_input_port())
+        b.Connect(to_x.get_output_port(), self.ctrl.GetInputPort("x_r"))
+        b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
+        b.Connect(self.ctrl.GetOutputPort("u"), self.h.u)
+        b.Connect(self.w.get_output_port(), self.h.disturbance)
+        self.build(b, (("x", self.h.x), ("x_ref", to_x.get_output_port()), ("u", self.ctrl.GetOutputPort("u")),
+                        ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
+                    log_period, record)
+
+    def run(self, K, duration):
+        """Fly Ω² = Ω²_hover + K (x̂ − x̂_r) for ``duration`` s from q(0) = :data:`Q0`.
+
+        Parameters
+        ----------
+        K : array_like, shape (4, 12)
+            State-feedback gain in Ω² units.
+        duration : float
+            Simulated time (s); the run stops earlier beyond :data:`DIVERGED_TILT`.
+
+        Returns
+        -------
+        dict
+            The logs (see the class), ``t``, ``wall_s``, ``hover`` (Ω²_hover) and ``diverged``.
+        """
+        ctx = self.context
+        ctx.SetTime(0.0)
+        self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
+        self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), np.asarray(K))
+        self.clear_logs(ctx)
+        t0 = time.perf_counter()
+        self.sim.set_monitor(self._monitor)  # stops diverging runs (saturated, tumbling) early
+        try:
+            simulate(self.diagram, ctx, duration, progress=False, simulator=self.sim, accuracy=1e-4,
+                     max_step=0.02)
+        finally:
+            self.sim.clear_monitor()
+        data = self.collect(ctx, t0)
+        data["hover"] = self.hover
+        data["diverged"] = bool(ctx.get_time() < duration - 1e-9)
+        return data
+
+    def _monitor(self, root_context):
+        q, _ = self.h.get_state(root_context)
+        if np.max(np.abs(q[:2])) > DIVERGED_TILT:
+            return EventStatus.ReachedTermination(None, "tilt beyond DIVERGED_TILT")
+        return EventStatus.Succeeded()
+
+
+def flight_indices(d):
+    """Table 6.4 indices of one flight of :class:`QuadrotorHoverRig`.
+
+    ISE ∫eᵀe over the 12 error states (inf for a diverged run), IADU ∫Σ|dΩ_i/dt| with
+    Ω_i = √Ω_i², the position ISE, the time in saturation, the Ω² range, the final position
+    error and the maximum tilt.
+
+    Parameters
+    ----------
+    d : dict
+        A result of :meth:`QuadrotorHoverRig.run`.
+
+    Returns
+    -------
+    dict
+    """
+    t, e = d["t"], (d["x"] - d["x_ref"]).T
+    omega = np.sqrt(np.maximum(d["u"], 0.0))
+    raw, hi = d["u_raw"], U_MAX_FACTOR * d["hover"]
+    sat = np.any((raw < 0.0) | (raw > hi), axis=0)
+    dt = np.diff(t, append=t[-1])
+    diverged = d.get("diverged", False)
+    return {"ise": float("inf") if diverged else float(np.sum(ise(t, e))), "diverged": diverged,
+            "iadu": float(np.sum(iadu(t, omega.T))),
+            "ise_position": float(np.sum(ise(t, e[:, 3:6]))),
+            "saturation_s": float(np.sum(dt[sat])), "min_omega2": float(raw.min()), "max_omega2": float(raw.max()),
+            "final_position_error_m": float(np.linalg.norm(e[-1, 3:6])),
+            "max_tilt_deg": float(np.degrees(np.abs(d["x"][:2]).max())),
+            "finite": bool(np.all(np.isfinite(d["x"])) and not diverged)}
