@@ -129,7 +129,7 @@ def run(duration=10.0, out_dir="out/diagrams"):
                                               Path(out_dir) / "acrobot_partition.html")
     keys = ["elbow [rad]", "shoulder [rad]", "elbow error [rad]", "u [N·m]"]
     series = {k: np.column_stack([runs[n][i] for n in runs]) for i, k in enumerate(keys)}
-    png = sd.viz.plot_time_series(t, series, Path(out_dir) / "acrobot_partition.png",
+    png = sd.plots.plot_time_series(t, series, Path(out_dir) / "acrobot_partition.png",
                                   labels={k: list(runs) for k in series},
                                   references={"elbow [rad]": REFERENCE.evaluate(t)[0]})
     return {"rows": rows, "recording": html, "plot": png, "refused": refused_partition()}

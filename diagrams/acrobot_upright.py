@@ -117,7 +117,7 @@ def run(duration=10.0, out_dir="out/diagrams"):
               "u [N·m]": np.column_stack([u_winf, u_lqr])}
     labels = {"W∞: θ − θ_up [rad]": ["θ1", "θ2"], "LQR: θ − θ_up [rad]": ["θ1", "θ2"],
               "u [N·m]": ["W∞", "LQR"]}
-    png = sd.viz.plot_time_series(grid, series, Path(out_dir) / "acrobot_upright.png", labels=labels)
+    png = sd.plots.plot_time_series(grid, series, Path(out_dir) / "acrobot_upright.png", labels=labels)
     return {"rows": rows, "recording": html, "plot": png, "synthesis": res, "notes": notes}
 
 

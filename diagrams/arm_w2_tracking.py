@@ -11,7 +11,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from sobolev_drake import norms, viz
+from sobolev_drake import norms, plots, viz
 from sobolev_drake.models.arm import add_arm
 from sobolev_drake.simulation import simulate
 from sobolev_drake.synthesis.mechanical import controlled_gains
@@ -46,4 +46,4 @@ t = x.sample_times()
 e = x.data()[:2].T - ref.evaluate(t)[0]
 print("ISE q1, q2:", norms.ise(t, e), " IADU:", norms.iadu(u.sample_times(), u.data().T).sum())
 print("recording:", viz.save_recording_html(meshcat, recorder, out / "arm_w2_tracking.html"))
-print("plot:", viz.plot_time_series(t, {"error": e, "u": u.data().T}, out / "arm_w2_tracking.png"))
+print("plot:", plots.plot_time_series(t, {"error": e, "u": u.data().T}, out / "arm_w2_tracking.png"))

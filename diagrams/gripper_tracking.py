@@ -120,7 +120,7 @@ def run(duration=10.0, out_dir="out/diagrams"):
         if recorder:
             html = sd.viz.save_recording_html(meshcat, recorder,
                                               Path(out_dir) / "gripper_tracking.html")
-    png = sd.viz.plot_time_series(t, series, Path(out_dir) / "gripper_tracking.png",
+    png = sd.plots.plot_time_series(t, series, Path(out_dir) / "gripper_tracking.png",
                                   labels={k: reference.names for k in series},
                                   references={"W2 q [rad]": reference.evaluate(t)[0]})
     return {"rows": rows, "recording": html, "plot": png}

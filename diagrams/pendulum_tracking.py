@@ -109,7 +109,7 @@ def run(duration=10.0, out_dir="out/diagrams"):
                                               Path(out_dir) / "pendulum_tracking.html")
     panels = ["θ [rad]", "e [rad]", "u [N·m]"]
     series = {k: np.column_stack([runs[n][i] for n in runs]) for i, k in enumerate(panels)}
-    png = sd.viz.plot_time_series(t, series, Path(out_dir) / "pendulum_tracking.png",
+    png = sd.plots.plot_time_series(t, series, Path(out_dir) / "pendulum_tracking.png",
                                   labels={k: list(runs) for k in series},
                                   references={"θ [rad]": REFERENCE.evaluate(t)[0]})
     return {"rows": rows, "recording": html, "plot": png}

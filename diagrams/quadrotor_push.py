@@ -13,7 +13,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from sobolev_drake import viz
+from sobolev_drake import plots, viz
 from sobolev_drake.models.quadrotor import add_quadrotor
 from sobolev_drake.simulation import simulate
 from sobolev_drake.systems.disturbances import CartesianForceAtBody, TimeProfiledForce
@@ -42,7 +42,7 @@ simulate(diagram, context, 3.0, label="quadrotor push")
 
 data = log.FindLog(context)
 print("recording:", viz.save_recording_html(meshcat, recorder, out / "quadrotor_push.html"))
-print("plot:", viz.plot_time_series(data.sample_times(), {"attitude": data.data()[:3].T,
+print("plot:", plots.plot_time_series(data.sample_times(), {"attitude": data.data()[:3].T,
                                                           "position": data.data()[3:6].T},
                                     out / "quadrotor_push.png", vlines=[0.5, 1.0],
                                     labels={"attitude": ["phi", "theta", "psi"], "position": ["x", "y", "z"]}))

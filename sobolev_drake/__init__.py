@@ -5,6 +5,8 @@
 synthesis    controller design (pure maths: Riccati equations, LMIs, Galerkin)
 systems      Drake LeafSystems (controllers, references, disturbances, propellers, wind, ...)
 models       plant builders: URDF -> MultibodyPlant wrapped as :class:`MechanicalModel`
+tiltrotor    the chapter-7 convertible tilt-rotor UAV (plant, forces, law, allocation, missions)
+rigs         closed loops built once and flown many times (design comparisons, tuning)
 experiments  the thesis experiments, composed from the above
 
 Naming rule: ``<norm>_<structure>`` for syntheses (``winf_state_feedback``,
@@ -16,7 +18,7 @@ follows python-control's signature and return value.  Sign convention everywhere
 
 __version__ = "0.1.0"
 
-from sobolev_drake import norms, viz
+from sobolev_drake import norms, plots, recording_html, viz
 from sobolev_drake.models import MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationTimeout, simulate
@@ -33,7 +35,7 @@ from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearS
                                    TrajectoryReference, const, controller_system, poly, sine)
 
 __all__ = [
-    "__version__", "norms", "viz",
+    "__version__", "norms", "plots", "recording_html", "viz",
     # models
     "MechanicalModel", "PlantModel", "PlantHandles",
     # nonlinear mechanical controllers

@@ -43,26 +43,20 @@ Tilt-rotor missions (thesis state q = [αR αL φ θ ψ x y z], z up, Drake worl
 
 from __future__ import annotations
 
-import os
-import re
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-if os.environ.get("MPLBACKEND") is None:  # headless default; users may still choose their own
-    matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
+from sobolev_drake.recording_html import animates_path, external_script_sources  # noqa: E402
 from sobolev_drake.validation import index_tuple, real_scalar, real_vector  # noqa: E402
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Rgba  # noqa: E402
 from pydrake.math import RigidTransform  # noqa: E402
 
 __all__ = [
-    "start_meshcat", "add_meshcat_recorder", "save_recording_html", "external_script_sources",
-    "save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d", "draw_path", "draw_reference_and_flown",
-    "frame_camera", "camera_position", "follow_camera", "trajectory_from_log", "meshcat_commands",
-    "animation_keyframes", "FOLLOW_CAMERA_PATH", "FOLLOW_CAMERA_JS",
+    "start_meshcat", "add_meshcat_recorder", "save_recording_html",
+    "draw_path", "draw_reference_and_flown",
+    "frame_camera", "camera_position", "follow_camera", "trajectory_from_log",
+    "FOLLOW_CAMERA_PATH", "FOLLOW_CAMERA_JS",
 ]
 
 
@@ -123,31 +117,6 @@ def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_peri
     return vis
 
 
-_SCRIPT_SRC = re.compile(r"<script[^>]*\bsrc\s*=\s*[\"']?(https?:)?//", re.IGNORECASE)
-_LINK_HREF = re.compile(r"<link[^>]*\bhref\s*=\s*[\"']?(https?:)?//", re.IGNORECASE)
-
-
-def external_script_sources(html: str) -> list[str]:
-    """The ``<script src=…>`` / ``<link href=…>`` tags of ``html`` pointing at http(s) or //.
-
-    Parameters
-    ----------
-    html : str
-        An HTML page.
-
-    Returns
-    -------
-    list of str
-        The offending tags (empty for a self-contained page).
-    """
-    tags = []
-    for pattern in (_SCRIPT_SRC, _LINK_HREF):
-        for m in pattern.finditer(html):
-            end = html.find(">", m.start())
-            tags.append(html[m.start(): end + 1])
-    return tags
-
-
 def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> Path:
     """Stop the recording, publish it as Meshcat's animation, write ``meshcat.StaticHtml()``.
 
@@ -177,7 +146,7 @@ def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> 
     bad = external_script_sources(html)
     if bad:
         raise RuntimeError(f"Meshcat StaticHtml references external resources: {bad[:3]}")
-    if _animates_camera_rig(html):
+    if animates_path(html, FOLLOW_CAMERA_PATH):
         html = _inject_follow_script(html)
     path.write_text(html, encoding="utf-8")
     return path
@@ -215,204 +184,6 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
     meshcat.SetLine(f"/paths/{name}", P, line_width, Rgba(*color.tolist()))
 
 
-def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
-    """Save a matplotlib figure (creating folders) and close it.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        The figure; closed afterwards.
-    path : str or Path
-        Output file; its suffix (``.png``, ``.svg`` or ``.pdf``) selects the format.
-    dpi : int, default 110
-        Resolution.
-    tight : bool, default False
-        Crop to the drawn artists (``bbox_inches="tight"``, an extra draw pass).
-
-    Returns
-    -------
-    Path
-        ``path``.
-    """
-    path = Path(path)
-    if path.suffix.lower() not in (".png", ".svg", ".pdf"):
-        raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
-    plt.close(fig)
-    return path
-
-
-def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Path:
-    """Stacked panels overlaying several logged runs (one line style per run, one colour per
-    component).
-
-    Parameters
-    ----------
-    path : str or Path
-        PNG file to write.
-    runs : dict
-        {name: run}; each run has "t" and whatever the panels read.
-    panels : sequence of (str, callable, list of str or None)
-        (y label, ``fn(run) -> (N,) or (N, k)`` array, component labels).
-    title : str
-        Figure title.
-    vlines : sequence of float
-        Times marked by light vertical lines (e.g. disturbance windows).
-
-    Returns
-    -------
-    Path
-    """
-    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8),
-                             squeeze=False)
-    styles = ["-", "--", ":", "-."]
-    for ax, (ylabel, fn, labels) in zip(axes[:, 0], panels):
-        for k, (name, run) in enumerate(runs.items()):
-            y = np.asarray(fn(run), dtype=float)
-            y = y[:, None] if y.ndim == 1 else y
-            for j in range(y.shape[1]):
-                lab = f"{name} {labels[j]}" if labels else name
-                ax.plot(run["t"], y[:, j], styles[k % 4], lw=1.0, color=f"C{j}", label=lab)
-        for v in vlines:
-            ax.axvline(v, color="0.75", lw=0.6)
-        ax.set_ylabel(ylabel)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=6, ncol=4, loc="upper right")
-    axes[-1, 0].set_xlabel("t [s]")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
-                  floor: float = 1e-12) -> Path:
-    """Several positive signals on one logarithmic axis (values below ``floor`` drawn at it).
-
-    Parameters
-    ----------
-    path : str or Path
-        PNG file to write.
-    curves : dict
-        {label: (x, y)}.
-    ylabel, xlabel : str
-        Axis labels.
-    floor : float
-        Smallest value drawn.
-
-    Returns
-    -------
-    Path
-    """
-    fig, ax = plt.subplots(figsize=(8, 2.8))
-    for k, (name, (x, y)) in enumerate(curves.items()):
-        ax.semilogy(x, np.maximum(y, floor), ["-", "--"][k % 2], lw=1.0, label=name)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def plot_paths_3d(path, reference, flown: dict) -> Path:
-    """A reference path (dotted black) and flown paths in 3-D.
-
-    Parameters
-    ----------
-    path : str or Path
-        PNG file to write.
-    reference : array_like
-        (N, 3) reference positions.
-    flown : dict
-        {label: (N, 3) positions}.
-
-    Returns
-    -------
-    Path
-    """
-    fig = plt.figure(figsize=(6, 5))
-    ax = fig.add_subplot(projection="3d")
-    ref = np.asarray(reference, dtype=float)
-    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.0, label="reference")
-    for k, (name, xyz) in enumerate(flown.items()):
-        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], ["-", "--"][k % 2], lw=1.0, label=name)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t [s]",
-                     ylabels: dict | None = None, labels: dict | None = None,
-                     references: dict | None = None, vlines=()) -> Path:
-    """One stacked subplot per entry of ``series`` ({panel name: (N,) or (N, k) array}).
-
-    Parameters
-    ----------
-    t : array_like, shape (N,)
-        Sample times.
-    series : dict
-        {panel name: (N,) or (N, k) array}, one panel each, in order.
-    path : str or Path
-        Output image (see :func:`save_figure`).
-    title : str, optional
-        Figure title.
-    xlabel : str, default "t [s]"
-        Label of the shared time axis.
-    ylabels : dict, optional
-        {panel name: axis label} (default: the panel name).
-    labels : dict, optional
-        {panel name: the k line labels}.
-    references : dict, optional
-        {panel name: array shaped like the series}, drawn dashed in the same colours (e.g. the
-        reference trajectory).
-    vlines : sequence of float, optional
-        Times marked by thin vertical lines (phase switches, disturbance edges).
-
-    Returns
-    -------
-    Path
-        The saved figure's path.
-    """
-    t = np.asarray(t, dtype=float)
-    if t.ndim != 1:
-        raise ValueError(f"t must be 1-D, got shape {t.shape}")
-    if not series:
-        raise ValueError("series is empty")
-    ylabels, labels, references = ylabels or {}, labels or {}, references or {}
-    fig, axes = plt.subplots(len(series), 1, sharex=True, figsize=(8, 2.2 * len(series) + 0.6), squeeze=False)
-    for ax, (name, y) in zip(axes[:, 0], series.items()):
-        y = np.asarray(y, dtype=float)
-        y = y[:, None] if y.ndim == 1 else y
-        if y.shape[0] != t.size:
-            raise ValueError(f"series[{name!r}] has {y.shape[0]} samples, t has {t.size}")
-        names = labels.get(name) or ([name] if y.shape[1] == 1 else [f"{name}[{i}]" for i in range(y.shape[1])])
-        lines = ax.plot(t, y)
-        for line, lab in zip(lines, names):
-            line.set_label(str(lab))
-        if name in references:
-            r = np.asarray(references[name], dtype=float)
-            r = r[:, None] if r.ndim == 1 else r
-            for i, line in enumerate(lines[: r.shape[1]]):
-                ax.plot(t, r[:, i], "--", color=line.get_color(), lw=1.0)
-        for v in vlines:
-            ax.axvline(float(v), color="0.7", lw=0.6)
-        ax.set_ylabel(ylabels.get(name, name))
-        ax.grid(True, alpha=0.3)
-        if y.shape[1] <= 8:
-            ax.legend(loc="upper right", fontsize=7, ncol=min(4, y.shape[1]))
-    axes[-1, 0].set_xlabel(xlabel)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-# --- camera framing -----------------------------------------------------------------------------
 FOLLOW_CAMERA_PATH = "/Cameras/default"
 _MESHCAT_FOV_DEG = 75.0  # vertical field of view of Meshcat's default perspective camera
 
@@ -639,113 +410,6 @@ def trajectory_from_log(log, *, indices=None, plant=None, body=None) -> tuple[np
 
 
 # --- reading the recorded commands back (tests, claims) -------------------------------------------
-def _unpack(b: bytes, i: int = 0):
-    """Minimal msgpack decoder (the subset Meshcat emits); returns (value, next index)."""
-    import struct
-    c = b[i]
-    if c <= 0x7F or c >= 0xE0:
-        return (c if c <= 0x7F else c - 256), i + 1
-    if 0x80 <= c <= 0x9F:
-        n, i, is_map = c & 0x0F, i + 1, c <= 0x8F
-    elif c in (0xDC, 0xDD, 0xDE, 0xDF):
-        f = ">H" if c in (0xDC, 0xDE) else ">I"
-        n, i, is_map = struct.unpack_from(f, b, i + 1)[0], i + 1 + struct.calcsize(f), c >= 0xDE
-    elif 0xA0 <= c <= 0xBF:
-        n = c & 0x1F
-        return b[i + 1:i + 1 + n].decode(), i + 1 + n
-    elif c in (0xC0, 0xC2, 0xC3):
-        return {0xC0: None, 0xC2: False, 0xC3: True}[c], i + 1
-    else:
-        num = {0xCA: ">f", 0xCB: ">d", 0xCC: ">B", 0xCD: ">H", 0xCE: ">I", 0xCF: ">Q",
-               0xD0: ">b", 0xD1: ">h", 0xD2: ">i", 0xD3: ">q"}
-        if c in num:
-            return struct.unpack_from(num[c], b, i + 1)[0], i + 1 + struct.calcsize(num[c])
-        lens = {0xC4: ">B", 0xC5: ">H", 0xC6: ">I", 0xD9: ">B", 0xDA: ">H", 0xDB: ">I",
-                0xC7: ">B", 0xC8: ">H", 0xC9: ">I"}
-        fixext = {0xD4: 1, 0xD5: 2, 0xD6: 4, 0xD7: 8, 0xD8: 16}
-        if c in fixext:
-            n, j = fixext[c], i + 1
-        elif c in lens:
-            n = struct.unpack_from(lens[c], b, i + 1)[0]
-            j = i + 1 + struct.calcsize(lens[c])
-        else:
-            raise ValueError(f"unsupported msgpack byte 0x{c:02x} at {i}")
-        if c in fixext or c >= 0xC7 and c <= 0xC9:  # ext: (type, raw bytes)
-            return ("ext", b[j], bytes(b[j + 1:j + 1 + n])), j + 1 + n
-        raw = bytes(b[j:j + n])
-        return (raw.decode() if c >= 0xD9 else raw), j + n
-    out = {} if is_map else []
-    for _ in range(n):
-        if is_map:
-            k, i = _unpack(b, i)
-            out[k], i = _unpack(b, i)
-        else:
-            v, i = _unpack(b, i)
-            out.append(v)
-    return out, i
-
-
-_BLOB = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")
-
-
-def meshcat_commands(html: str) -> list[dict]:
-    """The Meshcat commands embedded in a ``StaticHtml()`` page, decoded.
-
-    Parameters
-    ----------
-    html : str
-        A page from ``Meshcat.StaticHtml()``.
-
-    Returns
-    -------
-    list of dict
-        The commands (dicts with ``type``, ``path``, …); assets that are not commands are
-        skipped.
-    """
-    import base64
-    out = []
-    for m in _BLOB.finditer(html):
-        raw = base64.b64decode(m.group(1))
-        try:
-            v, _ = _unpack(raw)
-        except (ValueError, IndexError, UnicodeDecodeError, KeyError):
-            continue
-        if isinstance(v, dict) and "type" in v:
-            out.append(v)
-    return out
-
-
-def animation_keyframes(html: str) -> dict[str, dict[str, int]]:
-    """{scene path: {track name: number of keyframes}} of the animation in a StaticHtml page.
-
-    Parameters
-    ----------
-    html : str
-        A page from ``Meshcat.StaticHtml()``.
-
-    Returns
-    -------
-    dict
-        {scene path: {track name: number of keyframes}} (empty without an animation).
-    """
-    out: dict[str, dict[str, int]] = {}
-    for cmd in meshcat_commands(html):
-        if cmd.get("type") != "set_animation":
-            continue
-        for a in cmd.get("animations", []):
-            tracks = out.setdefault(a.get("path"), {})
-            for tr in a.get("clip", {}).get("tracks", []):
-                tracks[tr.get("name")] = len(tr.get("keys", []))
-    return out
-
-
-def _animates_camera_rig(html: str) -> bool:
-    import base64
-    key = FOLLOW_CAMERA_PATH.encode()
-    return any(b"set_animation" in raw and key in raw
-               for raw in (base64.b64decode(m.group(1)) for m in _BLOB.finditer(html)))
-
-
 def _inject_follow_script(html: str) -> str:
     anchor = html.rfind("</body>")
     if anchor < 0:

@@ -14,7 +14,7 @@ from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, SpatialInert
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from sobolev_drake import report, viz
+from sobolev_drake import plots, recording_html, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult
 from sobolev_drake.simulation import ProgressMonitor, simulate
 
@@ -53,7 +53,7 @@ def test_recording_html_is_standalone_and_animated(tmp_path, capsys):
     assert "pendulum" in err and "100.0%" in err and err.endswith("\n")  # final line, no TTY
     path = viz.save_recording_html(meshcat, rec, tmp_path / "sub" / "pendulum.html")
     html = path.read_text()
-    assert viz.external_script_sources(html) == []
+    assert recording_html.external_script_sources(html) == []
     assert not re.search(r"<script[^>]*src=[\"']?https?:", html)
     blobs = decoded_commands(html)
     assert any(b"set_animation" in b for b in blobs)
@@ -67,22 +67,22 @@ def test_recording_html_is_standalone_and_animated(tmp_path, capsys):
 
 
 def test_external_script_detection():
-    assert viz.external_script_sources('<script src="https://cdn.x/y.js"></script>')
-    assert viz.external_script_sources("<link rel=stylesheet href='//cdn.x/y.css'>")
-    assert viz.external_script_sources('<script>var u = "https://a.b"</script>') == []
+    assert recording_html.external_script_sources('<script src="https://cdn.x/y.js"></script>')
+    assert recording_html.external_script_sources("<link rel=stylesheet href='//cdn.x/y.css'>")
+    assert recording_html.external_script_sources('<script>var u = "https://a.b"</script>') == []
 
 
 def test_plot_time_series_and_save_figure(tmp_path):
     t = np.linspace(0, 2, 101)
-    p = viz.plot_time_series(t, {"q": np.column_stack([np.sin(t), np.cos(t)]), "u": t},
+    p = plots.plot_time_series(t, {"q": np.column_stack([np.sin(t), np.cos(t)]), "u": t},
                              tmp_path / "a" / "q.png", references={"q": np.zeros((101, 2))},
                              labels={"q": ["q1", "q2"]}, vlines=[1.0], title="demo")
     assert p.read_bytes()[:8] == PNG_MAGIC
     with pytest.raises(ValueError, match="101"):
-        viz.plot_time_series(t, {"q": t[:-1]}, tmp_path / "b.png")
+        plots.plot_time_series(t, {"q": t[:-1]}, tmp_path / "b.png")
     with pytest.raises(ValueError, match=".png"):
         import matplotlib.pyplot as plt
-        viz.save_figure(plt.figure(), tmp_path / "x.txt")
+        plots.save_figure(plt.figure(), tmp_path / "x.txt")
 
 
 def test_draw_path_and_recorder_errors():
@@ -149,7 +149,7 @@ def swing_recording(meshcat, duration=1.0):
 
 
 def camera_commands(html):
-    cmds = viz.meshcat_commands(html)
+    cmds = recording_html.meshcat_commands(html)
     target = [c["value"] for c in cmds if c["type"] == "set_target"]
     position = [c["value"] for c in cmds if c.get("path") == "/Cameras/default/rotated/<object>"
                 and c.get("property") == "position"]
@@ -196,11 +196,11 @@ def test_follow_camera_keyframes_in_static_html(tmp_path):
     n = viz.follow_camera(rec, t, p, meshcat=meshcat, radius=0.5)
     assert n == int(round(t[-1] * fps)) + 1 == 33
     html = viz.save_recording_html(meshcat, rec, tmp_path / "follow.html").read_text()
-    keys = viz.animation_keyframes(html)
+    keys = recording_html.animation_keyframes(html)
     assert keys[viz.FOLLOW_CAMERA_PATH] == {".position": n, ".quaternion": n}
-    assert viz.FOLLOW_CAMERA_JS in html and viz.external_script_sources(html) == []
+    assert viz.FOLLOW_CAMERA_JS in html and recording_html.external_script_sources(html) == []
     # keyframe values: rig offset p(t) − p(t0) at t = frame / fps (linear interpolation of the log)
-    anim = next(c for c in viz.meshcat_commands(html) if c["type"] == "set_animation")
+    anim = next(c for c in recording_html.meshcat_commands(html) if c["type"] == "set_animation")
     track = next(tr for a in anim["animations"] if a["path"] == viz.FOLLOW_CAMERA_PATH
                  for tr in a["clip"]["tracks"] if tr["name"] == ".position")
     frames = np.array([k["time"] for k in track["keys"]])
@@ -221,7 +221,7 @@ def test_follow_axes_and_indices_log(tmp_path):
     assert np.array_equal(t2, t) and np.array_equal(p2, p)
     viz.follow_camera(rec.get_mutable_recording(), t, p.T, follow_axes="xy")  # animation object, (3, N)
     html = viz.save_recording_html(meshcat, rec, tmp_path / "xy.html").read_text()
-    anim = next(c for c in viz.meshcat_commands(html) if c["type"] == "set_animation")
+    anim = next(c for c in recording_html.meshcat_commands(html) if c["type"] == "set_animation")
     track = next(tr for a in anim["animations"] if a["path"] == viz.FOLLOW_CAMERA_PATH
                  for tr in a["clip"]["tracks"] if tr["name"] == ".position")
     assert all(k["value"][2] == 0.0 for k in track["keys"])  # height not followed
@@ -231,7 +231,7 @@ def test_no_follow_script_without_camera_track(tmp_path):
     meshcat = viz.start_meshcat()
     rec, *_ = swing_recording(meshcat, duration=0.2)
     html = viz.save_recording_html(meshcat, rec, tmp_path / "plain.html").read_text()
-    assert viz.FOLLOW_CAMERA_PATH not in viz.animation_keyframes(html)
+    assert viz.FOLLOW_CAMERA_PATH not in recording_html.animation_keyframes(html)
     assert viz.FOLLOW_CAMERA_JS not in html
 
 

@@ -16,7 +16,7 @@ def plot_runs(runs, out_dir):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from sobolev_drake.viz import save_figure
+    from sobolev_drake.plots import save_figure
     out = {}
     fig, axes = plt.subplots(3, 2, figsize=(11, 8), sharex=True)
     for col, pair in enumerate((("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F."))):

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, report, viz
+from sobolev_drake import norms, plots, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.two_wheeled import add_two_wheeled, make_two_wheeled_model
 from sobolev_drake.report import percent_of
@@ -138,7 +138,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
     runs = {"W2/W∞": w_run, "H∞": h_run}
     for r in runs.values():
         r["bperp"] = annihilator_residual(r, model)
-    outputs["states and input"] = viz.compare_plot(
+    outputs["states and input"] = plots.compare_plot(
         out_dir / "balance_coupled.png", runs,
         [("θ [rad]", lambda r: r["x"][:, 1], None),
          ("ϕ̇ [rad/s]", lambda r: r["x"][:, 2], None),

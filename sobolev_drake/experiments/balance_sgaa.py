@@ -54,7 +54,7 @@ def _hinf_settling(model, nodes):
 @register("balance-sgaa", "Two-wheeled vehicle: W2, W∞, H∞ by successive Galerkin approximation",
           default_duration=DURATION, thesis_ref="4.4, Table 4.2")
 def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResult:
-    from sobolev_drake import report, viz
+    from sobolev_drake import plots, report
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -135,7 +135,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
               "w [N m]": sims[WINF.label]["w"]}
     labels = {k: list(CONTROLLERS) for k in series}
     labels["w [N m]"] = ["wϕ", "wθ"]
-    outputs["states_png"] = viz.plot_time_series(t, series, out_dir / "balance_sgaa_states.png",
+    outputs["states_png"] = plots.plot_time_series(t, series, out_dir / "balance_sgaa_states.png",
                                                  labels=labels, vlines=(7, 14, 22, 32),
                                                  title="Two-wheeled vehicle (Figs. 4.4, 4.5)")
     import matplotlib.pyplot as plt
@@ -148,7 +148,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
         ax.axhline(y, color="0.6", lw=0.7, ls="--")
     ax.set_xlabel("t [s]"), ax.set_ylabel("θ [rad]"), ax.legend(), ax.grid(alpha=0.3)
     ax.set_title("5 % settling time of θ (Fig. 4.3)")
-    outputs["settling_png"] = viz.save_figure(fig, out_dir / "balance_sgaa_settling.png", tight=True)
+    outputs["settling_png"] = plots.save_figure(fig, out_dir / "balance_sgaa_settling.png", tight=True)
     if "html" in sims[WINF.label]:
         outputs["recording_winf"] = sims[WINF.label]["html"]
     if not smoke:

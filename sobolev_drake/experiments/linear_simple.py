@@ -103,7 +103,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False):
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        from sobolev_drake.viz import save_figure
+        from sobolev_drake.plots import save_figure
         fig, ax = plt.subplots(3, 1, sharex=True, figsize=(8, 7))
         for name, s in sims.items():
             ax[0].plot(s["t"], s["x"][:, 0], label=name)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, report, viz
+from sobolev_drake import norms, plots, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.arm import add_arm, make_arm_model
 from sobolev_drake.report import percent_of
@@ -88,7 +88,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
     outputs.update({"table (md)": md, "table (json)": js})
 
     runs = {"W2/W∞": w_run, "H∞": h_run}
-    outputs["errors and inputs"] = viz.compare_plot(
+    outputs["errors and inputs"] = plots.compare_plot(
         out_dir / "manipulator.png", runs,
         [("q̃ [rad]", lambda r: tracked_errors(r, law)[0], ["q1", "q2"]),
          ("τ [N m]", lambda r: r["u"], ["τ1", "τ2"]),

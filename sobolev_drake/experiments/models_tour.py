@@ -57,7 +57,7 @@ def _setups():
 
 
 def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
-    from sobolev_drake import viz
+    from sobolev_drake import plots, recording_html, viz
     from sobolev_drake.simulation import simulate
 
     builder = DiagramBuilder()
@@ -97,7 +97,7 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
     t, x = log.sample_times(), log.data().T
     outputs = {}
     names = list(h.model.dof_names)
-    outputs[f"{name} states"] = viz.plot_time_series(
+    outputs[f"{name} states"] = plots.plot_time_series(
         t, {"q": x[:, :n], "qdot": x[:, n:]}, out_dir / f"{name}_states.png",
         labels={"q": names, "qdot": [f"d{s}/dt" for s in names]}, title=f"{name} under gravity (open loop)")
     camera_keyframes = 0
@@ -109,7 +109,7 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
                                                  elevation_deg=15.0, azimuth_deg=-110.0, follow_axes=axes)
         html = viz.save_recording_html(meshcat, recorder, out_dir / f"{name}.html")
         outputs[f"{name} recording"] = html
-        keys = viz.animation_keyframes(html.read_text(encoding="utf-8")).get(viz.FOLLOW_CAMERA_PATH, {})
+        keys = recording_html.animation_keyframes(html.read_text(encoding="utf-8")).get(viz.FOLLOW_CAMERA_PATH, {})
         camera_keyframes = min(camera_keyframes, keys.get(".position", 0))  # what the page really holds
     # work of the non-conservative generalized forces the adapter adds (friction −K(q̇))
     friction = getattr(h.model, "friction", None)

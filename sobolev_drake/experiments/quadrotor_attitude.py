@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, report, viz
+from sobolev_drake import norms, plots, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
 from sobolev_drake.report import percent_of
@@ -94,7 +94,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> Ex
                                              f"limits {'on' if limits else 'off'})")
     outputs.update({"table (md)": md, "table (json)": js})
     runs = {"W2/W∞": w_run, "H∞": h_run}
-    outputs["errors and inputs"] = viz.compare_plot(
+    outputs["errors and inputs"] = plots.compare_plot(
         out_dir / "quadrotor_attitude.png", runs,
         [("z̃ [m]", lambda r: tracked_errors(r, law)[0][:, :1], ["z"]),
          ("attitude error [rad]", lambda r: tracked_errors(r, law)[0][:, 1:], NAMES[1:]),

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, report, viz
+from sobolev_drake import norms, plots, report, viz
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
 from sobolev_drake.report import percent_of
@@ -146,21 +146,21 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
     for r in runs.values():
         r["bperp_t"], r["bperp"] = bperp_signal(r, model, law, 100 if smoke else 1500)
     head = dict(list(runs.items())[:2])
-    outputs["errors and stabilized DOF"] = viz.compare_plot(
+    outputs["errors and stabilized DOF"] = plots.compare_plot(
         out_dir / "quadrotor_figure8_errors.png", runs,
         [("position error [m]", lambda r: np.clip(position_error(r, law), 0, 5), None),
          ("ψ − ψr [rad]", lambda r: tracked_errors(r, law)[0][:, 0], None),
          ("ϕ, θ [rad]", lambda r: r["x"][:, :2], ["ϕ", "θ"])],
         title="Quadrotor figure-8 (thesis Fig. 5.8)", vlines=(10, 15, 25, 30))
-    outputs["inputs and disturbances"] = viz.compare_plot(
+    outputs["inputs and disturbances"] = plots.compare_plot(
         out_dir / "quadrotor_figure8_inputs.png", head,
         [("Ω² / hover", lambda r: r["u"] / hover, ["1", "2", "3", "4"]),
          ("w [N]", lambda r: r["w"][:, [4, 5]], ["δy", "δz"])],
         title="Quadrotor figure-8 inputs (thesis Fig. 5.7)", vlines=(10, 15, 25, 30))
-    outputs["B-perp signal"] = viz.plot_semilogy(
+    outputs["B-perp signal"] = plots.plot_semilogy(
         out_dir / "quadrotor_figure8_bperp.png",
         {k: (r["bperp_t"], r["bperp"]) for k, r in runs.items()}, ylabel="‖B⊥(w − d)‖²")
-    outputs["trajectory"] = viz.plot_paths_3d(
+    outputs["trajectory"] = plots.plot_paths_3d(
         out_dir / "quadrotor_figure8_xy.png", next(iter(runs.values()))["ref"][:, 1:4],
         {k: r["x"][:, 3:6] for k, r in runs.items()})
     sat = {k: norms.fraction_at_bounds(r["u"], lo, hi) for k, r in runs.items()}

@@ -30,7 +30,7 @@ def plot_flights(runs, out_dir, name):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from sobolev_drake.viz import save_figure
+    from sobolev_drake.plots import save_figure
     out = {}
     fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")

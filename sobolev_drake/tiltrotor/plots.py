@@ -35,7 +35,7 @@ def plot_mission(data, out_dir, stem):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sobolev_drake.viz import save_figure
+    from sobolev_drake.plots import save_figure
 
     t, x, ref = data["t"], data["x"], data["reference"]
     q, pr = x[:8], ref[0:4]
@@ -111,7 +111,7 @@ def plot_hover_flights(all_data, out_dir):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from sobolev_drake.viz import save_figure
+    from sobolev_drake.plots import save_figure
 
     out = {}
     fig = plt.figure(figsize=(7, 6))

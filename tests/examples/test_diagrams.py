@@ -46,7 +46,7 @@ def chain_errors(kd, kp, ki, e0, ed0, t):
 
 def check_files_and_numbers(result):
     html = Path(result["recording"]).read_text(encoding="utf-8")
-    assert len(html) > 10_000 and sd.viz.external_script_sources(html) == []
+    assert len(html) > 10_000 and sd.recording_html.external_script_sources(html) == []
     assert Path(result["plot"]).stat().st_size > 10_000
     for name, row in result["rows"].items():
         assert all(math.isfinite(v) for v in row.values()), (name, row)

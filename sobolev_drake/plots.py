@@ -1,0 +1,222 @@
+"""Figures of experiments and examples: matplotlib (Agg backend unless MPLBACKEND is set),
+written as PNG.
+
+:func:`plot_time_series` stacks named signals over time, :func:`compare_plot` overlays several
+logged runs panel by panel, :func:`plot_semilogy` and :func:`plot_paths_3d` draw positive
+signals on a log axis and flown paths in 3-D; :func:`save_figure` writes and closes any figure.
+Meshcat recordings are in :mod:`sobolev_drake.viz`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+
+if os.environ.get("MPLBACKEND") is None:  # headless default; users may still choose their own
+    matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d"]
+
+
+def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
+    """Save a matplotlib figure (creating folders) and close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; closed afterwards.
+    path : str or Path
+        Output file; its suffix (``.png``, ``.svg`` or ``.pdf``) selects the format.
+    dpi : int, default 110
+        Resolution.
+    tight : bool, default False
+        Crop to the drawn artists (``bbox_inches="tight"``, an extra draw pass).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    if path.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
+    plt.close(fig)
+    return path
+
+
+def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Path:
+    """Stacked panels overlaying several logged runs (one line style per run, one colour per
+    component).
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    runs : dict
+        {name: run}; each run has "t" and whatever the panels read.
+    panels : sequence of (str, callable, list of str or None)
+        (y label, ``fn(run) -> (N,) or (N, k)`` array, component labels).
+    title : str
+        Figure title.
+    vlines : sequence of float
+        Times marked by light vertical lines (e.g. disturbance windows).
+
+    Returns
+    -------
+    Path
+    """
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8),
+                             squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    for ax, (ylabel, fn, labels) in zip(axes[:, 0], panels):
+        for k, (name, run) in enumerate(runs.items()):
+            y = np.asarray(fn(run), dtype=float)
+            y = y[:, None] if y.ndim == 1 else y
+            for j in range(y.shape[1]):
+                lab = f"{name} {labels[j]}" if labels else name
+                ax.plot(run["t"], y[:, j], styles[k % 4], lw=1.0, color=f"C{j}", label=lab)
+        for v in vlines:
+            ax.axvline(v, color="0.75", lw=0.6)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=6, ncol=4, loc="upper right")
+    axes[-1, 0].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
+                  floor: float = 1e-12) -> Path:
+    """Several positive signals on one logarithmic axis (values below ``floor`` drawn at it).
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    curves : dict
+        {label: (x, y)}.
+    ylabel, xlabel : str
+        Axis labels.
+    floor : float
+        Smallest value drawn.
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax = plt.subplots(figsize=(8, 2.8))
+    for k, (name, (x, y)) in enumerate(curves.items()):
+        ax.semilogy(x, np.maximum(y, floor), ["-", "--"][k % 2], lw=1.0, label=name)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_paths_3d(path, reference, flown: dict) -> Path:
+    """A reference path (dotted black) and flown paths in 3-D.
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    reference : array_like
+        (N, 3) reference positions.
+    flown : dict
+        {label: (N, 3) positions}.
+
+    Returns
+    -------
+    Path
+    """
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    ref = np.asarray(reference, dtype=float)
+    ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.0, label="reference")
+    for k, (name, xyz) in enumerate(flown.items()):
+        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], ["-", "--"][k % 2], lw=1.0, label=name)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t [s]",
+                     ylabels: dict | None = None, labels: dict | None = None,
+                     references: dict | None = None, vlines=()) -> Path:
+    """One stacked subplot per entry of ``series`` ({panel name: (N,) or (N, k) array}).
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times.
+    series : dict
+        {panel name: (N,) or (N, k) array}, one panel each, in order.
+    path : str or Path
+        Output image (see :func:`save_figure`).
+    title : str, optional
+        Figure title.
+    xlabel : str, default "t [s]"
+        Label of the shared time axis.
+    ylabels : dict, optional
+        {panel name: axis label} (default: the panel name).
+    labels : dict, optional
+        {panel name: the k line labels}.
+    references : dict, optional
+        {panel name: array shaped like the series}, drawn dashed in the same colours (e.g. the
+        reference trajectory).
+    vlines : sequence of float, optional
+        Times marked by thin vertical lines (phase switches, disturbance edges).
+
+    Returns
+    -------
+    Path
+        The saved figure's path.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1:
+        raise ValueError(f"t must be 1-D, got shape {t.shape}")
+    if not series:
+        raise ValueError("series is empty")
+    ylabels, labels, references = ylabels or {}, labels or {}, references or {}
+    fig, axes = plt.subplots(len(series), 1, sharex=True, figsize=(8, 2.2 * len(series) + 0.6), squeeze=False)
+    for ax, (name, y) in zip(axes[:, 0], series.items()):
+        y = np.asarray(y, dtype=float)
+        y = y[:, None] if y.ndim == 1 else y
+        if y.shape[0] != t.size:
+            raise ValueError(f"series[{name!r}] has {y.shape[0]} samples, t has {t.size}")
+        names = labels.get(name) or ([name] if y.shape[1] == 1 else [f"{name}[{i}]" for i in range(y.shape[1])])
+        lines = ax.plot(t, y)
+        for line, lab in zip(lines, names):
+            line.set_label(str(lab))
+        if name in references:
+            r = np.asarray(references[name], dtype=float)
+            r = r[:, None] if r.ndim == 1 else r
+            for i, line in enumerate(lines[: r.shape[1]]):
+                ax.plot(t, r[:, i], "--", color=line.get_color(), lw=1.0)
+        for v in vlines:
+            ax.axvline(float(v), color="0.7", lw=0.6)
+        ax.set_ylabel(ylabels.get(name, name))
+        ax.grid(True, alpha=0.3)
+        if y.shape[1] <= 8:
+            ax.legend(loc="upper right", fontsize=7, ncol=min(4, y.shape[1]))
+    axes[-1, 0].set_xlabel(xlabel)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+# --- camera framing -----------------------------------------------------------------------------
