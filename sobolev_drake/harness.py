@@ -75,12 +75,33 @@ class LoggedLoop:
         self.context = self.sim.get_mutable_context()
 
     def clear_logs(self, ctx):
-        """Empty every log in the root context ``ctx`` before a new run."""
+        """Empty every log in the root context ``ctx`` before a new run.
+
+        Parameters
+        ----------
+        ctx : Context
+            Root context of ``self.diagram`` (e.g. ``self.context``).
+        """
         for s in self.sinks.values():
             s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
 
     def collect(self, ctx, t0):
-        """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length."""
+        """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length.
+
+        Parameters
+        ----------
+        ctx : Context
+            Root context of ``self.diagram`` after the run.
+        t0 : float
+            ``time.perf_counter()`` value (s) taken when the run started.
+
+        Returns
+        -------
+        dict
+            ``{label: ndarray (size, k)}`` of every logged port, ``"t"``: ndarray (k,) of
+            sample times (s, from the log labelled "x"), all trimmed to the shortest length
+            k, and ``"wall_s"``: float, wall-clock seconds since ``t0``.
+        """
         data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
         data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
         n = min(v.shape[-1] for v in data.values())

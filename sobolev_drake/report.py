@@ -25,7 +25,17 @@ DASH = "—"
 
 @dataclass
 class Claim:
-    """One checkable statement of the thesis and whether it held in our run."""
+    """One checkable statement of the thesis and whether it held in our run.
+
+    Attributes
+    ----------
+    text : str
+        The statement, as the thesis makes it.
+    held : bool
+        Whether our run confirmed it.
+    detail : str, default ""
+        Supporting numbers or explanation (shown in parentheses in REPRODUCTION.md).
+    """
 
     text: str
     held: bool
@@ -34,7 +44,21 @@ class Claim:
 
 @dataclass
 class ExperimentResult:
-    """What an experiment produced: files, headline numbers and thesis claims."""
+    """What an experiment produced: files, headline numbers and thesis claims.
+
+    Attributes
+    ----------
+    name : str
+        Experiment name (section title and anchor in REPRODUCTION.md).
+    outputs : dict of str to Path
+        Label -> produced file (png/html/md/json).
+    metrics : dict
+        Headline numbers (scalars are listed in REPRODUCTION.md; everything is saved as JSON).
+    claims : list of Claim
+        The thesis statements checked and whether they held.
+    table_markdown : str
+        Markdown table of our numbers beside the thesis'.
+    """
 
     name: str
     outputs: dict[str, Path] = field(default_factory=dict)  # label -> file (png/html/md/json)
@@ -61,7 +85,21 @@ def percent_of(value, base) -> str:
 
 
 def fmt(x) -> str:
-    """Human formatting of one table cell."""
+    """Human formatting of one table cell.
+
+    Parameters
+    ----------
+    x : object
+        The cell value: None, bool, integer, float (numpy scalars included) or anything else
+        (formatted with ``str``).
+
+    Returns
+    -------
+    str
+        "—" for None/NaN, "yes"/"no" for booleans, integers as is, floats with 4 significant
+        digits (no exponent in [10⁴, 10⁶), "∞"/"−∞" for infinities), other values with
+        ``|`` escaped and newlines removed (safe inside a markdown table).
+    """
     if x is None:
         return DASH
     if isinstance(x, (bool, np.bool_)):
@@ -97,6 +135,20 @@ def _jsonable(x):
 
 
 def markdown_table(columns: Sequence[str], rows: Sequence[Sequence]) -> str:
+    """A markdown table with every cell (headers too) formatted by :func:`fmt`.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Column headers.
+    rows : sequence of sequence
+        Table rows, each with one cell per column (``ValueError`` otherwise).
+
+    Returns
+    -------
+    str
+        The table (header, separator and body lines), without a trailing newline.
+    """
     for i, r in enumerate(rows):
         if len(r) != len(columns):
             raise ValueError(f"markdown_table: row {i} has {len(r)} cells, expected {len(columns)} "
@@ -114,6 +166,30 @@ def write_table(out_dir, stem: str, columns: Sequence[str], rows: Sequence[Seque
     ``thesis_rows`` (optional) is aligned with ``rows`` (``None`` where the thesis has no
     number); each of our rows is then followed by the thesis row and a "source" column
     (ours / thesis) is inserted after the first column.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Output directory (created if missing).
+    stem : str
+        File name without extension (no folders).
+    columns : sequence of str
+        Column headers.
+    rows : sequence of sequence
+        Our rows, one cell per column.
+    thesis_rows : sequence of (sequence or None), optional
+        The thesis' rows, aligned with ``rows``.
+    title : str, optional
+        Heading of the markdown table and ``title`` of the JSON.
+
+    Returns
+    -------
+    md_path : Path
+        ``<out_dir>/<stem>.md``.
+    json_path : Path
+        ``<out_dir>/<stem>.json`` (full precision; NaN/inf as null).
+    markdown : str
+        The markdown text written.
     """
     columns = list(columns)
     rows = [list(r) for r in rows]
@@ -158,7 +234,22 @@ def _rel(p, base: Path) -> str:
 
 def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments") -> Path:
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
-    claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs."""
+    claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs.
+
+    Parameters
+    ----------
+    results : sequence of ExperimentResult
+        The experiments to summarize, in order.
+    path : str or Path
+        The markdown file to write (its folder is created if missing).
+    title : str, optional
+        Top-level heading.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     for i, r in enumerate(results):
         _require_result(f"results[{i}]", r)
     path = Path(path)
@@ -202,7 +293,20 @@ def _require_result(name, value):
 
 def save_result(result, out_dir) -> Path:
     """Write ``<out_dir>/result.json`` (paths relative to ``out_dir``) so that reports can be
-    rebuilt later without rerunning (``sobolev-drake report``)."""
+    rebuilt later without rerunning (``sobolev-drake report``).
+
+    Parameters
+    ----------
+    result : ExperimentResult
+        The result to save.
+    out_dir : str or Path
+        Directory of ``result.json`` (created if missing).
+
+    Returns
+    -------
+    Path
+        ``<out_dir>/result.json``.
+    """
     _require_result("result", result)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -223,7 +327,18 @@ def _json_bool(value, path, i):
 
 
 def load_result(path):
-    """Inverse of :func:`save_result` (output paths made relative to the current directory)."""
+    """Inverse of :func:`save_result` (output paths made relative to the current directory).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``result.json`` written by :func:`save_result`.
+
+    Returns
+    -------
+    ExperimentResult
+        The saved result; its output paths are joined to ``path``'s folder.
+    """
 
     path = Path(path)
     data = json.loads(path.read_text(encoding="utf-8"))

@@ -33,7 +33,21 @@ MAX_STEPS_UNBOUNDED = 1e9
 
 
 class ProgressMonitor:
-    """Callable for ``Simulator.set_monitor``: a tqdm-like single line on ``stream``."""
+    """Callable for ``Simulator.set_monitor``: a tqdm-like single line on ``stream``.
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        Simulated start and end times (s) of the run; the bar shows the fraction between them.
+    label : str, optional
+        Prefix of the line (default ``"simulate"``).
+    stream : file-like, optional
+        Where the line is written (default ``sys.stderr``).
+    period : float, default 0.5
+        Minimum wall-clock seconds between two rewrites of the live line.
+    live : bool, optional
+        Rewrite the line during the run; default: whether ``stream`` is a terminal.
+    """
 
     def __init__(self, t_start: float, t_end: float, *, label: str = "", stream=None, period: float = 0.5,
                  live: bool | None = None):
@@ -64,6 +78,15 @@ class ProgressMonitor:
         return EventStatus.Succeeded()
 
     def finish(self, t: float, steps: int) -> None:
+        """Write the final summary line (progress, simulated and wall time, steps).
+
+        Parameters
+        ----------
+        t : float
+            Simulated time (s) reached.
+        steps : int
+            Number of integrator steps taken.
+        """
         prefix = "\r" if self.live else ""
         self.stream.write(f"{prefix}{self._line(t)}  ({steps} steps)\n")
         self.stream.flush()

@@ -23,6 +23,32 @@ def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
     as the O.F. settling time does — the intervals next to the point closest to the target
     are halved (geometric midpoints) up to ``refine`` times; if still no bracket, that point
     is returned.  Returns (p, f(p), history [(p, f(p)), ...]).
+
+    Parameters
+    ----------
+    f : callable
+        ``f(p) -> float``: the index at parameter p (nan if the evaluation failed).
+    target : float
+        The index value to match.
+    grid : iterable of float
+        Parameter values scanned first (at least two, all > 0; sorted here).
+    iters : int, default 10
+        Bisection steps on log p at most.
+    rtol : float, default 0.01
+        Stop when an end of the bracket is within ``rtol·|target|`` of the target.
+    refine : int, default 0
+        Times the intervals around the closest point are halved when the grid holds no
+        bracket.
+
+    Returns
+    -------
+    p : float
+        The parameter (a bracket end, or the closest evaluated point) whose index is closest
+        to the target.
+    value : float
+        f(p).
+    history : list of (float, float)
+        Every evaluated (p, f(p)), in evaluation order.
     """
     grid = sorted(float(g) for g in grid)
     if len(grid) < 2 or grid[0] <= 0:

@@ -58,7 +58,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     if regularization not in ("transient", "gain"):
         raise ValueError(f"regularization must be 'transient' or 'gain', got {regularization!r}")
     from sobolev_drake.tiltrotor.params import TiltrotorParams
-    from sobolev_drake.tiltrotor.trim import hover_wind_limit, linearize, tiltrotor_model, trim_hover
+    from sobolev_drake.tiltrotor.linearization import linearize
+    from sobolev_drake.tiltrotor.trim import hover_wind_limit, tiltrotor_model, trim_hover
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -31,7 +31,28 @@ __all__ = ["MechanicalLoop", "build_loop", "run_loop", "tracked_errors", "sobole
 @dataclass
 class MechanicalLoop:
     """A built closed loop: the diagram, its simulator, the plant handles, the controller, the
-    log sinks by label ("x", "u", "ref", "w", "ei") and the optional Meshcat recorder."""
+    log sinks by label ("x", "u", "ref", "w", "ei") and the optional Meshcat recorder.
+
+    Attributes
+    ----------
+    diagram : Diagram
+        The closed-loop diagram built by :func:`build_loop`.
+    simulator : Simulator
+        Its simulator, reused by every :func:`run_loop`.
+    handles : PlantHandles
+        Handles of the simulated plant (ports ``x``, ``u``, ``disturbance``, ``set_state``).
+    controller : MechanicalController
+        The controller, whose inner law :func:`run_loop` swaps.
+    sinks : dict of str to VectorLogSink
+        Loggers of the plant state "x", control input "u", reference "ref", generalized
+        disturbance "w" and error integral "ei".
+    meshcat : Meshcat, optional
+        The Meshcat instance when recording, else None.
+    recorder : MeshcatVisualizer, optional
+        The Meshcat recorder when recording, else None.
+    info : dict
+        Free-form extra data about the loop (empty by default).
+    """
 
     diagram: object
     simulator: object

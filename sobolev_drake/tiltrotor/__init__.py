@@ -7,7 +7,9 @@ plant         URDF, MultibodyPlant and TiltrotorModel (section 7.2), add_tiltrot
 propulsion    propellers and servomotors, (7.19)–(7.33)
 aerodynamics  fuselage, wings, V-tail and interference loads, (7.34)–(7.56)
 input_affine  the input-affine form (7.62) of the generalized forces
-trim          trims, the tilt schedule and linearization (7.3.1, (7.57))
+trim          hover and level-flight trims (7.3.1)
+tilt_schedule the tilt schedule α(V) from level-flight trims
+linearization (A, B, D) about a trim (7.57)
 allocation    control allocation (7.84)–(7.89) and the thrust → propeller-speed inversion (7.90)
 law           the W∞ law composed with the model, allocation and propeller data (7.3.2)
 controller    the nonlinear W∞ controller LeafSystem of the missions (7.3.2)
@@ -32,7 +34,8 @@ from sobolev_drake.tiltrotor.mission import build_mission, simulate_mission
 from sobolev_drake.tiltrotor.mission_metrics import score_mission
 from sobolev_drake.tiltrotor.params import TiltrotorParams
 from sobolev_drake.tiltrotor.plant import TiltrotorHandles, TiltrotorModel, add_tiltrotor, tiltrotor_urdf
-from sobolev_drake.tiltrotor.trim import Trim, linearize, trim_hover, trim_level_flight
+from sobolev_drake.tiltrotor.linearization import linearize
+from sobolev_drake.tiltrotor.trim import Trim, trim_hover, trim_level_flight
 
 __all__ = [
     "TiltrotorParams", "TiltrotorModel", "TiltrotorHandles", "add_tiltrotor", "tiltrotor_urdf",

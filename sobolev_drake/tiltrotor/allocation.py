@@ -41,7 +41,23 @@ __all__ = [
 
 
 def sigmf(v, s: float = 2.0, c: float = 12.0):
-    """Sigmoid 1 / (1 + exp(−s(v − c))) (7.89), overflow-safe, vectorized."""
+    """Sigmoid 1 / (1 + exp(−s(v − c))) (7.89), overflow-safe, vectorized.
+
+    Parameters
+    ----------
+    v : float or array_like
+        Relative airspeed V_air (m/s) of the surface.
+    s : float, default 2.0
+        Slope of the sigmoid (s/m).
+    c : float, default 12.0
+        Airspeed (m/s) at which the sigmoid is ½.
+
+    Returns
+    -------
+    ndarray
+        sigmf(v; s, c) in [0, 1], shape of ``v``: the fraction of the full deflection range
+        ±δ_max the control surfaces get at that airspeed (7.89).
+    """
     v = np.asarray(v, dtype=float)
     z = -s * (v - c)
     return np.where(z >= 0, np.exp(-np.abs(z)) / (1.0 + np.exp(-np.abs(z))), 1.0 / (1.0 + np.exp(-np.abs(z))))
@@ -58,7 +74,16 @@ def _thesis_limits() -> dict:
 
 
 def thesis_bounds_constants():
-    """(s, c, f_lo, f_hi, t_lo, t_hi, δ_lo, δ_hi) of the thesis limits, parsed once."""
+    """(s, c, f_lo, f_hi, t_lo, t_hi, δ_lo, δ_hi) of the thesis limits, parsed once.
+
+    Returns
+    -------
+    tuple of float
+        From ``controller_limits_thesis`` of ``tiltrotor_missions.json`` (7.85)–(7.89): the
+        sigmoid slope s (s/m) and centre c (m/s), the thrust bounds f_lo, f_hi (N), the servo
+        torque bounds t_lo, t_hi (N m) and the full surface deflection bounds δ_lo, δ_hi
+        (rad).
+    """
     if "_parsed" not in _THESIS_LIMITS:
         _thesis_limits()
         _THESIS_LIMITS["_parsed"] = _parse_limits(_THESIS_LIMITS)
@@ -74,6 +99,22 @@ def tiltrotor_bounds(v_air, *, limits: dict | None = None):
     to ``controller_limits_thesis`` of ``tiltrotor_missions.json`` (thrust [0, 100] N, servo
     [−2, 2] N m, δ ∈ ±5π/36 rad, s = 2, c = 12 m/s).  Below ≈ 8 m/s the surface range is
     < 0.03 % of δ_max: the surfaces are effectively removed from the allocation.
+
+    Parameters
+    ----------
+    v_air : float or array_like, shape (4,)
+        Relative airspeed V_air (m/s, ≥ 0): one value for all four surfaces, or
+        [V_WR, V_WL, V_TR, V_TL].
+    limits : dict, optional
+        Limits in the layout of ``controller_limits_thesis`` (keys ``thrust_N``,
+        ``servo_torque_Nm``, ``surface_deflection_rad`` as [lower, upper] pairs,
+        ``sigmoid_s``, ``sigmoid_c_m_s``); default the thesis values.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (8,)
+        Lower and upper bounds of τ̄: thrusts (N), servo torques (N m), then the surface
+        deflections (rad) scaled by sigmf(V_air) (7.89).
     """
     if limits is None:
         s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = thesis_bounds_constants()
@@ -134,6 +175,23 @@ class ControlAllocator(LeafSystem):
     Outputs: ``tau`` (m) and ``residual`` (1) = ‖u* − Bτ̄‖, both from one cached solve.
     The outputs depend on the inputs (direct feedthrough).  ``regularization`` and ``method``
     are passed to :func:`bounded_least_squares`.
+
+    Parameters
+    ----------
+    n : int, default 8
+        Size of the desired generalized input u* (rows of B; 8 generalized coordinates).
+    m : int, default 8
+        Number of actuator inputs τ̄ (columns of B; 8 = ``ACTUATOR_NAMES``).
+    bounds : callable, "input" or (lo, hi), default tiltrotor_bounds
+        Actuator bounds: ``bounds(airspeed) -> (lo, hi)`` fed by the ``airspeed`` port, the
+        ``bounds`` input port, or a constant pair of length-m vectors (units of τ̄).
+    airspeed_size : int, default 1
+        Size of the ``airspeed`` port (m/s) when ``bounds`` is callable (1, or 4 for one
+        airspeed per surface with :func:`tiltrotor_bounds`).
+    regularization : float, default 1e-12
+        Relative Tikhonov weight ε (≥ 0) of :func:`bounded_least_squares`.
+    method : {"pdas", "osqp"}, default "pdas"
+        Solver of :func:`bounded_least_squares`.
     """
 
     def __init__(self, n: int = 8, m: int = 8, bounds=tiltrotor_bounds, *, airspeed_size: int = 1,
@@ -171,7 +229,18 @@ class ControlAllocator(LeafSystem):
                                      prerequisites_of_calc={self._cache.ticket()})
 
     def bounds(self, context):
-        """(lo, hi) used in ``context``."""
+        """(lo, hi) used in ``context``.
+
+        Parameters
+        ----------
+        context : Context
+            This system's context (the ``airspeed`` or ``bounds`` port is read if declared).
+
+        Returns
+        -------
+        lo, hi : ndarray, shape (m,)
+            Lower and upper bounds of τ̄ (units of τ̄: N, N m, rad for the tilt-rotor).
+        """
         if self._bounds_fn is not None:
             lo, hi = self._bounds_fn(self._air.Eval(context))
             return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
@@ -220,6 +289,19 @@ def rotor_inflow(v_rel_rotor_frame):
 
     Same conventions as ``PropellerCoefficients.advance_ratio_and_inflow``: V_xz = ‖(u, w)‖,
     φ = |clip(atan2(u, w), −π/2, π/2)|.
+
+    Parameters
+    ----------
+    v_rel_rotor_frame : array_like, shape (..., 3)
+        Air-relative velocity (u, v, w) of the propeller hub in the rotor frame (m/s), w
+        along the rotor axis.
+
+    Returns
+    -------
+    v_xz : ndarray, shape (...)
+        Air-relative speed in the rotor's x–z plane, ‖(u, w)‖ (m/s).
+    phi : ndarray, shape (...)
+        Inflow angle φ (rad, in [0, π/2]) between the rotor axis and that velocity.
     """
     v = np.asarray(v_rel_rotor_frame, dtype=float)
     if v.shape[-1:] != (3,):
@@ -239,6 +321,32 @@ def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, 
     |f(n) − f| ≤ tol·max(1, f).  Thrust outside [0, f(n_max)] raises
     :class:`UnreachableThrustError` (``on_unreachable="raise"``) or is saturated to n = 0 /
     n_max (``"clip"``).
+
+    Parameters
+    ----------
+    thrust : float or array_like
+        Required thrust f (N), ≥ 0.
+    v_xz : float or array_like, default 0.0
+        Air-relative speed in the rotor's x–z plane (m/s), ≥ 0.
+    phi : float or array_like, default 0.0
+        Inflow angle φ (rad).
+    coefficients : PropellerCoefficients, optional
+        Propeller model (diameter d, air density ρ, Ct tables); default
+        ``PropellerCoefficients()``.
+    n_max : float, optional
+        Largest propeller speed (rev/s); default the upper end of ``n_range_rev_s`` in the
+        ``propeller_coefficients`` data file.
+    on_unreachable : {"raise", "clip"}, default "raise"
+        What to do with a thrust outside [0, f(n_max)].
+    grid : int, default 16
+        Number of intervals of the bracketing grid on [0, n_max].
+    tol : float, default 1e-10
+        Relative thrust tolerance (> 0): |f(n) − f| ≤ tol·max(1, f).
+
+    Returns
+    -------
+    ndarray
+        Propeller speed n (rev/s), broadcast shape of ``thrust``, ``v_xz`` and ``phi``.
     """
     from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
 

@@ -38,6 +38,26 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     model (measured wind ζ); the thrust inversion (7.90) uses each hub's rotor-frame inflow.
     B, ϑ_passive, these air speeds and the inflow come from one scalar pass of the force model
     per sample (``input_affine.input_affine_terms``), shared by the composed callables.
+
+    Parameters
+    ----------
+    model : TiltrotorModel
+        The plant model (thesis order q = [αR αL φ θ ψ x y z]) whose parameters define the
+        force model, B(q, q̇, ζ) and ϑ_passive of (7.62) and the inverse dynamics.
+    inner : SobolevLaw, optional
+        Inner W∞ law of the regulated partition (default :func:`thesis_inner_law`).
+    schedule : {"plant", "data"} or callable, default "plant"
+        Tilt reference α(U) as described above; a callable maps forward air speed U (m/s)
+        to (α (rad), dα/dU, d²α/dU²).
+    allocate : callable, optional
+        ``allocate(B, u, lo, up) -> τ̄``: bounded allocation (7.84)–(7.86) of the desired
+        generalized input u (N, N m) over the actuators within [lo, up].
+
+    Returns
+    -------
+    TiltrotorWInfLaw
+        The composed law (with ``propulsion`` and ``aero`` cores attached, and a fused
+        per-sample path when the compiled kernels are built).
     """
     from sobolev_drake.data import load
     from sobolev_drake.tiltrotor.allocation import (bounded_least_squares, propeller_speed_for_thrust,
@@ -172,6 +192,30 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
     the bracketing solver of ``tiltrotor.allocation`` when this returns None (no warm start,
     zero thrust, non-increasing thrust, or no convergence).  All rotors iterate together
     (Python floats: a handful of scalars is far cheaper than numpy calls).
+
+    Parameters
+    ----------
+    coef : PropellerCoefficients
+        Propeller model: air density ρ (kg/m³), diameter d (m), J_max and the Ct(J, φ)
+        polynomial.
+    f : array_like, shape (k,)
+        Required thrusts (N), one per rotor.
+    v_xz : array_like, shape (k,)
+        Air-relative speed in each rotor's x–z plane (m/s).
+    phi : array_like, shape (k,)
+        Inflow angle φ of each rotor (rad).
+    n_guess : array_like, shape (k,)
+        Starting propeller speeds (rev/s), e.g. the previous sample's.
+    iterations : int, default 4
+        Maximum number of Newton steps.
+    rtol : float, default 1e-9
+        Relative thrust tolerance of convergence, |f(n) − f| ≤ rtol·(1 + f).
+
+    Returns
+    -------
+    ndarray, shape (k,) or None
+        Propeller speeds n (rev/s), or None when the warm start is unusable or the solve
+        does not converge (the caller then uses the bracketing solver).
     """
     f, n, vx, ph = (np.asarray(a, dtype=float).ravel().tolist() for a in (f, n_guess, v_xz, phi))
     if any(x <= 0 for x in f) or any(x <= 1.0 for x in n):
@@ -206,10 +250,23 @@ _TRIM_SCHEDULES: dict = {}
 
 
 def plant_trim_schedule(model=None):
-    """α(U) from the plant's level-flight trims (``tiltrotor.trim.tilt_schedule``,
+    """α(U) from the plant's level-flight trims (``tiltrotor.tilt_schedule.tilt_schedule``,
     0–34 m/s every 1 m/s) as a cubic spline ``U -> (α, α', α'')``, clamped like the polynomial.
 
-    The trims are computed once per process (a few seconds) and cached."""
+    The trims are computed once per process (a few seconds) and cached.
+
+    Parameters
+    ----------
+    model : TiltrotorModel, optional
+        The plant model whose trims are used (None: Table B.1); cached per parameter value.
+
+    Returns
+    -------
+    callable
+        ``sched(U) -> (α, α', α'')``: mean trim tilt angle α (rad) at forward speed U (m/s)
+        and its first and second derivatives in U (rad·s/m, rad·s²/m²); outside 0–34 m/s U
+        is clamped and the derivatives are 0.
+    """
     from scipy.interpolate import CubicSpline
     from sobolev_drake.tiltrotor import trim as tt
 

@@ -24,6 +24,7 @@ from sobolev_drake.validation import check_parameter_fields
 __all__ = [
     "DOF_NAMES", "ACTUATOR_NAMES", "SURFACES", "TiltrotorParams", "rot_x", "rot_y", "rot_z",
     "R_IB", "W_eta", "R_BA", "body_generalized_force", "body_point_velocity", "R_W", "cross_rows",
+    "params_key",
 ]
 
 #: thesis order of the generalized coordinates
@@ -188,40 +189,135 @@ class TiltrotorParams:
 
 # --- rotations ---------------------------------------------------------------------------------
 def rot_x(a):
+    """Elementary rotation matrix Rx(a) about the x axis (right-handed, active).
+
+    Parameters
+    ----------
+    a : float
+        Rotation angle (rad).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rx(a): maps vectors in the rotated frame's axes to the parent frame's axes.
+    """
     c, s = np.cos(a), np.sin(a)
     return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
 def rot_y(a):
+    """Elementary rotation matrix Ry(a) about the y axis (right-handed, active).
+
+    Parameters
+    ----------
+    a : float
+        Rotation angle (rad).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Ry(a): maps vectors in the rotated frame's axes to the parent frame's axes.
+    """
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
 
 
 def rot_z(a):
+    """Elementary rotation matrix Rz(a) about the z axis (right-handed, active).
+
+    Parameters
+    ----------
+    a : float
+        Rotation angle (rad).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rz(a): maps vectors in the rotated frame's axes to the parent frame's axes.
+    """
     c, s = np.cos(a), np.sin(a)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
 
 
 def R_IB(q) -> np.ndarray:
-    """R_I^B = Rz(ψ) Ry(θ) Rx(φ) (7.2)."""
+    """R_I^B = Rz(ψ) Ry(θ) Rx(φ) (7.2).
+
+    Parameters
+    ----------
+    q : array_like, shape (8,)
+        Generalized coordinates in thesis order [αR αL φ θ ψ x y z] (rad, m); only the
+        Euler angles φ, θ, ψ = q[2:5] are used.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rotation from main-body axes B to inertial axes I (z up).
+    """
     return rot_z(q[4]) @ rot_y(q[3]) @ rot_x(q[2])
 
 
 def W_eta(q) -> np.ndarray:
-    """Wη of (7.10): body angular velocity ω_B = Wη η̇, η = [φ θ ψ]."""
+    """Wη of (7.10): body angular velocity ω_B = Wη η̇, η = [φ θ ψ].
+
+    Parameters
+    ----------
+    q : array_like, shape (8,)
+        Generalized coordinates in thesis order [αR αL φ θ ψ x y z] (rad, m); only φ and θ
+        (q[2], q[3]) are used.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Wη, mapping Euler-angle rates η̇ (rad/s) to the body-axes angular velocity ω_B
+        (rad/s).
+    """
     sphi, cphi = np.sin(q[2]), np.cos(q[2])
     sth, cth = np.sin(q[3]), np.cos(q[3])
     return np.array([[1.0, 0.0, -sth], [0.0, cphi, cth * sphi], [0.0, -sphi, cphi * cth]])
 
 
 def R_BA(params: TiltrotorParams, alpha_R: float, alpha_L: float):
-    """(R_B^A2, R_B^A3) = (Ry(αR) Rx(−β), Ry(αL) Rx(β)) (7.4), (7.6)."""
+    """(R_B^A2, R_B^A3) = (Ry(αR) Rx(−β), Ry(αL) Rx(β)) (7.4), (7.6).
+
+    Parameters
+    ----------
+    params : TiltrotorParams
+        Vehicle parameters; only the thruster inclination ``beta`` (β, rad) is used.
+    alpha_R, alpha_L : float
+        Tilt angles αR, αL (rad) of the right and left thruster groups (q[0], q[1]).
+
+    Returns
+    -------
+    tuple of ndarray, each shape (3, 3)
+        (R_B^A2, R_B^A3): rotations from the right and left thruster-group frames A2, A3 to
+        the main-body axes B.
+    """
     return rot_y(alpha_R) @ rot_x(-params.beta), rot_y(alpha_L) @ rot_x(params.beta)
 
 
 def body_generalized_force(q, r_B, F_B, M_B=None) -> np.ndarray:
     """Generalized force (thesis order) of body-axes forces ``F_B`` (k, 3) at body points
-    ``r_B`` (k, 3) plus body torques ``M_B`` (k, 3), all acting on the main body."""
+    ``r_B`` (k, 3) plus body torques ``M_B`` (k, 3), all acting on the main body.
+
+    This is ``[0, 0, Wηᵀ Σ(r × F_B + M_B), R_I^B Σ F_B]`` ((7.47) with J_S (7.35), W_S (7.36)).
+
+    Parameters
+    ----------
+    q : array_like, shape (8,)
+        Generalized coordinates in thesis order [αR αL φ θ ψ x y z] (rad, m).
+    r_B : array_like, shape (k, 3) or (3,)
+        Points of application (m), from the body origin, in body axes B.
+    F_B : array_like, shape (k, 3) or (3,)
+        Forces (N) in body axes B, one per point.
+    M_B : array_like, shape (k, 3) or (3,), optional
+        Additional pure torques (N m) on the main body, in body axes B; None for none.
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        Generalized force in thesis order: zero on the tilt angles αR, αL, torques (N m) on
+        φ, θ, ψ and the inertial-axes force (N) on x, y, z.
+    """
     F_B = np.atleast_2d(F_B)
     tau_B = np.cross(np.atleast_2d(r_B), F_B).sum(axis=0)
     if M_B is not None:
@@ -233,14 +329,43 @@ def body_generalized_force(q, r_B, F_B, M_B=None) -> np.ndarray:
 
 
 def body_point_velocity(q, qdot, r_B) -> np.ndarray:
-    """Body-axes velocity R_Bᵀ ṗ of main-body points ``r_B`` (k, 3) (7.35)."""
+    """Body-axes velocity R_Bᵀ ṗ of main-body points ``r_B`` (k, 3) (7.35).
+
+    Parameters
+    ----------
+    q : array_like, shape (8,)
+        Generalized coordinates in thesis order [αR αL φ θ ψ x y z] (rad, m).
+    qdot : array_like, shape (8,)
+        Generalized velocities q̇ (rad/s, m/s), same order.
+    r_B : array_like, shape (k, 3) or (3,)
+        Points (m) fixed on the main body, from the body origin, in body axes B.
+
+    Returns
+    -------
+    ndarray, shape (k, 3)
+        Inertial velocity (m/s) of each point expressed in body axes: R_I^Bᵀ ẋ + ω_B × r_B.
+    """
     R = R_IB(q)
     w = W_eta(q) @ qdot[2:5]
     return (R.T @ qdot[5:8])[None, :] + np.cross(w, np.atleast_2d(r_B))
 
 
 def R_W(q):
-    """(R_I^B, Wη) at q in one pass with scalar math (the hot path of the force systems)."""
+    """(R_I^B, Wη) at q in one pass with scalar math (the hot path of the force systems).
+
+    Parameters
+    ----------
+    q : array_like, shape (8,)
+        Generalized coordinates in thesis order [αR αL φ θ ψ x y z] (rad, m); only the
+        Euler angles φ, θ, ψ = q[2:5] are used.
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+        R_I^B = Rz(ψ) Ry(θ) Rx(φ) (7.2), body to inertial axes (same as ``R_IB(q)``).
+    W : ndarray, shape (3, 3)
+        Wη of (7.10), Euler-angle rates to body angular velocity (same as ``W_eta(q)``).
+    """
     sf, cf = math.sin(q[2]), math.cos(q[2])
     st, ct = math.sin(q[3]), math.cos(q[3])
     sp, cp = math.sin(q[4]), math.cos(q[4])
@@ -252,7 +377,37 @@ def R_W(q):
 
 
 def cross_rows(a, b) -> np.ndarray:
-    """Row-wise cross product of (k, 3) arrays (np.cross is slow for small arrays)."""
+    """Row-wise cross product of (k, 3) arrays (np.cross is slow for small arrays).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (..., 3)
+        Vectors to multiply, row by row (broadcast against each other); any units.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        a × b for each row, in the product of the inputs' units.
+    """
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def params_key(params: TiltrotorParams) -> tuple:
+    """The value of ``params`` as a hashable key (the dataclass holds numpy arrays), for caches
+    of models and diagrams built once per parameter value.
+
+    Parameters
+    ----------
+    params : TiltrotorParams
+        Vehicle parameters.
+
+    Returns
+    -------
+    tuple
+        (field name, bytes or string) pairs; equal for equal parameter values.
+    """
+    from dataclasses import fields
+    return tuple((f.name, v if isinstance(v, str) else np.asarray(v, dtype=float).tobytes())
+                 for f in fields(params) for v in (getattr(params, f.name),))

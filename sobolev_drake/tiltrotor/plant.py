@@ -155,7 +155,20 @@ def _build_plant(params, builder=None):
 
 
 def thesis_coordinate_map(plant: MultibodyPlant) -> np.ndarray:
-    """Permutation T with q_drake = T q_thesis for q_thesis = [αR αL φ θ ψ x y z]."""
+    """Permutation T with q_drake = T q_thesis for q_thesis = [αR αL φ θ ψ x y z].
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        A finalized tilt-rotor plant (built from :func:`tiltrotor_urdf`), whose joints are
+        named as in ``JOINTS``.
+
+    Returns
+    -------
+    ndarray, shape (8, 8)
+        T, a permutation matrix: column j has its 1 at the Drake position index of thesis
+        coordinate j (the same T maps the velocities).
+    """
     n = plant.num_positions()
     T = np.zeros((n, n))
     for j, name in enumerate(JOINTS):
@@ -251,6 +264,15 @@ class TiltrotorForces(LeafSystem):
     ``native``: None (default) computes the forces with the compiled kernel
     (``native/forces.c``, equal to :meth:`thesis_force` to the bit) when it is built and with
     Python otherwise; False always uses Python; True requires the kernel.
+
+    Parameters
+    ----------
+    model : TiltrotorModel
+        The model whose parameters (Table B.1) define the propulsion and aerodynamic force
+        cores and whose coordinate map T orders the Drake and thesis vectors.
+    native : bool or None, optional
+        None (default): the compiled force kernel when it is built, else Python; False:
+        always Python; True: the kernel, or ``RuntimeError`` if it is not built.
     """
 
     def __init__(self, model: TiltrotorModel, *, native: bool | None = None):
@@ -329,7 +351,21 @@ class TiltrotorForces(LeafSystem):
     def thesis_force(self, context) -> np.ndarray:
         """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
         reads the actuator inputs from their cache entry, touches each other port once, skips
-        unconnected ones and uses the scalar force cores with one shared body-kinematics pass."""
+        unconnected ones and uses the scalar force cores with one shared body-kinematics pass.
+
+        Parameters
+        ----------
+        context : Context
+            This system's context (its ``plant_state`` and actuator/disturbance input ports
+            are read).
+
+        Returns
+        -------
+        ndarray, shape (8,)
+            Generalized force ϑ (7.18) of propellers, servos (7.33) and aerodynamic surfaces,
+            plus the force disturbance at C1 and the generalized disturbance w, in thesis
+            order [αR αL φ θ ψ x y z] (N m on the angles, N on x, y, z).
+        """
         self.evaluations += 1
         ql = self._state.Eval(context)[self._perm16].tolist()
         q, qd = ql[:8], ql[8:]

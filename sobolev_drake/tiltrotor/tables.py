@@ -258,7 +258,7 @@ def schedule_table(out_dir, speeds=(0, 5, 10, 15, 20, 24, 27, 30, 33, 34)):
     (Path, Path, str)
         As :func:`sobolev_drake.report.write_table`.
     """
-    from sobolev_drake.tiltrotor.trim import tilt_reference_polynomial, tilt_schedule
+    from sobolev_drake.tiltrotor.tilt_schedule import tilt_reference_polynomial, tilt_schedule
     rows = []
     for tr in tilt_schedule(np.asarray(speeds, dtype=float)):
         a_poly = float(tilt_reference_polynomial(tr.V))

@@ -1,17 +1,12 @@
-"""Trim, tilt schedule and linearization of the tilt-rotor (thesis 7.3.1, (7.57)).
+"""Trim of the tilt-rotor (thesis 7.3.1).
 
 * :func:`trim_hover` — q̇ = 0 equilibrium; unknowns [αR αL φ θ nR nL τsR τsL], surfaces at 0.
 * :func:`trim_level_flight` — constant forward velocity V along inertial x, ψ = 0, same unknowns
   with δ = 0 (the surfaces are not needed: the thrust line and the pitch attitude balance the
   moments); hover is V = 0.
-* :func:`tilt_schedule` — α(V) over 0–34 m/s from level-flight trims, beside the mission file's
-  polynomial ``tilt_reference_vs_forward_speed``; :func:`write_tilt_schedule_report` writes a
-  markdown/JSON table and a PNG plot.
-* :func:`linearize` — (A, B, D) of (7.57) in thesis state order [Δq; Δq̇; ∫Δψ ∫Δx ∫Δy ∫Δz]
-  with inputs Δu = [ΔnR ΔnL ΔτsR ΔτsL] and wind Δζ.  Drake's ``Linearize`` needs AutoDiff, which
-  the Python force systems do not provide, so the Jacobians are central differences of the
-  *Drake diagram's* ``CalcTimeDerivatives`` (plant + force system), step 1e-6 (truncation error
-  ~1e-10 relative).
+* the tilt schedule α(V) built from level-flight trims is in
+  :mod:`sobolev_drake.tiltrotor.tilt_schedule`.
+* the linearization (7.57) about a trim is in :mod:`sobolev_drake.tiltrotor.linearization`.
 
 Residuals are the generalized-force balance ϑ(q, q̇, τ, ζ) − C(q, q̇) q̇ − g(q) (N, N m).
 """
@@ -23,14 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from sobolev_drake.tiltrotor.plant import TiltrotorModel, add_tiltrotor
-from sobolev_drake.tiltrotor.params import TiltrotorParams
+from sobolev_drake.tiltrotor.plant import TiltrotorModel
+from sobolev_drake.tiltrotor.params import TiltrotorParams, params_key
 from sobolev_drake.tiltrotor.input_affine import generalized_force
 
 __all__ = [
     "THESIS_HOVER", "tiltrotor_model", "Trim", "balance", "trim_level_flight", "trim_hover",
-    "HoverWindLimit", "hover_wind_limit", "tilt_reference_polynomial", "tilt_schedule",
-    "write_tilt_schedule_report", "Linearization", "linearize",
+    "HoverWindLimit", "hover_wind_limit",
 ]
 
 #: thesis hover trim [θ, αR, αL, n, τs] (7.3.1)
@@ -39,17 +33,22 @@ THESIS_HOVER = {"theta": 0.137, "alpha_R": -0.137, "alpha_L": -0.137, "n": 51.9,
 _MODELS: dict = {}
 
 
-def _params_key(params: TiltrotorParams) -> tuple:
-    """Value of ``params`` as a hashable key (the dataclass holds numpy arrays)."""
-    from dataclasses import fields
-    return tuple((f.name, v if isinstance(v, str) else np.asarray(v, dtype=float).tobytes())
-                 for f in fields(params) for v in (getattr(params, f.name),))
-
-
 def tiltrotor_model(params: TiltrotorParams | None = None) -> TiltrotorModel:
-    """The :class:`TiltrotorModel` of ``params`` (default Table B.1), one per parameter value."""
+    """The :class:`TiltrotorModel` of ``params`` (default Table B.1), one per parameter value.
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Vehicle parameters; None uses Table B.1 (``TiltrotorParams()``).
+
+    Returns
+    -------
+    TiltrotorModel
+        The Euler–Lagrange model (7.14) of ``params``, cached: equal parameter values return
+        the same instance.
+    """
     params = TiltrotorParams() if params is None else params
-    key = _params_key(params)
+    key = params_key(params)
     if key not in _MODELS:
         _MODELS[key] = TiltrotorModel(params)
     return _MODELS[key]
@@ -61,7 +60,33 @@ def _model(model):
 
 @dataclass
 class Trim:
-    """A trimmed operating point (thesis order)."""
+    """A trimmed operating point (thesis order).
+
+    Attributes
+    ----------
+    V : float
+        Forward speed (m/s) along inertial x (0 for hover).
+    q : ndarray, shape (8,)
+        Trim coordinates [αR αL φ θ ψ x y z] (rad, m); x, y, z are 0.
+    qdot : ndarray, shape (8,)
+        Generalized velocities (rad/s, m/s): [0, …, 0, V, 0, 0].
+    n : ndarray, shape (2,)
+        Propeller speeds [nR, nL] (rev/s).
+    tau_s : ndarray, shape (2,)
+        Servo torques [τsR, τsL] (N m).
+    delta : ndarray, shape (4,)
+        Control surface deflections [δWR δWL δTR δTL] (rad).
+    zeta : ndarray, shape (3,)
+        Wind velocity ζ, inertial axes (m/s).
+    residual : ndarray, shape (8,)
+        Generalized-force balance ϑ − C(q, q̇) q̇ − g(q) at the solution (N m on the angles,
+        N on x, y, z); see :func:`balance`.
+    success : bool
+        True when max |residual| < 1e-8 and both propeller speeds are positive.
+    info : dict
+        Solver details: ``nfev``, ``status``, ``message``, the unknown vector ``z`` (usable
+        as a continuation ``guess``) and the ``model`` the trim was computed on.
+    """
 
     V: float
     q: np.ndarray
@@ -76,6 +101,7 @@ class Trim:
 
     @property
     def residual_norm(self) -> float:
+        """max |residual| (N, N m): the size of the generalized-force imbalance."""
         return float(np.max(np.abs(self.residual)))
 
     @property
@@ -85,12 +111,37 @@ class Trim:
 
     @property
     def thrust(self) -> np.ndarray:
+        """Propeller thrusts [fR, fL] (N) at the trim, f = ρ d⁴ n² Ct(J, φ) (7.25), (7.27)."""
         from sobolev_drake.tiltrotor.input_affine import thrust_inputs
         return thrust_inputs(self.info["model"].params, self.q, self.qdot, self.zeta, self.n)
 
 
 def balance(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
-    """ϑ − C(q, q̇) q̇ − g(q): zero at a trim (q̈ = 0)."""
+    """ϑ − C(q, q̇) q̇ − g(q): zero at a trim (q̈ = 0).
+
+    Parameters
+    ----------
+    model : TiltrotorModel or None
+        The model (None: :func:`tiltrotor_model` of Table B.1).
+    q : array_like, shape (8,)
+        Generalized coordinates [αR αL φ θ ψ x y z] (rad, m).
+    qdot : array_like, shape (8,)
+        Generalized velocities (rad/s, m/s), same order.
+    zeta : array_like, shape (3,)
+        Wind velocity ζ, inertial axes (m/s).
+    n : array_like, shape (2,)
+        Propeller speeds [nR, nL] (rev/s).
+    tau_s : array_like, shape (2,)
+        Servo torques [τsR, τsL] (N m).
+    delta : array_like, shape (4,)
+        Control surface deflections [δWR δWL δTR δTL] (rad).
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        Generalized force ϑ (7.18) minus the Coriolis/centripetal and gravity terms of
+        (7.14), thesis order (N m on the angles, N on x, y, z); it equals M(q) q̈.
+    """
     model = _model(model)
     return (generalized_force(model, q, qdot, zeta, n, tau_s, delta)
             - model.Cqdot(q, qdot) - model.g(q))
@@ -106,6 +157,30 @@ def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, al
     reflective, xtol = ftol = gtol = ``tol``); ``guess`` is a previous z.  If that start fails
     and ``restarts`` is true, a coarse grid of starts is tried and the best solution returned.
     ``Trim.success`` means max |residual| < 1e-8 with n > 0.
+
+    Parameters
+    ----------
+    V : float
+        Forward speed (m/s) along inertial x, finite and ≥ 0 (0 is hover).
+    model : TiltrotorModel, optional
+        The model (None: :func:`tiltrotor_model` of Table B.1).
+    guess : array_like, shape (8,), optional
+        Starting unknown vector z (e.g. ``Trim.info["z"]`` of a neighbouring trim); None
+        starts at the thesis hover trim.
+    zeta : array_like, shape (3,), optional
+        Wind velocity ζ, inertial axes (m/s); default zero.
+    tol : float, default 1e-13
+        ``xtol``, ``ftol`` and ``gtol`` of ``least_squares``.
+    alpha : float, optional
+        Prescribed tilt angle (rad) of both thruster groups; the ruddervators δTR, δTL are
+        then unknowns instead of αR, αL.
+    restarts : bool, default True
+        Try a coarse grid of starts when the first solve fails.
+
+    Returns
+    -------
+    Trim
+        The operating point (check ``success``); ``info["z"]`` is the solved unknown vector.
     """
     model = _model(model)
     V = float(V)
@@ -165,7 +240,21 @@ def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, al
 
 
 def trim_hover(model=None, zeta=None) -> Trim:
-    """Hover trim (V = 0); compare with ``THESIS_HOVER``."""
+    """Hover trim (V = 0); compare with ``THESIS_HOVER``.
+
+    Parameters
+    ----------
+    model : TiltrotorModel, optional
+        The model (None: :func:`tiltrotor_model` of Table B.1).
+    zeta : array_like, shape (3,), optional
+        Wind velocity ζ, inertial axes (m/s); default zero (still air).
+
+    Returns
+    -------
+    Trim
+        The hover trim of :func:`trim_level_flight` at V = 0 (thesis 7.3.1: θ = 0.137 rad,
+        αR = αL = −0.137 rad, n = 51.9 rev/s, τs = −0.127 N m).
+    """
     return trim_level_flight(0.0, model=model, zeta=zeta)
 
 
@@ -175,7 +264,24 @@ class HoverWindLimit:
 
     ``speeds``/``trims``: the continuation samples that trimmed within the attitude limit;
     ``limit``: wind speed (m/s) at which the trim leaves it (bisected to ``tol``), ``inf`` if
-    it never does up to ``max_speed``; ``reason``: what happened at the limit."""
+    it never does up to ``max_speed``; ``reason``: what happened at the limit.
+
+    Attributes
+    ----------
+    direction_deg : float
+        Wind direction χ (degrees from inertial x, the direction the air moves).
+    attitude_limit_deg : float
+        Bound (degrees) on max(|φ|, |θ|) a trim may reach.
+    speeds : ndarray, shape (k,)
+        Wind speeds (m/s) of the continuation samples that trimmed within the bound, from 0.
+    trims : list of Trim
+        The hover trims at ``speeds``.
+    limit : float
+        Wind speed (m/s) at which the trim leaves the bound or stops existing (bisected);
+        ``inf`` if it never does up to ``max_speed``.
+    reason : str
+        What happened at the limit (attitude bound passed, or continuation lost).
+    """
 
     direction_deg: float
     attitude_limit_deg: float
@@ -185,7 +291,13 @@ class HoverWindLimit:
     reason: str
 
     def attitude_deg(self) -> np.ndarray:
-        """max(|φ|, |θ|) of each trim, degrees."""
+        """max(|φ|, |θ|) of each trim, degrees.
+
+        Returns
+        -------
+        ndarray, shape (k,)
+            max(|φ|, |θ|) (degrees) of each of ``trims``, in ``speeds`` order.
+        """
         return np.array([np.degrees(np.max(np.abs(t.q[2:4]))) for t in self.trims])
 
 
@@ -204,6 +316,27 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
     aircraft's response can exceed it briefly.  "No trim beyond" means the continuation lost
     the branch, which a Newton failure does not prove; with a tail component in the wind the
     α of (7.39) is discontinuous (flow from behind) and the continuation stops early.
+
+    Parameters
+    ----------
+    direction_deg : float, default 90.0
+        Wind direction χ (degrees from inertial x, the direction the air moves); 90 is a
+        crosswind toward inertial y.
+    attitude_limit_deg : float, default 60.0
+        Bound (degrees, in (0, 90)) on max(|φ|, |θ|) of an acceptable trim.
+    max_speed : float, default 25.0
+        Largest wind speed (m/s) tried.
+    step : float, default 0.5
+        Continuation step (m/s) in wind speed.
+    tol : float, default 0.02
+        Bisection tolerance (m/s) on the limit speed.
+    model : TiltrotorModel, optional
+        The model (None: :func:`tiltrotor_model` of Table B.1).
+
+    Returns
+    -------
+    HoverWindLimit
+        The limit wind speed (m/s), the trims below it and the reason it ends.
     """
     if not np.isfinite(direction_deg):
         raise ValueError(f"direction_deg must be finite, got {direction_deg}")
@@ -250,192 +383,3 @@ def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float =
         speeds, trims = speeds + [lo], trims + [last]
     return HoverWindLimit(float(direction_deg), float(attitude_limit_deg), np.array(speeds), trims,
                           0.5 * (lo + hi), reason)
-
-
-def tilt_reference_polynomial(V) -> np.ndarray:
-    """The mission file's α_ref(Ub) (coefficients of Ub⁵…Ub⁰, Ub clamped to [0, 33.99])."""
-    from sobolev_drake.data import load
-    c = load("tiltrotor_missions")["scenario_2_full_envelope"]["tilt_reference_vs_forward_speed"]["coefficients"]
-    return np.polyval(np.asarray(c, dtype=float), np.clip(np.asarray(V, dtype=float), 0.0, 33.99))
-
-
-def tilt_schedule(speeds=None, model=None):
-    """Level-flight trims over ``speeds`` (default 0, 1, …, 34 m/s), continuation from hover.
-
-    Returns a list of :class:`Trim` (one per speed)."""
-    model = _model(model)
-    speeds = np.arange(0.0, 34.5, 1.0) if speeds is None else np.asarray(speeds, dtype=float)
-    trims, guess = [], None
-    for V in speeds:
-        t = trim_level_flight(V, model=model, guess=guess)
-        trims.append(t)
-        guess = t.info["z"]
-    return trims
-
-
-def write_tilt_schedule_report(out_dir, trims=None):
-    """Markdown + JSON table and PNG plot of the trim tilt schedule vs the mission polynomial.
-
-    Returns (md_path, json_path, png_path)."""
-    import json
-    from pathlib import Path
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    trims = tilt_schedule() if trims is None else trims
-    rows, guess = [], None
-    for t in trims:
-        a_poly = float(tilt_reference_polynomial(t.V))
-        # the same speed with the tilt prescribed by the polynomial: ruddervators trim pitch
-        tp = trim_level_flight(t.V, model=t.info["model"], alpha=a_poly, guess=guess) if t.V > 0 else None
-        guess = tp.info["z"] if tp is not None and tp.success else None
-        rows.append({"V": t.V, "alpha_trim": float(t.q[0]), "alpha_poly": a_poly,
-                     "theta": float(t.q[3]), "n": float(t.n[0]), "tau_s": float(t.tau_s[0]),
-                     "thrust": float(t.thrust[0]), "residual": t.residual_norm, "success": t.success,
-                     "poly_trim_success": bool(tp is not None and tp.success),
-                     "poly_trim_delta_e": float(tp.delta[2]) if tp is not None and tp.success else None,
-                     "poly_trim_theta": float(tp.q[3]) if tp is not None and tp.success else None,
-                     "poly_trim_n": float(tp.n[0]) if tp is not None and tp.success else None})
-
-    def fmt(v, f):
-        return "–" if v is None else format(v, f)
-    md = ["| V [m/s] | α trim [rad] | θ [rad] | n [rev/s] | τs [N m] | f [N] | residual "
-          "| α polynomial [rad] | δe on polynomial tilt [rad] | θ there | n there |",
-          "|---|---|---|---|---|---|---|---|---|---|---|"]
-    md += [f"| {r['V']:.0f} | {r['alpha_trim']:.4f} | {r['theta']:.4f} | {r['n']:.2f} | {r['tau_s']:.4f} | "
-           f"{r['thrust']:.2f} | {r['residual']:.1e} | {r['alpha_poly']:.4f} | "
-           f"{fmt(r['poly_trim_delta_e'], '.3f')} | {fmt(r['poly_trim_theta'], '.3f')} | "
-           f"{fmt(r['poly_trim_n'], '.1f')} |" for r in rows]
-    md_path, json_path, png_path = out / "tilt_schedule.md", out / "tilt_schedule.json", out / "tilt_schedule.png"
-    md_path.write_text("# Tilt-rotor level-flight trims vs the mission tilt polynomial\n\n"
-                       "Left: trims with δ = 0 (unknowns α, φ, θ, n, τs). Right: trims with the tilt "
-                       "prescribed by `tilt_reference_vs_forward_speed` (unknowns δTR, δTL, φ, θ, n, τs); "
-                       "the ruddervator limit is ±0.436 rad.\n\n" + "\n".join(md) + "\n")
-    json_path.write_text(json.dumps(rows, indent=1))
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    V = np.array([r["V"] for r in rows])
-    ax[0].plot(V, [r["alpha_trim"] for r in rows], "o-", label="α trim (ours)")
-    ax[0].plot(V, [r["alpha_poly"] for r in rows], "--", label="mission polynomial")
-    ax[0].plot(V, [r["theta"] for r in rows], ":", label="θ trim")
-    ax[0].plot(V, [np.nan if r["poly_trim_delta_e"] is None else r["poly_trim_delta_e"] for r in rows],
-               "s-", ms=3, label="δe needed on polynomial tilt")
-    ax[0].axhline(-0.4363, color="grey", lw=0.8)
-    ax[0].set_xlabel("forward speed V [m/s]")
-    ax[0].set_ylabel("angle [rad]")
-    ax[0].legend()
-    ax[0].grid(True)
-    ax[1].plot(V, [r["n"] for r in rows], "o-")
-    ax[1].set_xlabel("forward speed V [m/s]")
-    ax[1].set_ylabel("propeller speed n [rev/s]")
-    ax[1].grid(True)
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
-    plt.close(fig)
-    return md_path, json_path, png_path
-
-
-@dataclass
-class Linearization:
-    """ẋ = A Δx + B Δu + D Δζ of (7.57), thesis order.
-
-    Δx = [Δq (8); Δq̇ (8); ∫Δψ ∫Δx ∫Δy ∫Δz], Δu = [ΔnR ΔnL ΔτsR ΔτsL] (+ [Δδ] with
-    ``include_surfaces``), Δζ = wind (inertial, m/s)."""
-
-    A: np.ndarray
-    B: np.ndarray
-    D: np.ndarray
-    trim: Trim
-    state_names: list
-    input_names: list
-
-    def __iter__(self):
-        """``A, B, D = linearize(...)`` unpacks the matrices."""
-        return iter((self.A, self.B, self.D))
-
-
-class _DerivativeEvaluator:
-    """Time derivatives of the Drake diagram (plant + TiltrotorForces) at thesis-ordered inputs."""
-
-    def __init__(self, params=None):
-        from pydrake.systems.framework import DiagramBuilder
-        b = DiagramBuilder()
-        self.h = add_tiltrotor(b, params)
-        self.diagram = b.Build()
-        self.ctx = self.diagram.CreateDefaultContext()
-        self.fctx = self.h.forces.GetMyMutableContextFromRoot(self.ctx)
-        self.deriv = self.diagram.AllocateTimeDerivatives()
-
-    def __call__(self, x, n, tau_s, delta, zeta):
-        m = self.h.model
-        self.h.set_state(self.ctx, self.diagram, x[:8], x[8:16])
-        self.h.propeller_speed.FixValue(self.fctx, n)
-        self.h.servo_torque.FixValue(self.fctx, tau_s)
-        self.h.surface_deflection.FixValue(self.fctx, delta)
-        self.h.wind.FixValue(self.fctx, zeta)
-        self.diagram.CalcTimeDerivatives(self.ctx, self.deriv)
-        d = self.deriv.CopyToVector()
-        return np.concatenate([m.to_thesis(d[:8]), m.to_thesis(d[8:])])
-
-
-_EVALUATORS: dict = {}
-
-
-def linearize(trim: Trim | None = None, *, params=None, include_surfaces=False, eps=1e-6) -> Linearization:
-    """Linearize the Drake diagram about ``trim`` (default: hover trim) with the integral states
-    of (7.57).  Central differences of ``CalcTimeDerivatives`` (see module docstring).
-    ``params``: default the parameters of the model the trim was computed on."""
-    trim = trim_hover() if trim is None else trim
-    params = trim.info["model"].params if params is None else params
-    key = _params_key(params)           # one Drake diagram per parameter value
-    if key not in _EVALUATORS:
-        _EVALUATORS[key] = _DerivativeEvaluator(params)
-    f = _EVALUATORS[key]
-    x0 = np.concatenate([trim.q, trim.qdot])
-    u0 = trim.u if include_surfaces else trim.u[:4]
-    nu = u0.size
-
-    def call(x, u, zeta):
-        delta = u[4:8] if include_surfaces else trim.delta
-        return f(x, u[0:2], u[2:4], delta, zeta)
-
-    A16 = np.zeros((16, 16))
-    B16 = np.zeros((16, nu))
-    D16 = np.zeros((16, 3))
-    for j in range(16):
-        e = np.zeros(16)
-        e[j] = eps
-        A16[:, j] = (call(x0 + e, u0, trim.zeta) - call(x0 - e, u0, trim.zeta)) / (2 * eps)
-    for j in range(nu):
-        e = np.zeros(nu)
-        e[j] = eps * max(1.0, abs(u0[j]))
-        B16[:, j] = (call(x0, u0 + e, trim.zeta) - call(x0, u0 - e, trim.zeta)) / (2 * e[j])
-    for j in range(3):
-        e = np.zeros(3)
-        e[j] = eps
-        D16[:, j] = (call(x0, u0, trim.zeta + e) - call(x0, u0, trim.zeta - e)) / (2 * eps)
-    A = np.zeros((20, 20))
-    A[:16, :16] = A16
-    A[16:20, [4, 5, 6, 7]] = np.eye(4)       # d/dt ∫Δψ, ∫Δx, ∫Δy, ∫Δz
-    B = np.zeros((20, nu))
-    B[:16] = B16
-    D = np.zeros((20, 3))
-    D[:16] = D16
-    from sobolev_drake.tiltrotor.params import ACTUATOR_NAMES, DOF_NAMES
-    states = list(DOF_NAMES) + [f"d{n}" for n in DOF_NAMES] + ["int_psi", "int_x", "int_y", "int_z"]
-    inputs = ["n_PR", "n_PL", "tau_sR", "tau_sL"] + (list(ACTUATOR_NAMES[4:]) if include_surfaces else [])
-    return Linearization(A=A, B=B, D=D, trim=trim, state_names=states, input_names=inputs)
-
-
-if __name__ == "__main__":  # python -m sobolev_drake.tiltrotor.trim OUT_DIR
-    import sys
-
-    _trims = tilt_schedule()
-    _h = _trims[0]
-    print(f"hover trim: θ = {_h.q[3]:.5f}, αR = αL = {_h.q[0]:.5f}, n = {_h.n[0]:.3f} rev/s, "
-          f"τs = {_h.tau_s[0]:.5f} N m, residual {_h.residual_norm:.1e}  (thesis {THESIS_HOVER})")
-    for path in write_tilt_schedule_report(sys.argv[1] if len(sys.argv) > 1 else "tiltrotor_trim_out", _trims):
-        print("wrote", path)

@@ -91,7 +91,8 @@ def test_initial_error_literal_noise_and_bad_options(tmp_path):
         hl.run(tmp_path, smoke=True, regularization="h2")
     with pytest.raises(ValueError, match="crossflow must be one of"):
         hl.run(tmp_path, smoke=True, crossflow="cosine")
-    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.linearization import linearize
+    from sobolev_drake.tiltrotor.trim import trim_hover
     with pytest.raises(ValueError, match="initial_state"):
         ld.design(linearize(trim_hover()), "W∞", initial_state=np.zeros(16))
 
@@ -125,7 +126,8 @@ def smoke(tmp_path_factory):
 def test_smoke_design_certified_and_stable(smoke):
     """W∞ state feedback: certificate passed; re-checked here on the linearization itself
     (Hurwitz closed loop, ‖T_ζz‖∞ by Hamiltonian bisection and by a frequency sweep ≤ γ)."""
-    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.linearization import linearize
+    from sobolev_drake.tiltrotor.trim import trim_hover
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.synthesis.certificates import hinf_norm, hinf_norm_sweep
 
@@ -197,7 +199,8 @@ def test_bad_design_name_is_rejected(tmp_path):
 def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
     """‖T_vz‖∞ (augmented plant) = sup_ω σ̄(T_ζz(jω) H_vK(jω)): the series connection evaluated
     pointwise from the un-augmented closed loop and the filter (7.58)–(7.60)."""
-    from sobolev_drake.tiltrotor.trim import linearize, trim_hover
+    from sobolev_drake.tiltrotor.linearization import linearize
+    from sobolev_drake.tiltrotor.trim import trim_hover
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.systems.wind import von_karman_state_space
 

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from sobolev_drake.tiltrotor.trim import (THESIS_HOVER, balance, linearize, tilt_reference_polynomial,
-                                                 tilt_schedule, trim_hover, trim_level_flight,
-                                                 write_tilt_schedule_report)
+from sobolev_drake.tiltrotor.linearization import linearize
+from sobolev_drake.tiltrotor.tilt_schedule import (tilt_reference_polynomial, tilt_schedule,
+                                                   write_tilt_schedule_report)
+from sobolev_drake.tiltrotor.trim import THESIS_HOVER, balance, trim_hover, trim_level_flight
 from sobolev_drake.tiltrotor.input_affine import generalized_force
 
 
