@@ -26,7 +26,8 @@ from pydrake.systems.primitives import AffineSystem, Demultiplexer
 from scipy.linalg import solve_continuous_are
 
 from sobolev_drake.tiltrotor.plant import add_tiltrotor
-from sobolev_drake.tiltrotor.trim import linearize, trim_hover
+from sobolev_drake.tiltrotor.linearization import linearize
+from sobolev_drake.tiltrotor.trim import trim_hover
 from sobolev_drake.tiltrotor.aerodynamics import AerodynamicSurfaces
 from sobolev_drake.tiltrotor.propulsion import PropellerForces
 
@@ -121,8 +122,10 @@ class _VectorizedGeneralized(_LoadsBase):
     def _calc(self, context, output):
         x = self._x.Eval(context)
         q, qd = x[:8], x[8:]
-        tau = (self.prop.propeller_force_vectorized(q, qd, self.zeta, self.n)
-               + self.aero.generalized_force_vectorized(q, qd, self.zeta, np.zeros(4)))
+        f, t, _, _ = self.prop.thrust_and_torque(q, qd, self.zeta, self.n)
+        Gf, Gt = self.prop.unit_columns(q)
+        passive, _ = self.aero.terms(q, qd, self.zeta)          # δ = 0
+        tau = Gf @ f + Gt @ t + passive
         output.SetFromVector(self.model.force_to_drake(tau))
 
 

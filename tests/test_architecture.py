@@ -129,3 +129,18 @@ def test_no_module_imports_an_experiment():
     edges, _ = imports(mods)
     offenders = {m: sorted(ts & registered) for m, ts in edges.items() if ts & registered}
     assert offenders == {}, offenders
+
+
+def test_experiment_modules_are_short_compositions():
+    # an experiment is configuration, design, flights, scoring and claims; anything longer has
+    # library pieces in it (docs/design.md, "Experiments")
+    long = {p.name: n for p in (PACKAGE / "experiments").glob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 200}
+    assert long == {}, long
+
+
+def test_library_modules_stay_readable():
+    # one concern per module: past ~500 lines a module usually holds two
+    long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 520}
+    assert long == {}, long

@@ -1,8 +1,10 @@
 """Every public name has a numpydoc docstring that documents every argument.
 
-The public names are ``sobolev_drake.__all__`` and the ``__all__`` of ``synthesis``,
-``systems`` and ``models``; a public module among them (``norms``, ``viz``, ``regions``) adds
-its own ``__all__`` (or, lacking one, the functions and classes it defines).  For each name:
+The public names are ``sobolev_drake.__all__``, the ``__all__`` of ``synthesis``, ``systems``
+and ``models``, and that of every public module of ``tiltrotor`` and ``rigs`` and of the
+toolkit modules (``harness``, ``tuning``, ``norms``, ``report``, ``viz``, ``simulation``); a
+module among them adds its own ``__all__`` (or, lacking one, the functions and classes it
+defines).  For each name:
 
 * functions, classes, their public methods and properties have a docstring (a property may
   instead be listed in the class's ``Attributes`` section);
@@ -25,6 +27,7 @@ import ast
 import dataclasses
 import importlib
 import inspect
+import pkgutil
 import re
 import textwrap
 import types
@@ -32,6 +35,12 @@ import types
 PACKAGE = "sobolev_drake"
 API_MODULES = ("sobolev_drake", "sobolev_drake.synthesis", "sobolev_drake.systems",
                "sobolev_drake.models")
+# library modules outside those namespaces whose ``__all__`` is public too: the tilt-rotor
+# package, the rigs and the experiment toolkit
+LIBRARY_PACKAGES = ("sobolev_drake.tiltrotor", "sobolev_drake.rigs")
+LIBRARY_MODULES = ("sobolev_drake.harness", "sobolev_drake.tuning", "sobolev_drake.norms",
+                   "sobolev_drake.report", "sobolev_drake.viz", "sobolev_drake.plots",
+                   "sobolev_drake.recording_html", "sobolev_drake.simulation")
 
 _UNDERLINE = re.compile(r"^\s*-{3,}\s*$")
 
@@ -175,6 +184,15 @@ def public_objects():
         module = importlib.import_module(module_name)
         for name in module.__all__:
             add(f"{module_name}.{name}", getattr(module, name))
+    library = list(LIBRARY_MODULES)
+    for package in LIBRARY_PACKAGES:
+        path = importlib.import_module(package).__path__
+        library += [f"{package}.{m.name}" for m in pkgutil.iter_modules(path)
+                    if not m.name.startswith("_")]
+    for module_name in library:
+        module = importlib.import_module(module_name)
+        for name, obj in _module_members(module):
+            add(name, obj)
     return out
 
 

@@ -1,10 +1,13 @@
 """Optional compiled kernels of the tilt-rotor hot paths (plain C, built at install time).
 
 Each C file ``native/<name>.c`` is the extension module ``sobolev_drake.native._<name>``; each
-kernel reproduces a pure-Python reference implementation of the library operation for operation
-(``tests/test_native_*.py`` compare them), except ``rnea`` (inverse dynamics of a tree of
+kernel reproduces a Python implementation of the library operation for operation
+(``tests/native/test_native_*.py`` compare them), except ``rnea`` (inverse dynamics of a tree of
 revolute and prismatic joints), whose reference is Drake's CalcInverseDynamics, matched to
-rounding.  :func:`kernel` returns the module or None, so callers fall back to the reference when
+rounding.  ``forces`` mirrors the scalar force tier of ``tiltrotor.propulsion``,
+``tiltrotor.aerodynamics`` and ``tiltrotor.input_affine``, ``bls`` the Python tier of
+``systems.bounded_ls``; ``benchmarks/speed_tiers.py`` times each kernel against its Python
+paths.  :func:`kernel` returns the module or None, so callers fall back to the reference when
 it was not built (no C compiler at install time) or is switched off: ``SOBOLEV_DRAKE_NATIVE=0``
 in the environment (read at import) or :func:`set_enabled` / :func:`disabled` at run time (A/B
 comparisons, debugging).  Systems built while the kernels were on keep using them.

@@ -17,12 +17,12 @@
  * are only determined to its forward-error bound and may differ by that much.
  *
  * solve() returns what _bls_fast_python returns ((tau, info) or None), or NotImplemented when
- * it leaves the decision to the Python reference: inputs it does not read directly (warm
+ * it leaves the decision to the Python tier: inputs it does not read directly (warm
  * starts that are not plain numeric ndarrays, float64 arrays not exported as format "d"),
  * values that may overflow (the Python code then computes with inf/nan or raises), an exactly
  * singular pivot (dgesv fails: Python raises LinAlgError) or a Jacobi sweep limit.  All of
- * these are outside the controller's normal operation.  tests/test_native_bls.py compares the
- * kernel with the Python reference.
+ * these are outside the controller's normal operation.  tests/native/test_native_bls.py
+ * compares the kernel with the Python tier.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>

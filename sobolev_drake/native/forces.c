@@ -1,16 +1,16 @@
 /*
  * Compiled kernel of the tilt-rotor force model: sobolev_drake.native._forces.
  *
- * Mirrors, operation for operation, the Python scalar paths it replaces:
- *   body_kinematics_scalar, body_wrench_scalar   (systems/propulsion.py)
+ * Mirrors, operation for operation, the Python scalar tier it replaces:
+ *   body_kinematics_scalar, body_wrench_scalar   (tiltrotor/propulsion.py)
  *   PropulsionModel.rotors_scalar / propeller_force_scalar, PropellerCoefficients.ct_cq_scalar
- *   AeroModel.loads_scalar (with the deflection columns)   (systems/aerodynamics.py)
- *   TiltrotorForces.thesis_force                          (models/tiltrotor.py)
- *   affine_terms_scalar                                   (systems/input_affine.py)
+ *   AeroModel.loads_scalar (with the deflection columns)   (tiltrotor/aerodynamics.py)
+ *   TiltrotorForces.thesis_force                          (tiltrotor/plant.py)
+ *   affine_terms_scalar_python                            (tiltrotor/input_affine.py)
  * Same expressions in the same order (and -ffp-contract=off), so results agree with Python to
  * the last bit except where Python's math.hypot and libm's hypot round differently.
- * tests/test_native_forces.py compares both.  Constants come from Python (make_model), so the
- * parameter handling, the tables and their validation stay in one place.
+ * tests/native/test_native_forces.py compares both.  Constants come from Python (make_model),
+ * so the parameter handling, the tables and their validation stay in one place.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -646,7 +646,7 @@ static double thrust_error(const Model *m, double kf4, const double *c, double v
 static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (model, f[2], v_xz[2], φ[2], n_guess[2], iterations, rtol) -> list 2 | None:
-     * newton_speed_for_thrust (systems/tiltrotor_law.py) */
+     * newton_speed_for_thrust (tiltrotor/law.py) */
     if (nargs != 7) {
         PyErr_SetString(PyExc_TypeError, "newton_speed takes 7 arguments");
         return NULL;
@@ -700,7 +700,7 @@ static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize
 static PyObject *py_surface_bounds(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (v_air[4], s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi) -> (lo list 8, hi list 8):
-     * the per-surface branch of tiltrotor_bounds (systems/allocation.py), sigmf (7.89) */
+     * the per-surface branch of tiltrotor_bounds (tiltrotor/allocation.py), sigmf (7.89) */
     if (nargs != 9) {
         PyErr_SetString(PyExc_TypeError, "surface_bounds takes 9 arguments");
         return NULL;
@@ -733,7 +733,7 @@ static PyObject *py_surface_bounds(PyObject *self, PyObject *const *args, Py_ssi
 static PyObject *py_saturation_flags(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (tau[8], lo[8], up[8], rel_tol, min_width) -> list 8 of ±1/0: the per-sample branch of
-     * saturation_flags (systems/tiltrotor_controller.py) */
+     * saturation_flags (tiltrotor/controller.py) */
     if (nargs != 5) {
         PyErr_SetString(PyExc_TypeError, "saturation_flags takes 5 arguments");
         return NULL;

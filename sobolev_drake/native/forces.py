@@ -26,10 +26,8 @@ def force_model(prop, aero, *, perm16=None, perm8_inv=None, cos_beta_servo=None)
         return None
     if prop.params is not aero.params and prop.params != aero.params:
         raise ValueError("prop and aero must be built from the same TiltrotorParams")
-    if aero._fast is None:
-        aero._prepare_fast()
     (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep,
-     mirror) = aero._fast
+     mirror) = aero._scalar_constants
     p, c = prop.params, prop.coef
     terms = [v for (i, j), a, b in c._terms for v in (i, j, a, b)]
     flat = lambda tab: [x for surface in tab for row in surface for x in row]   # noqa: E731

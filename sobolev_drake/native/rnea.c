@@ -19,7 +19,7 @@
  * Joint of body B with parent body P: frame F fixed in P (pose X_PF), frame M fixed in B (pose
  * X_BM), X_FM(q) a rotation by q about the unit axis a (revolute) or the translation a q
  * (prismatic), a expressed in F (equal in M).  Equal to Drake to rounding (different operation
- * order); tests/test_native_rnea.py compares both.
+ * order); tests/native/test_native_rnea.py compares both.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>

@@ -189,16 +189,29 @@ def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_s
 
     Parameters
     ----------
-    B : (n, m) input matrix; u : (n,) desired generalized input u*; lo, hi : (m,) finite bounds
-        (scalars broadcast).  lo == hi fixes a variable.
-    regularization : relative Tikhonov weight ε (module docstring); 0 disables it.
-    warm_start : optional guess of the active set (the ``active`` array of a previous call);
-        only affects speed, not the solution.
-    method : ``"pdas"`` (default: primal–dual active set, pure numpy) or ``"osqp"`` (Drake's
-        OSQP, then the exact solve on its active set, KKT-checked; PDAS if the check fails).
-        Both fall back to a primal active-set method and finally to scipy's BVLS.
-    return_info : also return a dict with ``residual`` ‖u − Bτ̄‖, ``active`` (−1 lower, +1 upper,
-        0 free per variable), ``iterations`` and ``method``.
+    B : array_like, shape (n, m)
+        Input matrix.
+    u : array_like, shape (n,)
+        Desired generalized input u*.
+    lo, hi : array_like, shape (m,) or float
+        Finite bounds (scalars broadcast); lo == hi fixes a variable.
+    regularization : float
+        Relative Tikhonov weight ε (module docstring); 0 disables it.
+    warm_start : array_like, optional
+        Guess of the active set (the ``active`` array of a previous call); only affects speed,
+        not the solution.
+    method : {"pdas", "osqp"}
+        ``"pdas"`` (default: primal–dual active set, pure numpy) or ``"osqp"`` (Drake's OSQP,
+        then the exact solve on its active set, KKT-checked; PDAS if the check fails).  Both
+        fall back to a primal active-set method and finally to scipy's BVLS.
+    return_info : bool
+        Also return a dict with ``residual`` ‖u − Bτ̄‖, ``active`` (−1 lower, +1 upper, 0 free
+        per variable), ``iterations`` and ``method``.
+
+    Returns
+    -------
+    ndarray, shape (m,), or (ndarray, dict)
+        τ̄, with the info dict when ``return_info``.
     """
     if method == "pdas" and isinstance(regularization, float) and 0.0 < regularization < math.inf:
         out = _bls_fast(B, u, lo, hi, regularization, warm_start)
@@ -289,8 +302,8 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
     """The default path of :func:`bounded_least_squares` (PDAS, ε > 0, every lo < hi, float64
     arrays): the compiled kernel ``native/bls.c`` when it is built and enabled, else
     :func:`_bls_fast_python`, which the kernel mirrors step by step (same results to
-    rounding).  The kernel declines (NotImplemented) the rare inputs it leaves to the Python
-    reference (see bls.c: e.g. a warm start given as a list, values that may overflow)."""
+    rounding).  The kernel declines (NotImplemented) the rare inputs it leaves to that Python
+    tier (see bls.c: e.g. a warm start given as a list, values that may overflow)."""
     k = kernel("bls")
     if k is not None:
         out = k.solve(B, u, lo, hi, reg, warm_start, max_iter)
@@ -300,10 +313,13 @@ def _bls_fast(B, u, lo, hi, reg, warm_start, max_iter=25):
 
 
 def _bls_fast_python(B, u, lo, hi, reg, warm_start, max_iter=25):
-    """Reference implementation of :func:`_bls_fast` (the compiled kernel mirrors it), with
-    the 8-element vector work on Python floats and numpy kept for the matrix products and
-    LAPACK solves: the same algebra as ``_box_qp_pdas`` + ``_polish`` in fewer, cheaper calls
-    (a controller allocates at every sample).  Returns (τ̄, info), or None when
+    """Python tier of the default path, kept beside the general path (``_box_qp_pdas`` +
+    ``_polish``, the readable reference) because ``benchmarks/speed_tiers.py`` measures it
+    ≈ 2× faster (warm-started and cold); the compiled kernel mirrors it step by step.
+
+    The vector work is on Python floats, numpy is kept for the matrix products and LAPACK
+    solves: the same algebra as the general path in fewer, cheaper calls (a controller
+    allocates at every sample).  Returns (τ̄, info), or None when
     the problem is not of that kind, fails a check or PDAS does not settle — the general path
     then handles it (and raises the descriptive errors).
 

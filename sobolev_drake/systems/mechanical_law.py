@@ -15,11 +15,11 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from sobolev_drake.models.base import MechanicalModel, check_vector
-from sobolev_drake.native.rnea import cached_tree_kernel
+from sobolev_drake.models.base import check_vector
 from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.partition import Partition, check_actuation
+from sobolev_drake.systems.plant_dynamics import PlantDynamics
 from sobolev_drake.validation import bounds_pair, real_matrix
 
 __all__ = ["SobolevLaw", "HinfLaw", "MechanicalLaw"]
@@ -130,9 +130,7 @@ class MechanicalLaw:
         self.model, self.partition, self.law = model, partition, law
         self.n = model.n
         self.allocation = allocation
-        cls = type(model)
-        self._fast = all(getattr(cls, k) is getattr(MechanicalModel, k) for k in ("M", "Cqdot", "g"))
-        self._perm = self._permutation(getattr(model, "T", None)) if self._fast else None
+        self.dynamics = PlantDynamics(model)
         self._cache = {}
         p = partition
         self.ic = np.array(p.controlled, dtype=int)
@@ -160,7 +158,7 @@ class MechanicalLaw:
                   real_matrix("operating_points", np.atleast_2d(operating_points), (None, self.n)))
         self.operating_points = points
         if allocation is None:
-            check_actuation(model, p, self._B, points)
+            check_actuation(model, p, self.dynamics.input_matrix, points)
         if p.mode == "reduced" and self.num_inputs != self.nc:
             raise ValueError(f"reduced model needs as many inputs as controlled DOF (Assumption 5):"
                              f" {self.num_inputs} inputs, {self.nc} controlled DOF")
@@ -216,144 +214,7 @@ class MechanicalLaw:
         return q[tr] - qr, qdot[tr] - qdr, qddr
 
     def _h(self, q, qdot):
-        return self._dynamics(q, qdot)[1]
-
-    def _dynamics(self, q, qdot):
-        """(M(q), h = C q̇ + g + friction): one context update when the model uses the base
-        class' Drake evaluations (the common case), else the model's own methods.  The last
-        result is cached (the LeafSystem asks for u and u* at the same state); callers must not
-        mutate the returned arrays."""
-        key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
-        if self._cache.get("dyn_key") == key:
-            return self._cache["dyn"]
-        out = self._dynamics_eval(q, qdot)
-        self._cache["dyn_key"], self._cache["dyn"] = key, out
-        return out
-
-    def inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
-        """M(q) acc + C(q, q̇) q̇ + g(q) (+ friction): the generalized force for a desired
-        acceleration (full-state form of (5.26)); M, h cached per (q, q̇).
-
-        Parameters
-        ----------
-        q, qdot : array_like, shape (n,)
-            Generalized coordinates and velocities, thesis order.
-        acc : array_like, shape (n,)
-            Desired acceleration q̈.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Generalized force, thesis order.
-        """
-        M, h = self._dynamics(q, qdot)
-        return M @ acc + h
-
-    def recursive_inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
-        """:meth:`inverse_dynamics` by a recursive Newton–Euler pass (gravity through the
-        plant's force elements, no mass matrix): equal to rounding, much cheaper when only the
-        force is needed once per state (the tilt-rotor law's u* per sample).  Models without the
-        permutation fast path (own M, C q̇, g) use :meth:`inverse_dynamics`.  A per-sample path:
-        the caller validates q, q̇ and ``acc`` (the laws do, once per sample).
-
-        The pass is the compiled kernel ``native/rnea.c`` (≈ 3 µs a call hot, 5–8 µs in the
-        mission loop) when it is built and switched on and covers the plant (see
-        ``sobolev_drake.native.rnea``), else Drake's CalcInverseDynamics
-        (:meth:`recursive_inverse_dynamics_python`: ≈ 12 µs hot, 30–45 µs in the loop, still
-        ≈ 3× cheaper than the mass-matrix path).
-
-        Parameters
-        ----------
-        q, qdot : ndarray, shape (n,)
-            Generalized coordinates and velocities, thesis order (validated by the caller).
-        acc : ndarray, shape (n,)
-            Desired acceleration q̈.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Generalized force, thesis order (friction included).
-        """
-        if self._perm is None:
-            return self.inverse_dynamics(q, qdot, acc)
-        compiled = cached_tree_kernel(self._cache, self.model, self._perm[0][:self.n])
-        if compiled is None:
-            return self.recursive_inverse_dynamics_python(q, qdot, acc)
-        tau = np.array(compiled[0].inverse_dynamics(compiled[1], q, qdot, acc))   # thesis order
-        return tau if self.model.frictionless else tau + self.model.friction(qdot)
-
-    def recursive_inverse_dynamics_python(self, q, qdot, acc) -> np.ndarray:
-        """:meth:`recursive_inverse_dynamics` by Drake (the compiled kernel's reference).
-
-        Requires a permutation coordinate map (``ValueError`` otherwise).
-
-        Parameters
-        ----------
-        q, qdot : ndarray, shape (n,)
-            Generalized coordinates and velocities, thesis order.
-        acc : array_like, shape (n,)
-            Desired acceleration q̈.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-            Generalized force, thesis order (friction included).
-        """
-        if self._perm is None:
-            raise ValueError("recursive_inverse_dynamics_python needs a permutation coordinate map")
-        m = self.model
-        plant, ctx = m.plant, m.context
-        to_drake, to_thesis, _ = self._perm
-        plant.SetPositionsAndVelocities(ctx, np.concatenate([q, qdot])[to_drake])
-        forces = self._cache.get("mbf")
-        if forces is None:
-            from pydrake.multibody.tree import MultibodyForces
-            forces = self._cache["mbf"] = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(ctx, forces)     # gravity (and any force elements)
-        tau = plant.CalcInverseDynamics(ctx, np.asarray(acc, float)[to_drake[:self.n]], forces)
-        return tau[to_thesis] if m.frictionless else tau[to_thesis] + m.friction(qdot)
-
-    def _B(self, q):
-        key = np.asarray(q, float).tobytes()
-        if self._cache.get("B_key") != key:
-            self._cache["B_key"], self._cache["B"] = key, np.asarray(self.model.B(q), dtype=float)
-        return self._cache["B"]
-
-    @staticmethod
-    def _permutation(T):
-        """(index of [q; q̇] in Drake order, index of thesis order into Drake vectors, np.ix_
-        of the thesis-order mass matrix) when ``T`` (q_drake = T q_thesis) is a permutation
-        matrix with q̇ = v, else None."""
-        if T is None:
-            return None
-        T = np.asarray(T, dtype=float)
-        n = T.shape[0]
-        if (T.ndim != 2 or T.shape != (n, n) or not np.all((T == 0.0) | (T == 1.0))
-                or not np.all(T.sum(axis=0) == 1.0) or not np.all(T.sum(axis=1) == 1.0)):
-            return None
-        to_thesis = np.argmax(T, axis=0)          # q_thesis[j] = q_drake[to_thesis[j]]
-        to_drake = np.argsort(to_thesis)          # q_drake[i] = q_thesis[to_drake[i]]
-        return (np.concatenate([to_drake, to_drake + n]), to_thesis, np.ix_(to_thesis, to_thesis))
-
-    def _dynamics_eval(self, q, qdot):
-        m = self.model
-        if self._perm is not None:
-            # T is a permutation: index arrays give bit-identical results to the products
-            # below at a fraction of the per-sample cost (one state write, no 8×8 matmuls)
-            plant, ctx = m.plant, m.context
-            to_drake, to_thesis, ix = self._perm
-            plant.SetPositionsAndVelocities(ctx, np.concatenate([q, qdot])[to_drake])
-            M = plant.CalcMassMatrix(ctx)[ix]
-            h = (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))[to_thesis]
-        elif self._fast:
-            plant, ctx, T = m.plant, m.context, m.T
-            plant.SetPositions(ctx, T @ q)
-            plant.SetVelocities(ctx, T @ qdot)
-            M = T.T @ plant.CalcMassMatrix(ctx) @ T
-            h = T.T @ (plant.CalcBiasTerm(ctx) - plant.CalcGravityGeneralizedForces(ctx))
-        else:
-            M, h = m.M(q), m.Cqdot(q, qdot) + m.g(q)
-        return M, h + m.friction(qdot)
+        return self.dynamics.mass_and_bias(q, qdot)[1]
 
     def _parse(self, q, qdot, e_int):
         return check_vector("q", q, self.n), check_vector("qdot", qdot, self.n), check_vector("e_int", e_int, self.nc)
@@ -399,9 +260,10 @@ class MechanicalLaw:
 
     def desired_acceleration_scalar(self, q, qdot, e_int, reference) -> list:
         """:meth:`desired_acceleration` of the Sobolev law on lists of Python floats (q, q̇: n,
-        ∫e: n_c, reference: 3 n_ref; validated by the caller), returned as a list: for a handful
-        of DOF the products in floats cost a fraction of the numpy calls (per-sample path of
-        the tilt-rotor law).  Equal to :meth:`desired_acceleration` to rounding (tested).
+        ∫e: n_c, reference: 3 n_ref; validated by the caller), as a list: the tilt-rotor law's
+        per-sample path (no kernel).  Only ≈ 1.4× faster than the numpy form
+        (``benchmarks/speed_tiers.py``) but kept: it equals it to rounding (tested), not to the
+        bit, and the tilt-rotor results would move by that rounding.
 
         Parameters
         ----------
@@ -467,12 +329,12 @@ class MechanicalLaw:
         key = (np.asarray(q, float).tobytes(), np.asarray(qdot, float).tobytes())
         if self._cache.get("red_key") == key:
             return self._cache["red"]
-        M, h = self._dynamics(q, qdot)
+        M, h = self.dynamics.mass_and_bias(q, qdot)
         ic, iu = self.ic, self.iu
         Mcu = M[ic][:, iu]
         X = Mcu @ np.linalg.inv(M[iu][:, iu])           # Mcu Muu⁻¹
         Mbar = M[ic][:, ic] - X @ M[iu][:, ic]
-        B = self._B(q)
+        B = self.dynamics.input_matrix(q)
         out = (Mbar, B[ic] - X @ B[iu], h[ic] - X @ h[iu], X)
         self._cache["red_key"], self._cache["red"] = key, out
         return out
@@ -522,7 +384,7 @@ class MechanicalLaw:
                 Mbar, _, hbar, _ = self.reduced_model(q, qdot)
                 out = Mbar @ acc[self.ic] + hbar
             else:
-                out = self.inverse_dynamics(q, qdot, acc)
+                out = self.dynamics.inverse_dynamics(q, qdot, acc)
         else:
             out = self._hinf_force(q, qdot, e_int, reference)
         if extra is not None:
@@ -535,7 +397,7 @@ class MechanicalLaw:
         w = np.zeros(self.n)
         w[idx] = sigma / g.T11                      # q̇ − v = T11⁻¹σ
         Cw = self.model.C_times(q, qdot, w)
-        M, h = self._dynamics(q, qdot)
+        M, h = self.dynamics.mass_and_bias(q, qdot)
         acc = np.zeros(self.n)
         acc[idx] = a
         extra = np.zeros(self.n)
@@ -573,7 +435,7 @@ class MechanicalLaw:
         if self.partition.mode == "reduced":
             _, Bmat, _, _ = self.reduced_model(q, qdot)
         else:
-            Bmat = self._B(q)
+            Bmat = self.dynamics.input_matrix(q)
         if self.lower is not None or self.upper is not None:
             lo = -np.inf * np.ones(self.num_inputs) if self.lower is None else self.lower
             hi = np.inf * np.ones(self.num_inputs) if self.upper is None else self.upper

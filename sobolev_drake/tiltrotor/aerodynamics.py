@@ -75,6 +75,11 @@ class AeroTables:
 
     ``alpha_tab[k] = [lift, drag_alpha, pitch_moment]`` and ``beta_tab[k] = [side_force,
     drag_beta, yaw_moment]`` of surface ``SURFACES[k]``, sampled at −90° … 90° every 0.5°.
+
+    Parameters
+    ----------
+    data : dict, optional
+        Contents of ``data/tiltrotor_aero_tables.json`` (read when omitted).
     """
 
     def __init__(self, data: dict | None = None):
@@ -92,14 +97,41 @@ class AeroTables:
         self._rows = np.arange(6)
 
     def lookup(self, tab, angle):
-        """Interpolate the (6, 3, N) table ``tab`` at one angle (rad) per surface → (6, 3)."""
+        """Interpolate a stacked table at one angle per surface (linear, clamped to ±90°).
+
+        Parameters
+        ----------
+        tab : ndarray, shape (6, 3, N)
+            ``alpha_tab`` or ``beta_tab``.
+        angle : ndarray, shape (6,)
+            Table argument per surface (rad, NED convention).
+
+        Returns
+        -------
+        ndarray, shape (6, 3)
+            The three coefficients of each surface.
+        """
         x = (np.clip(angle, self.start, -self.start) - self.start) / self.step
         i = np.minimum(x.astype(int), self.samples - 2)
         fr = (x - i)[:, None]
         return tab[self._rows, :, i] * (1.0 - fr) + tab[self._rows, :, i + 1] * fr
 
     def coefficients(self, name: str, alpha_ned=None, beta_ned=None):
-        """Scalar look-up for tests and reports, e.g. ``coefficients("wing", alpha_ned=0.1)``."""
+        """Scalar look-up for tests and reports, e.g. ``coefficients("wing", alpha_ned=0.1)``.
+
+        Parameters
+        ----------
+        name : str
+            Component: ``"fuselage"``, ``"wing"``, ``"tail"`` or ``"interference"``.
+        alpha_ned, beta_ned : float, optional
+            Table arguments α_NED and β_NED (rad); 0 when omitted.
+
+        Returns
+        -------
+        dict
+            ``lift``, ``drag_alpha``, ``pitch_moment`` (at α_NED) and ``side_force``,
+            ``drag_beta``, ``yaw_moment`` (at β_NED).
+        """
         k = [_COMPONENT[s] for s in SURFACES].index(name)
         a = self.lookup(self.alpha_tab, np.full(6, 0.0 if alpha_ned is None else alpha_ned))[k]
         b = self.lookup(self.beta_tab, np.full(6, 0.0 if beta_ned is None else beta_ned))[k]
@@ -108,11 +140,23 @@ class AeroTables:
 
 
 class AeroModel:
-    """Numpy core of the aerodynamic generalized forces (affine in the surface deflections).
+    """The aerodynamic generalized forces (affine in the surface deflections), in two forms.
 
-    Written for speed (it runs at every derivative evaluation): scalar-math rotations, hand-
-    written cross products, flattened tables; ``tests/tiltrotor/test_tiltrotor_forces.py`` checks it
-    against Drake's Jacobians and a hand computation."""
+    * the numpy reference, written like the equations: :meth:`surface_air_data`,
+      :meth:`surface_loads` and :meth:`terms` (``tests/tiltrotor/test_tiltrotor_forces.py``
+      checks it against Drake's Jacobians and a hand computation);
+    * the scalar tier :meth:`loads_scalar` (and :meth:`generalized_force` on it): the same loads
+      in Python floats, which the plant evaluates at every derivative when the compiled kernel
+      is not built, and the trims and the standalone force systems always (paths the kernel does
+      not cover); ``native/forces.c`` mirrors it operation for operation.
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+    tables : AeroTables, optional
+        The wind-tunnel tables (the package data by default).
+    """
 
     def __init__(self, params: TiltrotorParams | None = None, tables: AeroTables | None = None):
         self.params = TiltrotorParams() if params is None else params
@@ -130,7 +174,15 @@ class AeroModel:
         self._ctrl_pts = self.points[[1, 2, 3, 4, 3, 4]]
         self.independence = p.crossflow == "independence"
         self.mirrored = p.reverse_flow == "mirrored"
-        self._fast = None
+        # the constants as Python floats and tuples: read by loads_scalar at every call and
+        # packed for the compiled kernel by native.forces.force_model
+        t = self.tables
+        self._scalar_constants = (
+            [tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(),
+            [[tuple(row) for row in t.alpha_tab[k].T.tolist()] for k in range(6)],
+            [[tuple(row) for row in t.beta_tab[k].T.tolist()] for k in range(6)],
+            float(t.start), float(t.step), float(t.samples - 1), p.chord, p.span,
+            p.c_delta_a, p.c_delta_e, p.c_delta_r, self.independence, self.mirrored)
 
     def _lookup(self, tab, angle):
         t = self.tables
@@ -141,7 +193,24 @@ class AeroModel:
         return tab[idx] * (1.0 - fr) + tab[idx + 1] * fr
 
     def surface_air_data(self, q, qdot, zeta):
-        """(v_rel (6,3) body axes, V (6,), α (6,), β (6,)) of every surface (7.37)–(7.40)."""
+        """Air-relative velocity, air speed and flow angles of every surface (7.37)–(7.40).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : ndarray, shape (3,)
+            Wind, inertial axes (m/s).
+
+        Returns
+        -------
+        v : ndarray, shape (6, 3)
+            Air-relative velocity of each surface, body axes.
+        V : ndarray, shape (6,)
+            Air speeds.
+        alpha, beta : ndarray, shape (6,)
+            Angles of attack and sideslip (rad; module docstring for reverse flow).
+        """
         R, W = R_W(q)
         w = W @ qdot[2:5]
         v = (R.T @ (qdot[5:8] - zeta)) + cross_rows(w[None, :], self.points)
@@ -154,9 +223,26 @@ class AeroModel:
         return v, V, alpha, beta
 
     def surface_loads(self, q, qdot, zeta):
-        """Passive loads per surface: (F (6,3) body-axes forces at the aerodynamic centres,
-        M (6,3) body-axes moments, (κs, κs of the α-table terms) (6,) each, y_w (6,3), z_w (6,3))
-        (B.1)–(B.11) with δ = 0."""
+        """Passive loads per surface (B.1)–(B.11) with δ = 0.
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : ndarray, shape (3,)
+            Wind, inertial axes (m/s).
+
+        Returns
+        -------
+        F : ndarray, shape (6, 3)
+            Body-axes forces at the aerodynamic centres.
+        M : ndarray, shape (6, 3)
+            Body-axes moments.
+        kappa_s : tuple of two ndarrays, shape (6,)
+            κ s of the β-table terms and of the α-table terms (module docstring, crossflow).
+        y_w, z_w : ndarray, shape (6, 3)
+            Side and lift directions of the wind axes, body axes.
+        """
         p = self.params
         v, V, alpha, beta = self.surface_air_data(q, qdot, zeta)
         ca = self._lookup(self._atab, -alpha)      # α_NED = −α: [lift, drag_α, pitch moment]
@@ -184,8 +270,23 @@ class AeroModel:
         return F, M, (ks, ksa), yw, zw
 
     def terms(self, q, qdot, zeta):
-        """(ϑ_aero_passive (8,), B_delta (8, 4)) with ϑ_aero = ϑ_passive + B_delta δ,
-        δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C)."""
+        """Numpy reference of the aerodynamic generalized force, affine in the deflections:
+        ϑ_aero = ϑ_passive + B_δ δ, δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C).
+
+        Parameters
+        ----------
+        q, qdot : ndarray, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : ndarray, shape (3,)
+            Wind, inertial axes (m/s).
+
+        Returns
+        -------
+        passive : ndarray, shape (8,)
+            ϑ_aero at δ = 0, thesis order.
+        B_delta : ndarray, shape (8, 4)
+            Generalized force per radian of each deflection.
+        """
         p = self.params
         F, M, (ks, ksa), yw, zw = self.surface_loads(q, qdot, zeta)
         R, W = R_W(q)
@@ -211,17 +312,25 @@ class AeroModel:
         return passive, Bd
 
     def generalized_force(self, q, qdot, zeta, delta):
-        """ϑ_F + ϑ_W + ϑ_T + ϑ_I (thesis order) — scalar fast path, equal to
-        ``passive + B_delta δ`` of :meth:`terms` (tested)."""
-        return self.generalized_force_fast(q, qdot, zeta, delta)
+        """ϑ_F + ϑ_W + ϑ_T + ϑ_I (thesis order) by the scalar tier: ``passive + B_delta δ`` of
+        :meth:`terms` to rounding (tested).
 
-    def generalized_force_vectorized(self, q, qdot, zeta, delta):
-        passive, Bd = self.terms(q, qdot, zeta)
-        return passive + Bd @ delta
+        Kept beside :meth:`terms` because ``benchmarks/speed_tiers.py`` measures it ≈ 7× faster.
 
-    def generalized_force_fast(self, q, qdot, zeta, delta):
-        """Same as :meth:`generalized_force_vectorized` with Python scalar math: for 6 surfaces
-        the per-call overhead of small numpy operations dominates (≈10× slower)."""
+        Parameters
+        ----------
+        q, qdot : array_like, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : array_like, shape (3,)
+            Wind, inertial axes (m/s).
+        delta : array_like, shape (4,)
+            Deflections [δWR δWL δTR δTL] (rad).
+
+        Returns
+        -------
+        ndarray, shape (8,)
+            ϑ_aero, thesis order.
+        """
         # Python floats: arithmetic on numpy scalars is several times slower
         q, qdot = [float(v) for v in q], [float(v) for v in qdot]
         zeta, delta = [float(v) for v in zeta], [float(v) for v in delta]
@@ -229,18 +338,32 @@ class AeroModel:
         return np.array(self.loads_scalar(kin, delta)[0])
 
     def loads_scalar(self, kin, delta, columns=False):
-        """Scalar core of the aerodynamic generalized force (thesis order).
+        """Scalar tier of the aerodynamic generalized force (thesis order): :meth:`terms` and
+        :meth:`surface_air_data` in Python floats, kept because ``benchmarks/speed_tiers.py``
+        measures it ≈ 7× faster than them; the compiled kernel mirrors it.
 
-        ``kin``: :func:`~sobolev_drake.tiltrotor.propulsion.body_kinematics_scalar`; ``delta``:
-        four floats [δWR δWL δTR δTL].  Returns ``(ϑ_aero (list of 8), V (list of 6 surface air
-        speeds), cols)`` where ``cols`` is None unless ``columns``: then the four deflection
-        columns [δWR δWL δTR δTL] of (B.12)–(B.15), each as a tuple of its rows 2..7 (rows 0, 1
-        are zero; ``ϑ_aero = ϑ(δ = 0) + Bd δ``, see :meth:`terms`).
+        Parameters
+        ----------
+        kin : tuple
+            Body kinematics from :func:`~sobolev_drake.tiltrotor.propulsion.body_kinematics_scalar`.
+        delta : sequence of 4 floats
+            Deflections [δWR δWL δTR δTL] (rad).
+        columns : bool, default False
+            Also return the deflection columns.
+
+        Returns
+        -------
+        theta : list of 8 floats
+            ϑ_aero (thesis order).
+        V : list of 6 floats
+            Surface air speeds (7.38).
+        cols : list of 4 tuples or None
+            With ``columns``, the columns [δWR δWL δTR δTL] of B_δ (B.12)–(B.15), each the
+            tuple of its rows 2..7 (rows 0, 1 are zero; ``ϑ_aero = ϑ(δ = 0) + B_δ δ``, see
+            :meth:`terms`); else None.
         """
-        if self._fast is None:
-            self._prepare_fast()
         (pts, hrs, atab, btab, start, step, nmax, chord, span, cda, cde, cdr, indep,
-         mirror) = self._fast
+         mirror) = self._scalar_constants
         imax = int(nmax) - 1
         sqrt, atan2, asin = math.sqrt, math.atan2, math.asin
         _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
@@ -340,30 +463,18 @@ class AeroModel:
             cols.append(body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz)))
         return out, Vs, cols
 
-    def terms_scalar(self, q, qdot, zeta):
-        """(ϑ_aero_passive (8,), B_delta (8, 4), V (6,)) — scalar version of :meth:`terms`
-        plus the surface air speeds of :meth:`surface_air_data` (tested equal)."""
-        q, qdot, zeta = [float(v) for v in q], [float(v) for v in qdot], [float(v) for v in zeta]
-        out, V, cols = self.loads_scalar(body_kinematics_scalar(q, qdot, zeta), (0.0,) * 4, True)
-        Bd = np.zeros((8, 4))
-        Bd[2:8] = np.array(cols).T
-        return np.array(out), Bd, np.array(V)
-
-    def _prepare_fast(self):
-        p, t = self.params, self.tables
-        atab = [[tuple(row) for row in t.alpha_tab[k].T.tolist()] for k in range(6)]
-        btab = [[tuple(row) for row in t.beta_tab[k].T.tolist()] for k in range(6)]
-        self._fast = ([tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(), atab, btab,
-                      float(t.start), float(t.step), float(t.samples - 1), p.chord, p.span,
-                      p.c_delta_a, p.c_delta_e, p.c_delta_r, self.independence, self.mirrored)
-
 
 class AerodynamicSurfaces(LeafSystem):
     """LeafSystem: thesis-ordered generalized force of fuselage, wings, V-tail and interference.
 
     Inputs: ``x`` (16, thesis order [q; q̇]), ``wind`` (3, inertial m/s; zero if unconnected),
     ``surface_deflection`` (4, [δWR δWL δTR δTL] rad; zero if unconnected).
-    Output: ``generalized_force`` (8, thesis order).
+    Output: ``generalized_force`` (8, thesis order), by :meth:`AeroModel.generalized_force`.
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
     """
 
     def __init__(self, params: TiltrotorParams | None = None):

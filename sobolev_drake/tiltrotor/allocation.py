@@ -348,7 +348,7 @@ def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, 
     ndarray
         Propeller speed n (rev/s), broadcast shape of ``thrust``, ``v_xz`` and ``phi``.
     """
-    from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
+    from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
 
     real_scalar("tol", tol, low=0.0, low_open=True)
     coef = coefficients if coefficients is not None else PropellerCoefficients()

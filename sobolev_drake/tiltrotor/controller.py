@@ -75,15 +75,24 @@ THESIS_WEIGHTS = {
     "Gamma3": np.diag([500.0, 500.0, 50.0]),
 }
 
-
-
 #: the partition (7.63) for ``systems.mechanical_controller.MechanicalLaw``
 PARTITION = Partition(controlled=tuple(CONTROLLED), regulated=tuple(REGULATED),
                       stabilized=tuple(STABILIZED))
 
 
 def thesis_inner_law(weights=None) -> SobolevLaw:
-    """:class:`SobolevLaw` of the thesis tuning (gains from ``synthesis.mechanical`` CAREs)."""
+    """:class:`SobolevLaw` of the thesis tuning (gains from ``synthesis.mechanical`` CAREs).
+
+    Parameters
+    ----------
+    weights : dict, optional
+        Υ0, Υ1, Σ0–Σ2, Γ0–Γ3 as in :data:`THESIS_WEIGHTS` (the default).
+
+    Returns
+    -------
+    SobolevLaw
+        Gains of the controlled, regulated and stabilized groups.
+    """
     W = THESIS_WEIGHTS if weights is None else weights
     return SobolevLaw(controlled=controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]),
                       regulated=regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
@@ -91,10 +100,22 @@ def thesis_inner_law(weights=None) -> SobolevLaw:
 
 
 def tilt_schedule_polynomial(coefficients, speed_range=(0.0, 33.99)):
-    """Tilt-angle reference α(U_b) from a polynomial in forward air speed (highest power first).
+    """Tilt-angle reference α(U_b) from a polynomial in forward air speed.
 
-    Returns ``f(U) -> (α, dα/dU, d²α/dU²)``; U is clamped to ``speed_range`` (derivatives are
-    zero outside it), as in the mission data file's trim-derived schedule.
+    U is clamped to ``speed_range`` (derivatives are zero outside it), as in the mission data
+    file's trim-derived schedule.
+
+    Parameters
+    ----------
+    coefficients : sequence of float
+        Polynomial coefficients, highest power first.
+    speed_range : tuple of 2 floats, default (0.0, 33.99)
+        Range of U (m/s) where the polynomial applies.
+
+    Returns
+    -------
+    callable
+        ``f(U) -> (α, dα/dU, d²α/dU²)``.
     """
     c = np.asarray(coefficients, dtype=float)
     if c.ndim != 1 or c.size < 1:
@@ -117,6 +138,18 @@ def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
 
     U_b = [cos ψ, sin ψ]·(ṗ_r − ζ)_xy with the measured wind ζ taken constant over a sample;
     using the reference (not the measured velocity) keeps α_r smooth with known derivatives.
+
+    Parameters
+    ----------
+    vel_ref, acc_ref, wind : sequence of float
+        Reference velocity and acceleration, measured wind (x, y first).
+    psi, psidot : float
+        Heading reference and its rate.
+
+    Returns
+    -------
+    U, Udot : float
+        Forward air speed and its rate.
     """
     psi, psidot = float(psi), float(psidot)
     c, s = math.cos(psi), math.sin(psi)
@@ -129,15 +162,30 @@ def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
 def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
     """(q_rr, q̇_rr, q̈_rr) of the regulated DOF [αR αL ψ] (tilt from the trim schedule).
 
-    ``psi_ref`` = (ψ_r, ψ̇_r, ψ̈_r) from the mission.  q̈ of the tilt uses α''U̇² (the jerk term
-    α'Ü is dropped: the mission references are piecewise constant-acceleration).
+    q̈ of the tilt uses α''U̇² (the jerk term α'Ü is dropped: the mission references are
+    piecewise constant-acceleration).
+
+    Parameters
+    ----------
+    schedule : callable
+        ``U -> (α, α', α'')`` tilt schedule.
+    vel_ref, acc_ref, wind : sequence of float
+        Reference velocity and acceleration, measured wind (x, y first).
+    psi_ref : sequence of 3 floats
+        (ψ_r, ψ̇_r, ψ̈_r) from the mission.
+
+    Returns
+    -------
+    tuple of 3 ndarrays, shape (3,)
+        (q_rr, q̇_rr, q̈_rr) of [αR αL ψ].
     """
-    a, qd_a, qdd_a, psi, psid, psidd = _regulated_scalar(schedule, vel_ref, acc_ref, psi_ref, wind)
+    a, qd_a, qdd_a, psi, psid, psidd = _regulated_values(schedule, vel_ref, acc_ref, psi_ref, wind)
     return (np.array([a, a, psi]), np.array([qd_a, qd_a, psid]), np.array([qdd_a, qdd_a, psidd]))
 
 
-def _regulated_scalar(schedule, vel_ref, acc_ref, psi_ref, wind):
-    """(α, α̇, α̈, ψ, ψ̇, ψ̈) floats of :func:`regulated_reference`."""
+def _regulated_values(schedule, vel_ref, acc_ref, psi_ref, wind):
+    """(α, α̇, α̈, ψ, ψ̇, ψ̈) as floats: the one implementation behind
+    :func:`regulated_reference` (as arrays) and the law's per-sample step (as floats)."""
     psi, psid, psidd = (float(v) for v in psi_ref)
     U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
     a, da, dda = schedule(U)
@@ -145,13 +193,35 @@ def _regulated_scalar(schedule, vel_ref, acc_ref, psi_ref, wind):
 
 
 def tracked_reference(ref_c, ref_r):
-    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`."""
+    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`.
+
+    Parameters
+    ----------
+    ref_c, ref_r : tuple of 3 arrays, shape (3,)
+        (q, q̇, q̈) references of [x y z] and of [αR αL ψ].
+
+    Returns
+    -------
+    ndarray, shape (18,)
+        The stacked reference of ``MechanicalLaw``.
+    """
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
 def checked_vector(name, value, size):
-    """(float array, list of its floats) of a finite vector of length ``size``; otherwise
-    ``check_vector``'s descriptive error (the cheap form of the check, run once per sample)."""
+    """A finite vector of length ``size`` as an array and as a list of floats; otherwise
+    ``check_vector``'s descriptive error (the cheap form of the check, run once per sample).
+
+    Parameters
+    ----------
+    name, value, size
+        Argument name (for the error message), the vector and its required length.
+
+    Returns
+    -------
+    tuple
+        (float64 array, list of its floats).
+    """
     arr = value if type(value) is np.ndarray and value.dtype == np.float64 else np.asarray(value, dtype=float)
     if arr.shape == (size,):
         lst = arr.tolist()
@@ -164,7 +234,27 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
     of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
     whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
-    saturated, and counts as inside."""
+    saturated, and counts as inside.
+
+    The numpy form at the end is the reference (any shape); 8-vectors go to the compiled kernel
+    when it is built, other vectors to the float loop, kept because ``benchmarks/speed_tiers.py``
+    measures it ≈ 2.5× faster than the numpy form per sample.  All three make the same
+    comparisons on the same floats, so the flags are identical (tested).
+
+    Parameters
+    ----------
+    tau, lo, up : array_like
+        Actuator values and their bounds (same shape).
+    rel_tol : float, default 1e-3
+        Tolerance relative to the bound width.
+    min_width : float, default 1e-3
+        Narrower boxes count as switched off.
+
+    Returns
+    -------
+    ndarray
+        +1, −1 or 0 per entry.
+    """
     tau, lo, up = np.asarray(tau, dtype=float), np.asarray(lo, dtype=float), np.asarray(up, dtype=float)
     if tau.shape == lo.shape == up.shape == (N_TAU,):
         k = kernel("forces")
@@ -188,7 +278,23 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
 
 @dataclass
 class ControlStep:
-    """Everything one evaluation of the law produced (for logging and tests)."""
+    """Everything one evaluation of the law produced (for logging and tests).
+
+    Attributes
+    ----------
+    qdd_des, u_star : ndarray, shape (8,)
+        Desired accelerations and the generalized input u* (7.81).
+    B, theta_passive : ndarray
+        Input matrix (8, 8) and ϑ_passive (8,) of (7.62).
+    tau_bar, lo, up : ndarray, shape (8,)
+        Allocated actuator vector τ̄ and its bounds (7.84)–(7.89).
+    propeller_speed : ndarray, shape (2,)
+        Propeller speeds (rev/s) of the thrusts (7.90).
+    residual : float
+        ‖u* − Bτ̄‖.
+    ref_r : tuple
+        (q, q̇, q̈) references of the regulated DOF [αR αL ψ].
+    """
 
     qdd_des: np.ndarray
     u_star: np.ndarray
@@ -241,14 +347,33 @@ class TiltrotorWInfLaw:
         self.fused_sample = None
 
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
-        """One evaluation.  ``reference`` = [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈] (12); ``n_prev``
-        (last propeller speeds) sets the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns."""
+        """One evaluation of the law.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        reference : array_like, shape (12,)
+            [x y z ψ | ẋ ẏ ż ψ̇ | ẍ ÿ z̈ ψ̈].
+        wind : array_like, shape (3,)
+            Measured wind, inertial axes (m/s).
+        integral_ec : array_like, shape (3,)
+            Integral of the controlled-DOF error.
+        n_prev : array_like, shape (2,), optional
+            Last propeller speeds: the torque/thrust ratio Cq/Ct(J, φ) of B's thrust columns
+            and the Newton start of the thrust inversion.
+
+        Returns
+        -------
+        ControlStep
+            Everything the evaluation produced.
+        """
         q, ql = checked_vector("q", q, N_Q)
         qdot, qdl = checked_vector("qdot", qdot, N_Q)
         _, r = checked_vector("reference", reference, 12)
         wind, wl = checked_vector("wind", wind, 3)
         _, iel = checked_vector("e_int", integral_ec, len(CONTROLLED))
-        al, ald, aldd, psi, psid, psidd = _regulated_scalar(self.tilt_schedule, r[4:8], r[8:12],
+        al, ald, aldd, psi, psid, psidd = _regulated_values(self.tilt_schedule, r[4:8], r[8:12],
                                                            (r[3], r[7], r[11]), wl)
         ref_r = (np.array([al, al, psi]), np.array([ald, ald, psid]), np.array([aldd, aldd, psidd]))
         # tracked_reference((p, v, a)[:3], ref_r) assembled directly
@@ -267,7 +392,7 @@ class TiltrotorWInfLaw:
             B, theta = self.input_affine(self.model, q, qdot, wind, n=n_prev)
         # u* = M q̈_des + C q̇ + g − ϑ_passive (7.81), i.e. MechanicalLaw.generalized_input with
         # extra = ϑ_passive, without recomputing q̈_des
-        u = (self.mech_law.recursive_inverse_dynamics(q, qdot, qdd)
+        u = (self.mech_law.dynamics.recursive_inverse_dynamics(q, qdot, qdd)
              - check_vector("theta_passive", theta, N_Q))
         lo, up = self.bounds(q, qdot, wind)
         tau = np.asarray(self.allocate(B, u, lo, up), dtype=float)
@@ -287,6 +412,15 @@ class TiltrotorWInfController(LeafSystem):
     ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound), ``sample_record`` (30,
     all of these in one vector for logging, split by :meth:`split_record`).  All outputs are
     zero-order holds of the last update.
+
+    Parameters
+    ----------
+    law : TiltrotorWInfLaw
+        The law evaluated at every update.
+    period : float, default 0.01
+        Sample period (s).
+    initial_tau, initial_speed : array_like, optional
+        τ̄ (8) and propeller speeds (2) held before the first update (zero by default).
     """
 
     # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
@@ -338,8 +472,18 @@ class TiltrotorWInfController(LeafSystem):
 
     @classmethod
     def split_record(cls, record) -> dict:
-        """Named parts of ``sample_record`` values (rows = the 30 record entries, e.g. a log's
-        ``data()`` of shape 30 × samples), as in :attr:`RECORD_FIELDS`."""
+        """Named parts of ``sample_record`` values, as in :attr:`RECORD_FIELDS`.
+
+        Parameters
+        ----------
+        record : array_like, shape (30, ...)
+            Rows = the 30 record entries, e.g. a log's ``data()`` of shape 30 × samples.
+
+        Returns
+        -------
+        dict
+            Field name → its rows.
+        """
         record = np.asarray(record)
         if record.shape[:1] != (cls._SIZE,):
             raise ValueError(f"record must have {cls._SIZE} rows (the sample_record port), "

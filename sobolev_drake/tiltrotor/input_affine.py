@@ -39,7 +39,18 @@ _CORES: dict = {}
 
 
 def cores(params: TiltrotorParams | None = None):
-    """(PropulsionModel, AeroModel) for ``params`` (cached per parameter object)."""
+    """The force models of a parameter set (cached per parameter object).
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+
+    Returns
+    -------
+    tuple
+        (PropulsionModel, AeroModel).
+    """
     params = TiltrotorParams() if params is None else params
     key = id(params)
     if key not in _CORES:
@@ -48,8 +59,19 @@ def cores(params: TiltrotorParams | None = None):
 
 
 def native_core(params: TiltrotorParams):
-    """(kernel, model capsule) of the compiled force kernel for ``params``, or None (cached
-    beside :func:`cores`; see ``sobolev_drake.native``)."""
+    """The compiled force kernel for a parameter set (cached beside :func:`cores`; see
+    ``sobolev_drake.native``).
+
+    Parameters
+    ----------
+    params : TiltrotorParams
+        The vehicle's parameters.
+
+    Returns
+    -------
+    tuple or None
+        (kernel module, model capsule), or None when the kernel is not built or switched off.
+    """
     from sobolev_drake.native import enabled
     if not enabled():            # switched off after the capsule was cached
         return None
@@ -94,8 +116,28 @@ def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
     λ ρ d⁵ n² Cq(J, φ) of the given ``n`` into ϑ_passive and keeps B's thrust columns pure thrust.
     Both satisfy ϑ = B τ̄ + ϑ_passive exactly for the given n.
 
-    Python scalar math (:func:`input_affine_terms`); :func:`input_affine_vectorized` is the
-    numpy formulation it is tested against.
+    Computed by the per-sample path (:func:`input_affine_terms`: the compiled kernel, else the
+    scalar tier); :func:`input_affine_vectorized` is the numpy reference it is tested against.
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q, qdot : array_like, shape (8,)
+        Generalized coordinates and velocities, thesis order.
+    zeta : array_like, shape (3,)
+        Wind, inertial axes (m/s).
+    n : array_like, shape (2,), optional
+        Propeller speeds (rev/s) of the torque/thrust ratio Cq/Ct(J, φ); ``N_REF`` by default.
+    torque : {"through_thrust", "passive"}, default "through_thrust"
+        Where the propeller drag torque goes (see :func:`input_affine`).
+
+    Returns
+    -------
+    B : ndarray, shape (8, 8)
+        Input matrix, columns ``ACTUATOR_NAMES``.
+    passive : ndarray, shape (8,)
+        ϑ_passive, thesis order.
     """
     _check_torque(torque)
     t = input_affine_terms(model, q, qdot, zeta, n, torque=torque)
@@ -103,19 +145,52 @@ def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
 
 
 class AffineTerms(NamedTuple):
-    """Everything one controller sample needs from the force model at (q, q̇, ζ, n)."""
+    """Everything one controller sample needs from the force model at (q, q̇, ζ, n).
 
-    B: np.ndarray               # (8, 8) input matrix of (7.62)
-    passive: np.ndarray         # (8,) ϑ_passive
-    surface_speed: np.ndarray   # (6,) air speed of the surfaces F WR WL TR TL I (7.38)
-    rotor_vxz: np.ndarray       # (2,) rotor-frame air speed in the x–z plane (J = V_xz/(n d))
-    rotor_phi: np.ndarray       # (2,) inflow angle φ of each rotor (7.30)
+    Parameters
+    ----------
+    B : ndarray, shape (8, 8)
+        Input matrix of (7.62).
+    passive : ndarray, shape (8,)
+        ϑ_passive.
+    surface_speed : ndarray, shape (6,)
+        Air speed of the surfaces F WR WL TR TL I (7.38).
+    rotor_vxz : ndarray, shape (2,)
+        Rotor-frame air speed in the x–z plane (J = V_xz/(n d)).
+    rotor_phi : ndarray, shape (2,)
+        Inflow angle φ of each rotor (7.30).
+    """
+
+    B: np.ndarray
+    passive: np.ndarray
+    surface_speed: np.ndarray
+    rotor_vxz: np.ndarray
+    rotor_phi: np.ndarray
 
 
 def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust") -> AffineTerms:
     """:class:`AffineTerms` at (q, q̇, ζ): B and ϑ_passive of :func:`input_affine` plus the
     surface air speeds (bounds (7.87)–(7.89)) and the rotor inflow (thrust inversion (7.90)),
-    from one pass of scalar kinematics (the controller's per-sample hot path)."""
+    from one pass of scalar kinematics (the controller's per-sample hot path).
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q, qdot : array_like, shape (8,)
+        Generalized coordinates and velocities, thesis order.
+    zeta : array_like, shape (3,)
+        Wind, inertial axes (m/s).
+    n : array_like, shape (2,), optional
+        Propeller speeds (rev/s) of the torque/thrust ratio Cq/Ct(J, φ); ``N_REF`` by default.
+    torque : {"through_thrust", "passive"}, default "through_thrust"
+        Where the propeller drag torque goes (see :func:`input_affine`).
+
+    Returns
+    -------
+    AffineTerms
+        B, ϑ_passive, surface air speeds and rotor inflow.
+    """
     p = _params_of(model)
     q = check_vector("q", q, 8)
     qdot = check_vector("qdot", qdot, 8)
@@ -128,8 +203,27 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
 def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thrust") -> AffineTerms:
     """:func:`input_affine_terms` on already validated lists of Python floats (q, q̇: 8, ζ: 3,
     n: 2) — the controller's per-sample path, without re-checking what it checked.  Computed
-    by the compiled kernel when it is built (equal to this Python code to rounding: the kernel's
-    hypot may differ in the last bit), else in Python."""
+    by the compiled kernel when it is built (equal to :func:`affine_terms_scalar_python` to
+    rounding: the kernel's hypot may differ in the last bit), else by that scalar tier.
+
+    Parameters
+    ----------
+    p : TiltrotorParams
+        The vehicle's parameters.
+    ql, qdl : list of 8 floats
+        Generalized coordinates and velocities, thesis order (validated).
+    zl : list of 3 floats
+        Wind, inertial axes (m/s).
+    nl : list of 2 floats
+        Propeller speeds (rev/s) of the torque/thrust ratio.
+    torque : {"through_thrust", "passive"}, default "through_thrust"
+        Where the propeller drag torque goes (see :func:`input_affine`).
+
+    Returns
+    -------
+    AffineTerms
+        As :func:`input_affine_terms`.
+    """
     native = native_core(p)
     if native is not None:
         k, capsule = native
@@ -141,7 +235,27 @@ def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thr
 
 def affine_terms_scalar_python(p: TiltrotorParams, ql, qdl, zl, nl,
                                torque="through_thrust") -> AffineTerms:
-    """The Python reference of :func:`affine_terms_scalar` (the compiled kernel mirrors it)."""
+    """Scalar tier of :func:`input_affine_terms`, kept beside :func:`input_affine_vectorized`
+    because ``benchmarks/speed_tiers.py`` measures it ≈ 6× faster; the kernel mirrors it.
+
+    Parameters
+    ----------
+    p : TiltrotorParams
+        The vehicle's parameters.
+    ql, qdl : list of 8 floats
+        Generalized coordinates and velocities, thesis order (validated).
+    zl : list of 3 floats
+        Wind, inertial axes (m/s).
+    nl : list of 2 floats
+        Propeller speeds (rev/s) of the torque/thrust ratio.
+    torque : {"through_thrust", "passive"}, default "through_thrust"
+        Where the propeller drag torque goes (see :func:`input_affine`).
+
+    Returns
+    -------
+    AffineTerms
+        As :func:`input_affine_terms`.
+    """
     prop, aero = cores(p)
     c = prop.coef
     kin = body_kinematics_scalar(ql, qdl, zl)
@@ -183,8 +297,30 @@ def affine_terms_scalar_python(p: TiltrotorParams, ql, qdl, zl, nl,
 
 
 def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
-    """Numpy formulation of :func:`input_affine` (same arguments and result; the reference
-    its scalar code is tested against)."""
+    """Numpy reference of :func:`input_affine` (same arguments and result), written like
+    Appendix C from :meth:`PropulsionModel.unit_columns` and :meth:`AeroModel.terms`; the
+    scalar tier is tested against it, the compiled kernel against the scalar tier.
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q, qdot : array_like, shape (8,)
+        Generalized coordinates and velocities, thesis order.
+    zeta : array_like, shape (3,)
+        Wind, inertial axes (m/s).
+    n : array_like, shape (2,), optional
+        Propeller speeds (rev/s) of the torque/thrust ratio Cq/Ct(J, φ); ``N_REF`` by default.
+    torque : {"through_thrust", "passive"}, default "through_thrust"
+        Where the propeller drag torque goes (see :func:`input_affine`).
+
+    Returns
+    -------
+    B : ndarray, shape (8, 8)
+        Input matrix.
+    passive : ndarray, shape (8,)
+        ϑ_passive.
+    """
     _check_torque(torque)
     p = _params_of(model)
     q = check_vector("q", q, 8)
@@ -211,7 +347,28 @@ def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thr
 
 def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
     """Total ϑ = ϑ_P + ϑ_s + ϑ_F + ϑ_W + ϑ_T + ϑ_I (7.18) for thesis inputs
-    τ = [n (rev/s), τs (N m), δ (rad)], from the same cores as the plant's force systems."""
+    τ = [n (rev/s), τs (N m), δ (rad)], by the scalar tier of the force models.
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q, qdot : array_like, shape (8,)
+        Generalized coordinates and velocities, thesis order.
+    zeta : array_like, shape (3,)
+        Wind, inertial axes (m/s).
+    n : array_like, shape (2,)
+        Propeller speeds (rev/s).
+    tau_s : array_like, shape (2,)
+        Servo torques (N m).
+    delta : array_like, shape (4,)
+        Deflections [δWR δWL δTR δTL] (rad).
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        ϑ, thesis order.
+    """
     p = _params_of(model)
     q = check_vector("q", q, 8)
     qdot = check_vector("qdot", qdot, 8)
@@ -225,14 +382,46 @@ def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
 
 
 def thrust_inputs(model, q, qdot, zeta, n) -> np.ndarray:
-    """Thrusts f = ρ d⁴ n² Ct(J, φ) (7.25), (7.27) of both propellers at speeds n (rev/s)."""
+    """Thrusts f = ρ d⁴ n² Ct(J, φ) (7.25), (7.27) of both propellers.
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q, qdot : array_like, shape (8,)
+        Generalized coordinates and velocities, thesis order.
+    zeta : array_like, shape (3,)
+        Wind, inertial axes (m/s).
+    n : array_like, shape (2,)
+        Propeller speeds (rev/s).
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        Thrusts (N).
+    """
     prop, _ = cores(_params_of(model))
     return prop.thrust_and_torque(check_vector("q", q, 8), check_vector("qdot", qdot, 8),
                                   check_vector("zeta", zeta, 3), check_vector("n", n, 2))[0]
 
 
 def force_disturbance_generalized(model, q, force_inertial) -> np.ndarray:
-    """Generalized force of an inertial force (N) applied at the main-body centre of mass C1."""
+    """Generalized force of an inertial force applied at the main-body centre of mass C1.
+
+    Parameters
+    ----------
+    model : TiltrotorModel or TiltrotorParams
+        The vehicle (its parameters are used).
+    q : array_like, shape (8,)
+        Generalized coordinates, thesis order.
+    force_inertial : array_like, shape (3,)
+        Force, inertial axes (N).
+
+    Returns
+    -------
+    ndarray, shape (8,)
+        Generalized force, thesis order.
+    """
     p = _params_of(model)
     q = check_vector("q", q, 8)
     F = check_vector("force_inertial", force_inertial, 3)

@@ -162,7 +162,7 @@ def _fused_sample(law, native, speeds, parts):
 
     forces, capsule = native
     limits = thesis_bounds_constants()
-    rnea = law.mech_law.recursive_inverse_dynamics
+    rnea = law.mech_law.dynamics.recursive_inverse_dynamics
     allocate = parts[2]
 
     def sample(q, qdot, ql, qdl, wl, n_prev, qdd, ref_r):
@@ -268,11 +268,11 @@ def plant_trim_schedule(model=None):
         is clamped and the derivatives are 0.
     """
     from scipy.interpolate import CubicSpline
-    from sobolev_drake.tiltrotor import trim as tt
+    from sobolev_drake.tiltrotor.tilt_schedule import tilt_schedule
 
     key = repr(getattr(model, "params", None))      # parameter values, not object identity
     if key not in _TRIM_SCHEDULES:
-        trims = tt.tilt_schedule(model=model)
+        trims = tilt_schedule(model=model)
         V = np.array([t.V for t in trims])
         a = np.array([0.5 * (t.q[0] + t.q[1]) for t in trims])
         _TRIM_SCHEDULES[key] = (CubicSpline(V, a), V[0], V[-1])

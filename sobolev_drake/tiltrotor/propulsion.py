@@ -1,10 +1,17 @@
 """Propellers and servomotors of the tilt-rotor UAV (thesis (7.19)–(7.33), Appendix B).
 
-* :class:`PropellerCoefficients` — wind-tunnel thrust/torque coefficients Ct(J, φ), Cq(J, φ)
-  (``data/propeller_coefficients.json``), advance ratio and inflow angle, thrust and torque
-  (7.25)–(7.28).  Pure numpy, vectorized; used by the plant, the allocation and the controllers.
+* :class:`PropulsionModel` — the propeller generalized force (7.32): the numpy reference
+  (:meth:`~PropulsionModel.unit_columns` times :meth:`~PropulsionModel.thrust_and_torque`) and
+  the scalar tier (:func:`body_kinematics_scalar`, :meth:`~PropulsionModel.rotors_scalar`,
+  :meth:`~PropulsionModel.propeller_force_scalar`), which ``native/forces.c`` mirrors.
 * :class:`PropellerForces` — LeafSystem: generalized force of both propellers (7.32) and of the
   servomotors with viscous friction (7.33), in thesis order.
+
+The propeller's coefficients Ct(J, φ), Cq(J, φ) (7.25)–(7.30) are
+:class:`~sobolev_drake.tiltrotor.propeller.PropellerCoefficients`.  The scalar tier is kept
+beside the reference because ``benchmarks/speed_tiers.py`` measures it ≈ 6× faster on the
+paths that run without the compiled kernel (the plant's forces when the kernel is not built;
+the trims and the force systems here, which it does not cover).
 """
 
 from __future__ import annotations
@@ -14,22 +21,32 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from sobolev_drake.data import load
 from sobolev_drake.tiltrotor.params import R_W, TiltrotorParams, cross_rows
+from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
 
 __all__ = [
-    "body_kinematics_scalar", "body_wrench_scalar", "PropellerCoefficients", "PropulsionModel",
-    "PropellerForces",
+    "body_kinematics_scalar", "body_wrench_scalar", "PropulsionModel", "PropellerForces",
 ]
 
 
 def body_kinematics_scalar(q, qdot, zeta):
-    """Body-frame kinematics of the fast (Python scalar) force paths, thesis order q.
+    """Body-frame kinematics of the scalar force tier (module docstring), thesis order q.
 
-    ``q``, ``qdot`` (size 8) and the wind ``zeta`` (size 3) must already be lists of Python
-    floats.  Returns ((sin ϕ, cos ϕ, sin θ, cos θ), R row-major (9 floats, body → inertial,
-    Z-Y-X Euler angles), body angular velocity (wx, wy, wz) and body air velocity
-    Rᵀ(ṗ − ζ) (vbx, vby, vbz)).  Shared by the propeller and aerodynamic force paths.
+    Shared by the propeller and aerodynamic force paths.
+
+    Parameters
+    ----------
+    q, qdot : list of 8 floats
+        Generalized coordinates and velocities, thesis order (Python floats).
+    zeta : list of 3 floats
+        Wind, inertial axes (m/s).
+
+    Returns
+    -------
+    tuple
+        ((sin ϕ, cos ϕ, sin θ, cos θ), R row-major (9 floats, body → inertial, Z-Y-X Euler
+        angles (7.2)), body angular velocity (wx, wy, wz), body air velocity Rᵀ(ṗ − ζ)
+        (vbx, vby, vbz)).
     """
     sin, cos = math.sin, math.cos
     sf, cf = sin(q[2]), cos(q[2])
@@ -49,9 +66,23 @@ def body_kinematics_scalar(q, qdot, zeta):
 
 
 def body_wrench_scalar(kin, force, torque):
-    """Rows 2..7 (φ θ ψ x y z) of the generalized force of a body-axes force ``force`` and
-    torque ``torque`` (about C1) on the main body: [Wηᵀ T, R F] (scalar form of
-    ``tiltrotor_params.body_generalized_force``).  ``kin`` from :func:`body_kinematics_scalar`."""
+    """Rows 2..7 (φ θ ψ x y z) of the generalized force of a body-axes force and torque on the
+    main body: [Wηᵀ T, R F] (scalar form of ``tiltrotor.params.body_generalized_force``).
+
+    Parameters
+    ----------
+    kin : tuple
+        From :func:`body_kinematics_scalar`.
+    force : sequence of 3 floats
+        Force F, body axes (N).
+    torque : sequence of 3 floats
+        Torque T about C1, body axes (N m).
+
+    Returns
+    -------
+    tuple of 6 floats
+        Generalized force rows φ θ ψ x y z.
+    """
     (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
     fx, fy, fz = force
     tx, ty, tz = torque
@@ -60,130 +91,20 @@ def body_wrench_scalar(kin, force, torque):
             r20 * fx + r21 * fy + r22 * fz)
 
 
-class PropellerCoefficients:
-    """Ct(J, φ) and Cq(J, φ) of the 24-inch propeller, quartic in (J, φ).
-
-    Conventions (from the json ``description``, which follows the thesis author's simulator):
-
-    * relative air velocity ``(u, v, w)`` of the rotor *with respect to the air* (rotor velocity
-      minus wind, (7.31)) expressed in the rotor frame whose z axis is the thrust axis;
-    * advance ratio ``J = sqrt(u² + w²) / (n d)`` clamped to ``[0, 0.75]`` (the lateral
-      component v is ignored; the thesis (7.29) uses the full magnitude);
-    * inflow angle ``φ = |clip(atan2(u, w), −π/2, π/2)|`` (the thesis (7.30) writes
-      ``acos(w / V)``; both are 0 in axial flight and π/2 in edgewise flight);
-    * thrust ``f = ρ d⁴ n² Ct(J, φ)``, torque ``t = ρ d⁵ n² Cq(J, φ)``, n in rev/s.
-    """
-
-    _POWERS = {"1": (0, 0), "J": (1, 0), "phi": (0, 1), "J^2": (2, 0), "J*phi": (1, 1),
-               "phi^2": (0, 2), "J^3": (3, 0), "J^2*phi": (2, 1), "J*phi^2": (1, 2),
-               "phi^3": (0, 3), "J^4": (4, 0), "J^3*phi": (3, 1), "J^2*phi^2": (2, 2),
-               "J*phi^3": (1, 3), "phi^4": (0, 4)}
-
-    def __init__(self, data: dict | None = None):
-        data = load("propeller_coefficients") if data is None else data
-        self.diameter = float(data["diameter_m"])
-        self.rho = float(data["rho_kg_m3"])
-        self.J_max = float(data["J_range"][1])
-        self.basis = list(data["basis"])
-        try:
-            self._pw = np.array([self._POWERS[b] for b in self.basis], dtype=float)
-        except KeyError as exc:  # pragma: no cover - data file is fixed
-            raise ValueError(f"unknown basis term {exc} in propeller_coefficients.json") from None
-        self._pJ = self._pw[:, 0].astype(np.int64)
-        self._pP = self._pw[:, 1].astype(np.int64)
-        self.ct_coef = np.asarray(data["Ct"], dtype=float)
-        self.cq_coef = np.asarray(data["Cq"], dtype=float)
-        self._terms = [((int(i), int(j)), float(a), float(b)) for (i, j), a, b in
-                       zip(self._pw, self.ct_coef, self.cq_coef) if a != 0.0 or b != 0.0]
-        if self.ct_coef.shape != (len(self.basis),) or self.cq_coef.shape != (len(self.basis),):
-            raise ValueError("Ct/Cq coefficient vectors must match the basis length")
-
-    # --- coefficients ------------------------------------------------------------------------
-    def _features(self, J, phi):
-        J, phi = np.asarray(J, dtype=float), np.asarray(phi, dtype=float)
-        if J.shape != phi.shape:
-            J, phi = np.broadcast_arrays(J, phi)
-        return J[..., None] ** self._pJ * phi[..., None] ** self._pP
-
-    def ct_cq_scalar(self, J: float, phi: float):
-        """(Ct, Cq) at scalar (J, φ) with Python floats (fast path of the plant)."""
-        Jp = (1.0, J, J * J, J * J * J, J * J * J * J)
-        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
-        ct = cq = 0.0
-        for (i, j), a, b in self._terms:
-            f = Jp[i] * Pp[j]
-            ct += a * f
-            cq += b * f
-        return ct, cq
-
-    def ct_scalar(self, J: float, phi: float) -> float:
-        """Ct at scalar (J, φ) with Python floats (Newton thrust inversion of the controller)."""
-        Jp = (1.0, J, J * J, J * J * J, J * J * J * J)
-        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
-        ct = 0.0
-        for (i, j), a, _ in self._terms:
-            ct += a * (Jp[i] * Pp[j])
-        return ct
-
-    def ct_in_J(self, phi: float):
-        """Coefficients (highest power first) of the quartic J ↦ Ct(J, φ) at fixed φ."""
-        Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)
-        c = [0.0] * 5
-        for (i, j), a, _ in self._terms:
-            c[i] += a * Pp[j]
-        return c[4], c[3], c[2], c[1], c[0]
-
-    def ct(self, J, phi):
-        """Thrust coefficient Ct(J, φ) (vectorized over broadcast J, φ)."""
-        return self._features(J, phi) @ self.ct_coef
-
-    def cq(self, J, phi):
-        """Torque coefficient Cq(J, φ) (vectorized over broadcast J, φ)."""
-        return self._features(J, phi) @ self.cq_coef
-
-    # --- kinematics of the inflow ------------------------------------------------------------
-    def advance_ratio_and_inflow(self, v_rel_rotor_frame, n):
-        """(J, φ) from the rotor's air-relative velocity in the rotor frame and n (rev/s).
-
-        ``v_rel_rotor_frame`` has shape (..., 3) = (u, v, w) with w along the thrust axis;
-        ``n`` broadcasts against the leading shape.  Non-positive n gives J = J_max (a stopped
-        rotor produces ρd⁴n²Ct = 0 thrust anyway).
-        """
-        vr = np.asarray(v_rel_rotor_frame, dtype=float)
-        if vr.shape[-1:] != (3,):
-            raise ValueError(f"v_rel_rotor_frame must have shape (..., 3), got {vr.shape}")
-        n = np.asarray(n, dtype=float)
-        u, w = vr[..., 0], vr[..., 2]
-        v_xz = np.hypot(u, w)
-        nd = n * self.diameter
-        # n ≤ 0 → J = J_max (huge ratio clipped); the thrust ρd⁴n²Ct is 0 at n = 0 anyway
-        J = np.minimum(v_xz / np.maximum(nd, 1e-300), self.J_max)
-        phi = np.abs(np.clip(np.arctan2(u, w), -np.pi / 2, np.pi / 2))
-        return J, phi
-
-    # --- forces ------------------------------------------------------------------------------
-    def thrust(self, n, J, phi):
-        """Thrust f = ρ d⁴ n² Ct(J, φ) [N] (7.25)/(7.27), n in rev/s."""
-        n = np.asarray(n, dtype=float)
-        return self.rho * self.diameter ** 4 * n ** 2 * self.ct(J, phi)
-
-    def torque(self, n, J, phi):
-        """Drag torque magnitude t = ρ d⁵ n² Cq(J, φ) [N m] (without the rotation sign λ)."""
-        n = np.asarray(n, dtype=float)
-        return self.rho * self.diameter ** 5 * n ** 2 * self.cq(J, phi)
-
-    def torque_per_thrust(self, J, phi):
-        """t / f = d Cq / Ct (Appendix C: the drag torque expressed through the thrust)."""
-        return self.diameter * self.cq(J, phi) / self.ct(J, phi)
-
-    def speed_for_thrust(self, f, J, phi):
-        """n ≥ 0 with ρ d⁴ n² Ct(J, φ) = f for *fixed* (J, φ) (inverse of (7.25), f ≥ 0)."""
-        f = np.asarray(f, dtype=float)
-        return np.sqrt(np.maximum(f, 0.0) / (self.rho * self.diameter ** 4 * self.ct(J, phi)))
-
-
 class PropulsionModel:
-    """Numpy core of the propeller (7.19)–(7.32) and servomotor (7.33) generalized forces."""
+    """The propeller (7.19)–(7.32) and servomotor (7.33) generalized forces.
+
+    Two forms of ϑ_P (module docstring): the numpy reference (:meth:`unit_columns` times
+    :meth:`thrust_and_torque`) and the scalar tier (:meth:`rotors_scalar`,
+    :meth:`propeller_force_scalar`, :meth:`propeller_force`).
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
+    coefficients : PropellerCoefficients, optional
+        Ct, Cq of the package data by default.
+    """
 
     def __init__(self, params=None, coefficients: PropellerCoefficients | None = None):
         self.params = TiltrotorParams() if params is None else params
@@ -200,7 +121,22 @@ class PropulsionModel:
         self._kf, self._kt = c.rho * c.diameter ** 4, c.rho * c.diameter ** 5
 
     def rotor_frames(self, q):
-        """(R_B^A (2,3,3), rotor centres in body axes r (2,3), R_B^A d_A,P (2,3))."""
+        """Rotor frames and hub positions of both rotors (7.19)–(7.24).
+
+        Parameters
+        ----------
+        q : array_like, shape (8,)
+            Generalized coordinates, thesis order.
+
+        Returns
+        -------
+        R_BA : ndarray, shape (2, 3, 3)
+            Rotor frames in body axes.
+        r : ndarray, shape (2, 3)
+            Rotor centres, body axes.
+        d : ndarray, shape (2, 3)
+            R_B^A d_A,P.
+        """
         sb, cb = math.sin(self.params.beta), math.cos(self.params.beta)
         RA = np.empty((2, 3, 3))
         for k, (a, s) in enumerate(((q[0], -sb), (q[1], sb))):   # Ry(α) Rx(∓β)
@@ -210,7 +146,20 @@ class PropulsionModel:
         return RA, self.d_B_A + dA, dA
 
     def rotor_air_velocity(self, q, qdot, zeta):
-        """Air-relative rotor velocities in the rotor frames (2, 3) (7.31)."""
+        """Air-relative rotor velocities in the rotor frames (7.31).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : array_like, shape (3,)
+            Wind, inertial axes (m/s).
+
+        Returns
+        -------
+        ndarray, shape (2, 3)
+            (u, v, w) per rotor, w along its thrust axis (m/s).
+        """
         RA, r, dA = self.rotor_frames(q)
         R, W = R_W(q)
         w = W @ qdot[2:5]
@@ -221,8 +170,19 @@ class PropulsionModel:
         return np.einsum("kji,kj->ki", RA, vb)
 
     def unit_columns(self, q):
-        """(G_f (8, 2), G_t (8, 2)): generalized force per newton of thrust and per N m of torque
-        about each rotor axis (7.32)."""
+        """Generalized force per newton of thrust and per N m of torque about each rotor axis
+        (7.32): the numpy reference of ϑ_P is ``G_f f + G_t λt`` (:meth:`thrust_and_torque`).
+
+        Parameters
+        ----------
+        q : array_like, shape (8,)
+            Generalized coordinates, thesis order.
+
+        Returns
+        -------
+        G_f, G_t : ndarray, shape (8, 2)
+            Thrust and torque columns, thesis order.
+        """
         RA, r, dA = self.rotor_frames(q)
         z = RA[:, :, 2]                                     # rotor axes in body axes
         R, W = R_W(q)
@@ -237,26 +197,49 @@ class PropulsionModel:
         return Gf, Gt
 
     def thrust_and_torque(self, q, qdot, zeta, n):
-        """(f (2,), signed torques λ t (2,), J (2,), φ (2,)) for propeller speeds n (rev/s)."""
+        """Thrusts, signed drag torques and inflow of both rotors (7.25)–(7.31).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : array_like, shape (3,)
+            Wind, inertial axes (m/s).
+        n : array_like, shape (2,)
+            Propeller speeds (rev/s).
+
+        Returns
+        -------
+        f : ndarray, shape (2,)
+            Thrusts (N).
+        t : ndarray, shape (2,)
+            Signed drag torques λ t (N m).
+        J, phi : ndarray, shape (2,)
+            Advance ratios and inflow angles (rad).
+        """
         vr = self.rotor_air_velocity(q, qdot, zeta)
         J, phi = self.coef.advance_ratio_and_inflow(vr, n)
         f = self.coef.thrust(n, J, phi)
         t = self.lam * self.coef.torque(n, J, phi)
         return f, t, J, phi
 
-    def propeller_force_vectorized(self, q, qdot, zeta, n):
-        """ϑ_P (7.32), thesis order (numpy version of :meth:`propeller_force`)."""
-        f, t, _, _ = self.thrust_and_torque(q, qdot, zeta, n)
-        Gf, Gt = self.unit_columns(q)
-        return Gf @ f + Gt @ t
-
     def rotors_scalar(self, q, qdot, kin):
-        """Per-rotor geometry and inflow with Python floats (fast paths of plant and controller).
+        """Per-rotor geometry and inflow with Python floats (scalar tier of the plant's forces
+        and the controller's input-affine terms, module docstring).
 
-        ``q``, ``qdot``: lists of floats (thesis order); ``kin``: :func:`body_kinematics_scalar`.
-        Returns two tuples (right, left rotor) of ``(dx, dy, dz, rx, ry, rz, zx, zy, zz, u, w)``:
-        R_B^A d_A,P, the hub position r in body axes, the rotor axis z in body axes and the
-        rotor-frame air-relative velocity components u (in-plane x) and w (axial) (7.31).
+        Parameters
+        ----------
+        q, qdot : list of 8 floats
+            Generalized coordinates and velocities, thesis order.
+        kin : tuple
+            From :func:`body_kinematics_scalar`.
+
+        Returns
+        -------
+        tuple of two tuples
+            (right, left rotor), each ``(dx, dy, dz, rx, ry, rz, zx, zy, zz, u, w)``:
+            R_B^A d_A,P, the hub position r in body axes, the rotor axis z in body axes and the
+            rotor-frame air-relative velocity components u (in-plane x) and w (axial) (7.31).
         """
         sin, cos = math.sin, math.cos
         _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
@@ -283,8 +266,22 @@ class PropulsionModel:
         return out[0], out[1]
 
     def propeller_force_scalar(self, kin, rotors, n):
-        """ϑ_P (7.32) as a list of 8 floats from :func:`body_kinematics_scalar` and
-        :meth:`rotors_scalar` at propeller speeds ``n`` (two floats)."""
+        """ϑ_P (7.32) in Python floats (scalar tier; the compiled kernel mirrors it).
+
+        Parameters
+        ----------
+        kin : tuple
+            From :func:`body_kinematics_scalar`.
+        rotors : tuple
+            From :meth:`rotors_scalar`.
+        n : sequence of 2 floats
+            Propeller speeds (rev/s).
+
+        Returns
+        -------
+        list of 8 floats
+            ϑ_P, thesis order.
+        """
         sqrt, atan2 = math.sqrt, math.atan2
         c = self.coef
         d, Jmax = c.diameter, c.J_max
@@ -315,8 +312,25 @@ class PropulsionModel:
         return out
 
     def propeller_force(self, q, qdot, zeta, n):
-        """ϑ_P (7.32), thesis order — Python scalar math (small numpy calls cost more than the
-        arithmetic); equal to :meth:`propeller_force_vectorized` (tested)."""
+        """ϑ_P (7.32), thesis order, by the scalar tier: the reference ``G_f f + G_t λt`` of
+        :meth:`unit_columns` and :meth:`thrust_and_torque` to rounding (tested).
+
+        Kept beside the reference because ``benchmarks/speed_tiers.py`` measures it ≈ 6× faster.
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (8,)
+            Generalized coordinates and velocities, thesis order.
+        zeta : array_like, shape (3,)
+            Wind, inertial axes (m/s).
+        n : array_like, shape (2,)
+            Propeller speeds (rev/s).
+
+        Returns
+        -------
+        ndarray, shape (8,)
+            ϑ_P, thesis order.
+        """
         # Python floats: arithmetic on numpy scalars is several times slower
         q, qdot = [float(v) for v in q], [float(v) for v in qdot]
         zeta, n = [float(v) for v in zeta], [float(v) for v in n]
@@ -325,7 +339,20 @@ class PropulsionModel:
 
     def servo_force(self, qdot, tau_s):
         """ϑ_s (7.33): τs acts about the inclined y axis of C2/C3, i.e. cos β τs on the tilt
-        joint (the reaction on the body cancels), minus viscous friction ν α̇."""
+        joint (the reaction on the body cancels), minus viscous friction ν α̇.
+
+        Parameters
+        ----------
+        qdot : array_like, shape (8,)
+            Generalized velocities, thesis order.
+        tau_s : array_like, shape (2,)
+            Servo torques (N m).
+
+        Returns
+        -------
+        ndarray, shape (8,)
+            ϑ_s, thesis order.
+        """
         out = np.zeros(8)
         out[0:2] = self.cosb * np.asarray(tau_s) - self.params.nu * qdot[0:2]
         return out
@@ -337,6 +364,11 @@ class PropellerForces(LeafSystem):
     Inputs: ``x`` (16, thesis order), ``wind`` (3, inertial m/s), ``propeller_speed`` (2, rev/s),
     ``servo_torque`` (2, N m); the last three read zero when unconnected.
     Output: ``generalized_force`` (8, thesis order).
+
+    Parameters
+    ----------
+    params : TiltrotorParams, optional
+        Table B.1 by default.
     """
 
     def __init__(self, params=None):

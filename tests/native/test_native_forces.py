@@ -1,8 +1,9 @@
-"""The compiled force kernel (sobolev_drake/native/forces.c) against its Python references.
+"""The compiled force kernel (sobolev_drake/native/forces.c) against the Python scalar tier.
 
-The kernel mirrors the Python scalar paths expression by expression, so the force model, the
+The kernel mirrors the Python scalar tier expression by expression, so the force model, the
 propellers and the plant's force system agree to the bit; only the input-affine terms may differ
-in the last bit (libm's hypot vs Python's math.hypot).
+in the last bit (libm's hypot vs Python's math.hypot).  The scalar tier itself is compared with
+the numpy reference in tests/tiltrotor/test_tiltrotor_forces.py.
 """
 
 import importlib
@@ -24,6 +25,7 @@ from sobolev_drake.tiltrotor.input_affine import (affine_terms_scalar, affine_te
 from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar
 
 K = importlib.import_module("sobolev_drake.native._forces")   # ImportError: not built
+EPS = np.finfo(float).eps
 
 
 @pytest.fixture(autouse=True)
@@ -79,7 +81,35 @@ def test_loads_propellers_and_affine_terms_equal_python(crossflow, reverse_flow)
                              (a.rotor_vxz, vxz), (a.rotor_phi, phi)):
                 err = np.max(np.abs(np.asarray(got) - ref) / (1.0 + np.abs(ref)))
                 worst_affine = max(worst_affine, err)
-    assert worst_affine < 1e-13, worst_affine
+    # The two differ only where hypot rounds differently (by at most one ulp of V_xz); the
+    # same expressions then carry that ulp through J, Ct, Cq and Cq/Ct, which amplify it by
+    # their condition numbers in J.  Measured: 0.84 ε relative; 64 ε leaves room for those.
+    assert worst_affine < 64 * EPS, worst_affine
+
+
+@pytest.mark.parametrize("reverse_flow", ["clipped", "mirrored"])
+def test_kernel_forces_equal_numpy_reference(reverse_flow):
+    """The kernel's ϑ_aero and ϑ_P against the readable numpy reference directly (the test
+    above goes through the scalar tier, which the kernel matches to the bit)."""
+    params = TiltrotorParams(reverse_flow=reverse_flow)
+    prop, aero = cores(params)
+    cap = force_model(prop, aero)
+    rng = np.random.default_rng(12)
+    worst = 0.0
+    for k in range(200):
+        ql, qdl, zl = random_case(rng, k)
+        delta = (rng.normal(size=4) * 0.3).tolist()
+        n = (np.abs(rng.normal(size=2)) * 60 + 5.0).tolist()
+        q, qd, zeta = np.array(ql), np.array(qdl), np.array(zl)
+        passive, Bd = aero.terms(q, qd, zeta)
+        f, t, _, _ = prop.thrust_and_torque(q, qd, zeta, np.array(n))
+        Gf, Gt = prop.unit_columns(q)
+        for ref, got in ((passive + Bd @ delta, K.aero_loads(cap, ql, qdl, zl, delta, False)[0]),
+                         (Gf @ f + Gt @ t, K.propeller_force(cap, ql, qdl, zl, n))):
+            worst = max(worst, np.max(np.abs(np.asarray(got) - ref)) / (1 + np.max(np.abs(ref))))
+    # the same sums in another order (matrix products against running sums): a few ulps of
+    # the largest term (measured: ≤ 8 ε), as in tests/tiltrotor/test_tiltrotor_forces.py
+    assert worst < 256 * EPS, worst / EPS
 
 
 def test_affine_terms_dispatch_and_fallback(monkeypatch):
@@ -89,8 +119,9 @@ def test_affine_terms_dispatch_and_fallback(monkeypatch):
     monkeypatch.setattr(native_pkg, "_ENABLED", False)
     assert kernel("forces") is None and force_model(*cores(params)) is None
     python = affine_terms_scalar_python(params, ql, qdl, zl, [50.0, 52.0])
-    np.testing.assert_allclose(native.B, python.B, rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(native.passive, python.passive, rtol=1e-13, atol=1e-13)
+    # hypot's last bit, as in test_loads_propellers_and_affine_terms_equal_python
+    np.testing.assert_allclose(native.B, python.B, rtol=64 * EPS, atol=64 * EPS)
+    np.testing.assert_allclose(native.passive, python.passive, rtol=64 * EPS, atol=64 * EPS)
 
 
 def _forces_diagram(native):
@@ -189,7 +220,7 @@ def test_make_model_rejects_bad_constants():
 def test_mission_states_equal_with_and_without_kernels(monkeypatch):
     """Two seconds of the envelope mission: the compiled and the Python paths fly the same
     trajectory (to rounding: the affine terms' hypot may differ in the last bit)."""
-    from sobolev_drake.experiments.tiltrotor_missions import simulate_mission
+    from sobolev_drake.tiltrotor.mission import simulate_mission
 
     def final_state():
         built, _ = simulate_mission(2, 2.0)
@@ -198,7 +229,10 @@ def test_mission_states_equal_with_and_without_kernels(monkeypatch):
     native_run = final_state()
     with native_pkg.disabled():
         python = final_state()
-    assert np.max(np.abs(native_run - python)) < 1e-9
+    # Only hypot's last bit differs per sample; the stable closed loop keeps that at rounding
+    # level over the 200 samples (measured 5.6e-16 with states up to 0.64).  1e-12 leaves
+    # room for another libm and still fails on any real difference between the paths.
+    assert np.max(np.abs(native_run - python)) < 1e-12 * (1 + np.max(np.abs(python)))
 
 
 def test_saturation_flags_equal_python():

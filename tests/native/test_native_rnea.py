@@ -203,21 +203,21 @@ def test_recursive_inverse_dynamics_with_and_without_kernel(monkeypatch):
     CalcInverseDynamics under native.disabled(), also after the capsule was cached."""
     ml = make_law(TiltrotorModel()).mech_law
     drake_calls = []
-    reference = ml.recursive_inverse_dynamics_python
-    monkeypatch.setattr(ml, "recursive_inverse_dynamics_python",
+    reference = ml.dynamics.recursive_inverse_dynamics_drake
+    monkeypatch.setattr(ml.dynamics, "recursive_inverse_dynamics_drake",
                         lambda *a: drake_calls.append(1) or reference(*a))
     rng = np.random.default_rng(6)
     for k in range(50):
         x, acc = random_state(rng, 8, k)
         q, qd = x[:8], x[8:]
-        fast = ml.recursive_inverse_dynamics(q, qd, acc)
-        assert ml._cache["rnea"] is not None and not drake_calls
+        fast = ml.dynamics.recursive_inverse_dynamics(q, qd, acc)
+        assert ml.dynamics._cache["rnea"] is not None and not drake_calls
         with native_pkg.disabled():
-            slow = ml.recursive_inverse_dynamics(q, qd, acc)
+            slow = ml.dynamics.recursive_inverse_dynamics(q, qd, acc)
         assert drake_calls == [1]
         drake_calls.clear()
         assert np.array_equal(slow, reference(q, qd, acc))
-        full = ml.inverse_dynamics(q, qd, acc)          # M q̈ + C q̇ + g, thesis order
+        full = ml.dynamics.inverse_dynamics(q, qd, acc)          # M q̈ + C q̇ + g, thesis order
         scale = 1.0 + np.max(np.abs(full))
         assert np.max(np.abs(fast - slow)) < TOL * scale
         assert np.max(np.abs(fast - full)) < 1e-12 * scale
@@ -233,9 +233,9 @@ def test_friction_is_added_when_the_model_has_it():
     ml = make_law(RubbingTiltrotor()).mech_law
     rng = np.random.default_rng(8)
     q, qd, acc = rng.normal(size=8), rng.normal(size=8), rng.normal(size=8)
-    fast = ml.recursive_inverse_dynamics(q, qd, acc)
-    assert ml._cache["rnea"] is not None
-    full = ml.inverse_dynamics(q, qd, acc)
+    fast = ml.dynamics.recursive_inverse_dynamics(q, qd, acc)
+    assert ml.dynamics._cache["rnea"] is not None
+    full = ml.dynamics.inverse_dynamics(q, qd, acc)
     assert np.max(np.abs(fast - full)) < 1e-12 * (1.0 + np.max(np.abs(full)))
 
 
@@ -299,9 +299,9 @@ def test_disabled_not_built_or_refused_gives_none(monkeypatch):
     assert tree_model(plant) is None
     ml = make_law(TiltrotorModel()).mech_law
     q, qd, acc = np.full(8, 0.1), np.full(8, 0.2), np.full(8, 0.3)
-    assert np.array_equal(ml.recursive_inverse_dynamics(q, qd, acc),
-                          ml.recursive_inverse_dynamics_python(q, qd, acc))
-    assert ml._cache["rnea"] is None
+    assert np.array_equal(ml.dynamics.recursive_inverse_dynamics(q, qd, acc),
+                          ml.dynamics.recursive_inverse_dynamics_drake(q, qd, acc))
+    assert ml.dynamics._cache["rnea"] is None
 
 
 def test_bad_arguments_raise_naming_them():

@@ -86,7 +86,7 @@ def test_thrust_inversion_round_trip(law):
 
 def test_newton_speed_matches_bracketing_solver():
     from sobolev_drake.tiltrotor.allocation import propeller_speed_for_thrust
-    from sobolev_drake.tiltrotor.propulsion import PropellerCoefficients
+    from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
     c = PropellerCoefficients()
     f, v, phi = np.array([20.0, 45.0]), np.array([3.0, 15.0]), np.array([0.2, 1.2])
     n_ref = propeller_speed_for_thrust(f, v, phi, coefficients=c)
@@ -177,8 +177,8 @@ def test_per_sample_paths_equal_general_ones(law):
         b = mech.desired_acceleration_scalar(q.tolist(), qd.tolist(), ie.tolist(), tracked.tolist())
         np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-12)
         acc = rng.normal(size=8)
-        u1 = mech.inverse_dynamics(q, qd, acc)
-        u2 = mech.recursive_inverse_dynamics(q, qd, acc)
+        u1 = mech.dynamics.inverse_dynamics(q, qd, acc)
+        u2 = mech.dynamics.recursive_inverse_dynamics(q, qd, acc)
         np.testing.assert_allclose(u2, u1, rtol=1e-12, atol=1e-11 * np.max(np.abs(u1)))
 
 
