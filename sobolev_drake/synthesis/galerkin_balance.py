@@ -81,7 +81,7 @@ def u0(X):
 
 
 def sgaa_problem(design, model, nodes, rho=None):
-    """The Galerkin problem of one design with ``nodes``³ Gauss–Legendre nodes on Ω.
+    """The Galerkin problem of one design with nodes³ Gauss–Legendre nodes on Ω (``nodes`` per axis).
 
     Parameters
     ----------

@@ -178,7 +178,7 @@ class PlantDynamics:
         Returns
         -------
         tuple or None
-            (index of [q; q̇] in Drake order, index of thesis order into Drake vectors, np.ix_
+            (index of [q; q̇] in Drake order, index of thesis order into Drake vectors, ``np.ix_``
             of the thesis-order mass matrix) when ``T`` is a permutation matrix, else None.
         """
         if T is None:
