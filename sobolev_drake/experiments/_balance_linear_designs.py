@@ -1,6 +1,6 @@
 """Configuration and designs of ``balance-linear`` (thesis 6.5.2, Table 6.2).
 
-The four designs are values (:class:`Design`: label, norm, feedback) with the thesis' weights
+The four designs are values (:class:`~sobolev_drake.synthesis.designs.LinearDesign`: label, norm, feedback) with the thesis' weights
 and a disk pole region each (the thesis' region matrix read as a disk, docs/design.md §4.4;
 both output-feedback designs regularized at γ = (1+δ)γ*, docs/design.md §8.2), plus the
 settings of the equal-settling-time search of the H∞ input weight ρ.
@@ -11,11 +11,10 @@ See docs/experiments/balance-linear.md.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-
 import numpy as np
 
 from sobolev_drake.harness import quiet
+from sobolev_drake.synthesis.designs import LinearDesign
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
 GAMMA1_SF = np.diag([2.6, 0.25, 0.625])
@@ -25,27 +24,9 @@ C_OF = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # θ̇ not measured (6.5.2)
 RADIUS = {"sf": 40.0, "of": 150.0}
 
 
-@dataclass(frozen=True)
-class Design:
-    """One row of Table 6.2.
-
-    Attributes
-    ----------
-    label : str
-        Its label in the tables, figures and metrics.
-    norm : str
-        "winf" (Sobolev weights Γ0, Γ1) or "hinf" (Q = Γ0, R = ρ).
-    feedback : str
-        "sf" (state) or "of" (output, y = C_OF x).
-    """
-
-    label: str
-    norm: str
-    feedback: str
-
-
-DESIGN_SPECS = {d.label: d for d in (Design("H∞", "hinf", "sf"), Design("W∞", "winf", "sf"),
-                                     Design("H∞-O.F.", "hinf", "of"), Design("W∞-O.F.", "winf", "of"))}
+DESIGN_SPECS = {d.label: d for d in (
+    LinearDesign("H∞", "hinf", "sf"), LinearDesign("W∞", "winf", "sf"),
+    LinearDesign("H∞-O.F.", "hinf", "of"), LinearDesign("W∞-O.F.", "winf", "of"))}
 DESIGNS = tuple(DESIGN_SPECS)
 #: Table 6.2: ISE θ, ISE ϕ̇, IADU, empirical H∞ index
 THESIS_TABLE_6_2 = {"H∞": (1.7, 82.9, 48.2, 1.47), "W∞": (1.8, 65.8, 33.5, 1.32),
@@ -75,7 +56,7 @@ def design(which, lin, *, rho=None, backend=None, regularize=None):
 
     Parameters
     ----------
-    which : Design or str
+    which : LinearDesign or str
         The design or its label (one of :data:`DESIGNS`); dispatched on its fields.
     lin : (A, B, D)
         The linear model.
@@ -97,9 +78,9 @@ def design(which, lin, *, rho=None, backend=None, regularize=None):
     """
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
-    spec = which if isinstance(which, Design) else DESIGN_SPECS.get(which)
+    spec = which if isinstance(which, LinearDesign) else DESIGN_SPECS.get(which)
     if spec is None:
-        raise ValueError(f"which must be one of {DESIGNS} or a Design, got {which!r}")
+        raise ValueError(f"which must be one of {DESIGNS} or a LinearDesign, got {which!r}")
     A, B, D = lin
     of = spec.feedback == "of"
     disk = regions.disk(RADIUS[spec.feedback])

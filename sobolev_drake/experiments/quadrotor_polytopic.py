@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ from sobolev_drake.harness import quiet
 from sobolev_drake.models.quadrotor_linear import UNCERTAIN, hinf_input_weight, input_scale, vertices
 from sobolev_drake.rigs.quadrotor_hover import QuadrotorHoverRig, flight_indices
 from sobolev_drake.rigs.quadrotor_hover_plots import plot_flights
+from sobolev_drake.synthesis.designs import LinearDesign
 from sobolev_drake.tuning import match_parameter
 
 GAMMA0 = np.diag([0.3183, 0.3183, 5.093, 10, 10, 10, 0.159, 0.159, 1.91, 0.05, 0.05, 0.5])
@@ -39,23 +39,7 @@ W_RTOL = 1e-2
 RHO_TUNED = 365.2
 
 
-@dataclass(frozen=True)
-class Design:
-    """One row of Table 6.4.
-
-    Attributes
-    ----------
-    label : str
-        Its label in the tables, figures and metrics.
-    norm : str
-        "winf" (Sobolev weights Γ0, Γ1) or "hinf" (Q = Γ0, R = ρ on Ω²/Ω²_hover).
-    """
-
-    label: str
-    norm: str
-
-
-WINF, HINF = Design("W∞", "winf"), Design("H∞", "hinf")
+WINF, HINF = LinearDesign("W∞", "winf"), LinearDesign("H∞", "hinf")   # rows of Table 6.4
 
 
 def design(spec, verts, *, rho=None, backend=None):
@@ -63,7 +47,7 @@ def design(spec, verts, *, rho=None, backend=None):
 
     Parameters
     ----------
-    spec : Design
+    spec : LinearDesign
         Which design (dispatched on ``spec.norm``).
     verts : list of (A, B, D)
         The polytope's vertices (B in Ω² units).

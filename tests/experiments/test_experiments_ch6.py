@@ -20,6 +20,7 @@ from sobolev_drake.experiments import balance_linear as blt
 from sobolev_drake.experiments import quadrotor_polytopic as qp
 from sobolev_drake.models import quadrotor_linear as ql
 from sobolev_drake.models import two_wheeled_linear as twl
+from sobolev_drake.synthesis.designs import LinearDesign
 from sobolev_drake.rigs import balance_linear as blr
 
 
@@ -312,6 +313,6 @@ def test_quadrotor_design_rejects_bad_input():
     with pytest.raises(ValueError, match="rho"):
         qp.design(qp.HINF, [], rho=None)
     with pytest.raises(ValueError, match="norm"):
-        qp.design(qp.Design("LQR", "lqr"), [])
+        qp.design(LinearDesign("LQR", "lqr"), [])
     with pytest.raises(ValueError, match="rho"):
         bl.design("H∞", twl.closed_form_linearization(), rho=-1.0)
