@@ -1,8 +1,10 @@
-"""Command line: ``sobolev-drake list | run NAME | demo | reproduce | report``.
+"""Command line: ``sobolev-drake list | run NAME | demo | reproduce | report | campaign NAME``.
 
 Every experiment writes into ``<out>/<experiment-name>/`` (default ``out/``): PNG figures,
 markdown + JSON tables, Meshcat recordings as standalone HTML, and ``result.json`` (claims,
 metrics, file list) from which ``report`` rebuilds REPRODUCTION.md without rerunning.
+``campaign NAME`` runs an experiment's designs over many seeds into ``--out``
+(:mod:`sobolev_drake.campaign`).
 
 Exit codes: 0 success (a thesis claim that does not hold is a finding, not an error);
 1 an experiment crashed; 2 bad usage (unknown experiment, bad option).
@@ -64,7 +66,82 @@ def _parser() -> argparse.ArgumentParser:
     rp.add_argument("--smoke", action="store_true", help="short versions (for testing the pipeline)")
     rep = sub.add_parser("report", help="rebuild REPRODUCTION.md from OUT/*/result.json (no rerun)")
     rep.add_argument("--out", default="out")
+    c = sub.add_parser("campaign", help="run an experiment's designs over many seeds (Monte Carlo)")
+    c.add_argument("name", help="experiment name with a campaign (see `sobolev-drake list`)")
+    c.add_argument("--seeds", type=_count, required=True, help="number of seeds")
+    c.add_argument("--first-seed", type=_count0, default=0, help="first seed (default 0)")
+    c.add_argument("--workers", type=_count0, default=1,
+                   help="worker processes (default 1; 0 runs in this process)")
+    c.add_argument("--scheduler", default=None,
+                   help="'dask-local' (a LocalCluster of --workers processes) or the address of a "
+                        "running Dask scheduler (default: a local process pool)")
+    c.add_argument("--perturb", action="append", default=None, metavar="NAME=FRACTION",
+                   help="scale parameter NAME by a factor drawn in [1-FRACTION, 1+FRACTION] per seed "
+                        "(repeatable; default: the campaign's; --perturb none for none)")
+    c.add_argument("--designs", nargs="+", default=None, help="a subset of the designs")
+    c.add_argument("--duration", type=_duration, default=None, help="simulated seconds per case")
+    c.add_argument("--resume", action="store_true", help="skip the cases already recorded in --out")
+    c.add_argument("--smoke", action="store_true", help="short cases (for testing the pipeline)")
+    c.add_argument("--no-progress", action="store_true", help="no progress bar")
+    c.add_argument("--out", required=True, help="output folder of the campaign")
     return p
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _count0(text: str) -> int:
+    return 0 if text.strip() == "0" else _count(text)
+
+
+def _perturbations(items):
+    """--perturb NAME=FRACTION list -> {NAME: FRACTION} (None: the campaign's default)."""
+    if items is None:
+        return None
+    out = {}
+    for item in items:
+        if item == "none":
+            continue
+        name, sep, frac = item.partition("=")
+        try:
+            value = float(frac)
+        except ValueError:
+            value = math.nan
+        if not sep or not name or not (0.0 <= value < 1.0):
+            raise ValueError(f"--perturb expects NAME=FRACTION with 0 <= FRACTION < 1, got {item!r}")
+        out[name] = value
+    return out
+
+
+def _cmd_campaign(args) -> int:
+    from sobolev_drake.campaign import run_campaign
+    from sobolev_drake.campaign.registry import UnknownCampaignError
+
+    try:
+        summary = run_campaign(args.name, seeds=args.seeds, first_seed=args.first_seed,
+                               designs=args.designs, workers=args.workers, scheduler=args.scheduler,
+                               perturb=_perturbations(args.perturb), resume=args.resume,
+                               duration=args.duration, smoke=args.smoke,
+                               progress=not args.no_progress, out_dir=args.out)
+    except (UnknownCampaignError, ValueError, FileExistsError) as err:
+        print(f"sobolev-drake: {err}", file=sys.stderr)
+        return 2
+    except Exception as err:  # a worker or the cluster died: what finished is on disk
+        print(f"sobolev-drake: campaign {args.name!r} interrupted ({type(err).__name__}: {err}); "
+              f"the finished cases are in {Path(args.out) / 'records.jsonl'}; rerun with --resume",
+              file=sys.stderr)
+        return 1
+    out = Path(args.out)
+    print(f"campaign {args.name}: {summary['cases']} cases ({summary['ran']} run now, "
+          f"{summary['wall_s']:.1f} s); summary in {out / 'summary.json'} and {out / 'summary.md'}")
+    return 0
 
 
 def _print_outputs(result: ExperimentResult, stream=sys.stdout) -> None:
@@ -226,7 +303,8 @@ def _cmd_report(args) -> int:
 
 
 _COMMANDS = {"list": lambda args: _cmd_list(), "run": _cmd_run, "demo": _cmd_demo,
-             "reproduce": _cmd_reproduce, "report": _cmd_report}
+             "reproduce": _cmd_reproduce, "report": _cmd_report,
+             "campaign": _cmd_campaign}
 
 
 def main(argv=None) -> int:

@@ -37,7 +37,7 @@ API_MODULES = ("sobolev_drake", "sobolev_drake.synthesis", "sobolev_drake.system
                "sobolev_drake.models")
 # library modules outside those namespaces whose ``__all__`` is public too: the tilt-rotor
 # package, the rigs and the experiment toolkit
-LIBRARY_PACKAGES = ("sobolev_drake.tiltrotor", "sobolev_drake.rigs")
+LIBRARY_PACKAGES = ("sobolev_drake.tiltrotor", "sobolev_drake.rigs", "sobolev_drake.campaign")
 LIBRARY_MODULES = ("sobolev_drake.harness", "sobolev_drake.tuning", "sobolev_drake.norms",
                    "sobolev_drake.report", "sobolev_drake.viz", "sobolev_drake.plots",
                    "sobolev_drake.recording_html", "sobolev_drake.simulation")

@@ -1,0 +1,139 @@
+"""What one campaign case is, and what a campaign is made of.
+
+A :class:`Case` is a small picklable description: the campaign (an experiment's name), one of
+its designs, a seed and the parameter perturbations asked for.  Everything random in a case is
+derived from the seed alone (:meth:`Case.rng`), never from the design, so every design of a
+campaign meets the same disturbance realization and the same parameter draw on a given seed:
+comparisons between designs are paired.  The worker that runs a case builds its own Drake
+diagram from it (Drake systems do not pickle) and returns a small record.
+
+A :class:`CampaignDefinition` is what an experiment declares to be run as a campaign: its
+designs, what a seed randomizes, which parameters may be perturbed, the indices its records
+carry and the function that runs one case.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+__all__ = ["Case", "CampaignDefinition"]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One design flown on one seed.
+
+    Attributes
+    ----------
+    campaign : str
+        The campaign (registered experiment) name.
+    design : str
+        One of the campaign's designs.
+    seed : int
+        Non-negative seed; all randomness of the case derives from it.
+    perturb : tuple of (str, float)
+        (parameter, fraction) pairs, sorted by name: each parameter is scaled by a factor drawn
+        uniformly in [1 − fraction, 1 + fraction] (:meth:`draws`).
+    duration : float or None
+        Simulated time (s); None for the campaign's default.
+    smoke : bool
+        The short version used by the tests.
+    """
+
+    campaign: str
+    design: str
+    seed: int
+    perturb: tuple = ()
+    duration: float | None = None
+    smoke: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        for item in self.perturb:
+            if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)
+                    and isinstance(item[1], float) and 0.0 <= item[1] < 1.0):
+                raise ValueError("perturb must hold (name, fraction) pairs with 0 <= fraction < 1, "
+                                 f"got {item!r}")
+
+    @property
+    def key(self) -> str:
+        """Identity of the case inside its campaign ("design|seed")."""
+        return f"{self.design}|{self.seed}"
+
+    def rng(self, stream: str) -> np.random.Generator:
+        """A generator for one named source of randomness ("turbulence", "disturbance", …).
+
+        It depends on the seed and the stream name only, so two designs on the same seed draw
+        the same numbers, and two streams of one case are independent.
+
+        Parameters
+        ----------
+        stream : str
+            Name of the random source.
+
+        Returns
+        -------
+        numpy.random.Generator
+        """
+        return np.random.default_rng([int(self.seed), zlib.crc32(stream.encode("utf-8"))])
+
+    def draws(self) -> dict:
+        """The parameter factors of this case: {name: factor in [1 − f, 1 + f]}.
+
+        Returns
+        -------
+        dict
+            One factor per perturbed parameter, drawn from the "parameters" stream in name
+            order (so adding a parameter does not change the others' draws only if it sorts
+            last — fixed sets of parameters are what campaigns use).
+        """
+        rng = self.rng("parameters")
+        return {name: float(1.0 + frac * rng.uniform(-1.0, 1.0)) for name, frac in self.perturb}
+
+
+@dataclass(frozen=True)
+class CampaignDefinition:
+    """What an experiment runs as a campaign.
+
+    Attributes
+    ----------
+    designs : tuple of str
+        The design labels, in table order.
+    indices : tuple of str
+        Names of the indices every successful record carries ("lower is better").
+    randomizes : str
+        What a seed randomizes, in words (shown by ``sobolev-drake campaign --help`` and in
+        the summary).
+    run : callable
+        ``run(case) -> dict`` with "indices" ({name: float}), "success" (bool), optionally
+        "failure" (str) and "peaks" ({name: float}).  It must depend on the case only.
+    parameters : dict
+        {parameter name: description} of what ``--perturb NAME=FRACTION`` may scale.
+    default_perturb : dict
+        {parameter name: fraction} used when the user gives no ``--perturb``.
+    smoke_duration : float
+        Simulated time of a smoke case (s).
+    """
+
+    designs: tuple
+    indices: tuple
+    randomizes: str
+    run: Callable
+    parameters: dict = field(default_factory=dict)
+    default_perturb: dict = field(default_factory=dict)
+    smoke_duration: float = 1.0
+
+    def __post_init__(self):
+        if not self.designs or len(set(self.designs)) != len(self.designs):
+            raise ValueError(f"designs must be distinct labels, got {self.designs!r}")
+        unknown = set(self.default_perturb) - set(self.parameters)
+        if unknown:
+            raise ValueError(f"default_perturb names unknown parameters {sorted(unknown)}")
+        if not (math.isfinite(self.smoke_duration) and self.smoke_duration > 0):
+            raise ValueError(f"smoke_duration must be > 0, got {self.smoke_duration!r}")

@@ -1,0 +1,262 @@
+"""Run a campaign: its cases in worker processes or on a Dask cluster, resumable.
+
+Executors (no scheduler of our own):
+
+* ``workers=0`` — in this process (debugging, tests);
+* ``scheduler=None`` — a ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes,
+  each replaced after ``tasks_per_worker`` cases because Python LeafSystems are never freed
+  (docs/design.md §8.6);
+* ``scheduler="dask-local"`` — a ``distributed.LocalCluster`` of ``workers`` single-threaded
+  processes; any other string is the address of a running Dask scheduler.
+
+Each case's record is appended to the store as it arrives (:mod:`.store`); with
+``resume=True`` the cases already recorded are skipped.  A progress bar (tqdm) shows the rate
+and the projected finish.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+from sobolev_drake.campaign.case import Case
+from sobolev_drake.campaign.registry import get_campaign
+from sobolev_drake.campaign.store import CampaignStore
+
+__all__ = ["make_cases", "run_case", "run_campaign"]
+
+
+def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, perturb=None,
+               duration=None, smoke: bool = False) -> list:
+    """The cases of a campaign: every design on every seed.
+
+    Parameters
+    ----------
+    name : str
+        The campaign (experiment) name.
+    seeds : int
+        Number of seeds (≥ 1): ``first_seed, …, first_seed + seeds − 1``.
+    first_seed : int
+        First seed.
+    designs : sequence of str, optional
+        A subset of the campaign's designs (default all).
+    perturb : dict, optional
+        {parameter: fraction}; None uses the campaign's default, {} none.
+    duration : float, optional
+        Simulated time per case (s).
+    smoke : bool
+        Short cases.
+
+    Returns
+    -------
+    list of Case
+        Seed-major order (all designs of seed k before seed k + 1), so an interrupted campaign
+        leaves complete pairs.
+    """
+    defn = get_campaign(name)
+    if not (isinstance(seeds, int) and not isinstance(seeds, bool) and seeds >= 1):
+        raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
+    if not (isinstance(first_seed, int) and first_seed >= 0):
+        raise ValueError(f"first_seed must be an integer >= 0, got {first_seed!r}")
+    designs = tuple(defn.designs if designs is None else designs)
+    bad = [d for d in designs if d not in defn.designs]
+    if bad or not designs:
+        raise ValueError(f"designs must be among {defn.designs}, got {list(designs)!r}")
+    perturb = dict(defn.default_perturb if perturb is None else perturb)
+    bad = [p for p in perturb if p not in defn.parameters]
+    if bad:
+        raise ValueError(f"--perturb: campaign {name!r} cannot perturb {bad}; it can perturb "
+                         f"{sorted(defn.parameters) or 'nothing'}")
+    items = tuple(sorted((k, float(v)) for k, v in perturb.items()))
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+    return [Case(name, d, s, items, None if duration is None else float(duration), bool(smoke))
+            for s in range(first_seed, first_seed + seeds) for d in designs]
+
+
+def run_case(case: Case) -> dict:
+    """Run one case (in whatever process holds it) and return its record.
+
+    A case that raises is a failed record (its exception type and first message line), not a
+    lost one: the campaign counts it in the design's success rate.
+
+    Parameters
+    ----------
+    case : Case
+
+    Returns
+    -------
+    dict
+        "key", "campaign", "design", "seed", "perturb_values", "indices", "success",
+        "failure", "peaks", "wall_s", "pid".
+    """
+    t0 = time.perf_counter()
+    try:
+        out = dict(get_campaign(case.campaign).run(case))
+    except Exception as exc:  # noqa: BLE001 - recorded as the case's failure
+        out = {"success": False, "indices": {},
+               "failure": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300] if str(exc) else ''}"}
+    return {"key": case.key, "campaign": case.campaign, "design": case.design, "seed": case.seed,
+            "perturb_values": case.draws(), "indices": {k: float(v) for k, v in out.get("indices", {}).items()},
+            "success": bool(out.get("success", False)), "failure": str(out.get("failure", "")),
+            "peaks": {k: float(v) for k, v in out.get("peaks", {}).items()},
+            "wall_s": time.perf_counter() - t0, "pid": os.getpid()}
+
+
+def _inline(cases, workers, scheduler, tasks_per_worker):
+    for case in cases:
+        yield run_case(case)
+
+
+def _processes(cases, workers, scheduler, tasks_per_worker):
+    ctx = multiprocessing.get_context("spawn")        # max_tasks_per_child needs spawn
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                             max_tasks_per_child=tasks_per_worker) as pool:
+        futures = [pool.submit(run_case, c) for c in cases]
+        for f in as_completed(futures):
+            yield f.result()
+
+
+def _dask(cases, workers, scheduler, tasks_per_worker):
+    try:
+        from distributed import Client, LocalCluster, as_completed as dask_completed
+    except ImportError:
+        raise ImportError("a Dask scheduler needs Dask: pip install 'sobolev_drake[campaign]'") from None
+
+    cluster = None
+    if scheduler == "dask-local":
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    try:
+        futures = client.map(run_case, cases, pure=False)
+        for f in dask_completed(futures):
+            yield f.result()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs=None,
+                 workers: int = 1, scheduler=None, perturb=None, resume: bool = False,
+                 duration=None, smoke: bool = False, progress: bool = True,
+                 tasks_per_worker: int = 20) -> dict:
+    """Run (or finish) a campaign and write its records, summary, tables and plots.
+
+    Parameters
+    ----------
+    name : str
+        The campaign (experiment) name.
+    seeds : int
+        Number of seeds.
+    out_dir : str or Path
+        Output folder: ``records.jsonl``, ``campaign.json``, ``summary.json``, tables, plots.
+    first_seed : int
+        First seed.
+    designs : sequence of str, optional
+        Subset of the designs.
+    workers : int
+        Worker processes (0: run in this process).
+    scheduler : str, optional
+        None (process pool), "dask-local" or a Dask scheduler address.
+    perturb : dict, optional
+        {parameter: fraction} (None: the campaign's default).
+    resume : bool
+        Skip cases already recorded in ``out_dir``.
+    duration : float, optional
+        Simulated time per case (s).
+    smoke : bool
+        Short cases.
+    progress : bool
+        Show a progress bar on stderr.
+    tasks_per_worker : int
+        Cases a worker process runs before it is replaced (process pool only).
+
+    Returns
+    -------
+    dict
+        The summary (:func:`sobolev_drake.campaign.stats.summarize`) with "out_dir", "cases",
+        "ran" (cases run now) and "wall_s".
+    """
+    if not (isinstance(workers, int) and workers >= 0):
+        raise ValueError(f"workers must be an integer >= 0, got {workers!r}")
+    if workers == 0 and scheduler is not None:
+        raise ValueError("workers=0 runs in this process; a scheduler needs workers >= 1")
+    if not (isinstance(tasks_per_worker, int) and tasks_per_worker >= 1):
+        raise ValueError(f"tasks_per_worker must be an integer >= 1, got {tasks_per_worker!r}")
+    cases = make_cases(name, seeds, first_seed=first_seed, designs=designs, perturb=perturb,
+                       duration=duration, smoke=smoke)
+    first = cases[0]
+    config = {"campaign": name, "designs": sorted({c.design for c in cases}),
+              "perturb": [list(p) for p in first.perturb], "duration": first.duration,
+              "smoke": first.smoke}
+    store = CampaignStore(out_dir)
+    done = store.start(config, resume=resume)
+    todo = [c for c in cases if c.key not in done]
+    executor = _inline if workers == 0 else (_processes if scheduler is None else _dask)
+    t0 = time.perf_counter()
+    bar = None
+    if progress and todo:
+        from tqdm import tqdm
+        bar = tqdm(total=len(todo), desc=f"campaign {name}", unit="case", smoothing=0.1)
+    try:
+        for record in executor(todo, max(workers, 1), scheduler, tasks_per_worker):
+            store.append(record)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    records = [r for r in store.load().values() if r["design"] in config["designs"]]
+    keys = {c.key for c in cases}
+    records = [r for r in records if r["key"] in keys]
+    return write_summary(name, records, [d for d in get_campaign(name).designs if d in config["designs"]],
+                         Path(out_dir), extra={"cases": len(cases), "ran": len(todo), "wall_s": wall,
+                                               "config": config})
+
+
+def write_summary(name, records, designs, out_dir, extra=None) -> dict:
+    """Statistics, tables and plots of a campaign's records.
+
+    Parameters
+    ----------
+    name : str
+        The campaign name.
+    records : list of dict
+        Its records.
+    designs : list of str
+        Design order.
+    out_dir : Path
+        Output folder.
+    extra : dict, optional
+        Added to the summary.
+
+    Returns
+    -------
+    dict
+        The summary, also written to ``summary.json``.
+    """
+    from sobolev_drake.campaign import stats
+
+    defn = get_campaign(name)
+    summary = stats.summarize(records, designs=designs, indices=list(defn.indices))
+    summary.update({"campaign": name, "randomizes": defn.randomizes, "out_dir": str(out_dir),
+                    **(extra or {})})
+    md, rows = stats.summary_tables(summary)
+    (out_dir / "summary.md").write_text(f"# Campaign {name}\n\n{defn.randomizes}\n\n{md}\n",
+                                        encoding="utf-8")
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
+                                          encoding="utf-8")
+    if records:
+        stats.plot_distributions(records, summary, out_dir / "distributions.png")
+        stats.plot_cdfs(records, summary, out_dir / "cdfs.png")
+    return summary
