@@ -273,9 +273,10 @@ def _cmd_reproduce(args) -> int:
         except Exception as err:  # one broken experiment must not hide the others' results
             crashed.append(name)
             results.append(_crash_result(name, err, None))
-    path = write_reproduction(results, out_root / "REPRODUCTION.md")
+    campaigns = _campaign_sections(out_root)
+    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns)
     # same content with links relative to the current directory
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md")
+    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns)
     print(f"wrote {path} and {local.name}")
     if crashed:
         print(f"sobolev-drake: {len(crashed)} experiment(s) crashed: {', '.join(crashed)}", file=sys.stderr)
@@ -296,10 +297,16 @@ def _cmd_report(args) -> int:
     except (OSError, ValueError, KeyError) as err:
         raise UsageError(f"cannot read the results under {str(out_root)!r}: {err}") from None
     _writable_dir(out_root)
-    path = write_reproduction(results, out_root / "REPRODUCTION.md")
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md")
+    campaigns = _campaign_sections(out_root)
+    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns)
+    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns)
     print(f"wrote {path} and {local.name} from {len(results)} result(s)")
     return 0
+
+
+def _campaign_sections(out_root: Path) -> list:
+    """The summary.md of every campaign under OUT/campaigns/ (in name order)."""
+    return [p.read_text(encoding="utf-8") for p in sorted(out_root.glob("campaigns/*/summary.md"))]
 
 
 _COMMANDS = {"list": lambda args: _cmd_list(), "run": _cmd_run, "demo": _cmd_demo,

@@ -232,7 +232,8 @@ def _rel(p, base: Path) -> str:
         return Path(p).name
 
 
-def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments") -> Path:
+def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments",
+                       campaigns: Sequence = ()) -> Path:
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
     claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs.
 
@@ -244,6 +245,9 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
         The markdown file to write (its folder is created if missing).
     title : str, optional
         Top-level heading.
+    campaigns : sequence of str, optional
+        Markdown sections of campaign summaries (``summary.md`` of each campaign), appended
+        under "Campaigns".
 
     Returns
     -------
@@ -281,6 +285,11 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
             lines.append("")
         if r.outputs:
             lines.append("Outputs: " + ", ".join(f"[{label}]({_rel(p, base)})" for label, p in r.outputs.items()))
+    if campaigns:
+        lines += ["", "# Campaigns", "",
+                  "The thesis compares designs on one disturbance realization and one parameter set; "
+                  "here each comparison is repeated over many seeds (`sobolev-drake campaign`).", ""]
+        lines += [str(c).strip() + "\n" for c in campaigns]
     path.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
     return path
 

@@ -287,3 +287,10 @@ def test_simulate_takes_no_ulp_steps_before_events(period, ratio, monkeypatch):
     expected, slack = round(20.0 / period) * ratio, simulation.MAX_STEP_SLACK
     assert expected <= steps(slack) <= expected + 3
     assert steps(0.0) > expected * 1.02           # the trap is real (else this test is moot)
+
+
+def test_reproduction_appends_campaign_sections(tmp_path):
+    r = report.ExperimentResult("x", {}, {}, [report.Claim("c", True)], "")
+    path = report.write_reproduction([r], tmp_path / "R.md", campaigns=["## Campaign x\n\nbody"])
+    text = path.read_text(encoding="utf-8")
+    assert text.index("# Campaigns") < text.index("## Campaign x") and "body" in text

@@ -119,6 +119,10 @@ class CampaignDefinition:
         {parameter name: fraction} used when the user gives no ``--perturb``.
     smoke_duration : float
         Simulated time of a smoke case (s).
+    claims : tuple of (str, str, str, str)
+        The thesis' comparison claims this campaign tests, as (text, design A, design B,
+        index): "A has the smaller index"; the summary states each as the share of paired
+        seeds where it holds.
     """
 
     designs: tuple
@@ -128,6 +132,7 @@ class CampaignDefinition:
     parameters: dict = field(default_factory=dict)
     default_perturb: dict = field(default_factory=dict)
     smoke_duration: float = 1.0
+    claims: tuple = ()
 
     def __post_init__(self):
         if not self.designs or len(set(self.designs)) != len(self.designs):
@@ -135,5 +140,9 @@ class CampaignDefinition:
         unknown = set(self.default_perturb) - set(self.parameters)
         if unknown:
             raise ValueError(f"default_perturb names unknown parameters {sorted(unknown)}")
+        for claim in self.claims:
+            if (len(claim) != 4 or claim[1] not in self.designs or claim[2] not in self.designs
+                    or claim[3] not in self.indices):
+                raise ValueError(f"a claim is (text, design, design, index) of this campaign, got {claim!r}")
         if not (math.isfinite(self.smoke_duration) and self.smoke_duration > 0):
             raise ValueError(f"smoke_duration must be > 0, got {self.smoke_duration!r}")

@@ -252,11 +252,54 @@ def write_summary(name, records, designs, out_dir, extra=None) -> dict:
     summary.update({"campaign": name, "randomizes": defn.randomizes, "out_dir": str(out_dir),
                     **(extra or {})})
     md, rows = stats.summary_tables(summary)
-    (out_dir / "summary.md").write_text(f"# Campaign {name}\n\n{defn.randomizes}\n\n{md}\n",
-                                        encoding="utf-8")
+    summary["claims"] = claim_statistics(defn, summary)
+    n_seeds = len({r["seed"] for r in records})
+    head = [f"## Campaign {name}", "", f"{n_seeds} seeds; a seed randomizes {defn.randomizes}"
+            + (f"; parameters scaled per seed: {', '.join(f'{k} ±{100 * v:g} %' for k, v in summary['config']['perturb'])}"
+               if summary.get("config", {}).get("perturb") else "") + ".", ""]
+    if summary["claims"]:
+        head += ["Thesis claims over the campaign (share of paired seeds where the claim holds, "
+                 f"{100 * summary['confidence']:g} % Wilson interval):", ""]
+        head += [f"- {c['text']}: {c['statement']}" for c in summary["claims"]] + [""]
+    (out_dir / "summary.md").write_text("\n".join(head) + md + "\n", encoding="utf-8")
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
                                           encoding="utf-8")
     if records:
         stats.plot_distributions(records, summary, out_dir / "distributions.png")
         stats.plot_cdfs(records, summary, out_dir / "cdfs.png")
     return summary
+
+
+def claim_statistics(defn, summary) -> list:
+    """Each of the campaign's claims "A has the smaller index than B" as a paired statistic.
+
+    Parameters
+    ----------
+    defn : CampaignDefinition
+        The campaign (its ``claims``).
+    summary : dict
+        From :func:`sobolev_drake.campaign.stats.summarize`.
+
+    Returns
+    -------
+    list of dict
+        "text", "a", "b", "index", "share", "interval", "n_paired", "median_ratio",
+        "statement" (one readable line).
+    """
+    out = []
+    for text, a, b, index in defn.claims:
+        comp = next((c for c in summary["comparisons"]
+                     if (c["a"], c["b"], c["index"]) == (a, b, index)), None)
+        if comp is None or comp["share_a_better"] is None:
+            out.append({"text": text, "a": a, "b": b, "index": index, "share": None,
+                        "interval": [0.0, 1.0], "n_paired": 0, "median_ratio": None,
+                        "statement": "no paired seeds"})
+            continue
+        lo, hi = comp["share_interval"]
+        ratio = comp["median_ratio"]
+        out.append({"text": text, "a": a, "b": b, "index": index, "share": comp["share_a_better"],
+                    "interval": [lo, hi], "n_paired": comp["n_paired"], "median_ratio": ratio,
+                    "statement": f"holds on {100 * comp['share_a_better']:.0f} % "
+                                 f"[{100 * lo:.0f}, {100 * hi:.0f}] of {comp['n_paired']} paired seeds"
+                                 + (f"; median {index} ratio {a}/{b} = {ratio:.3g}" if ratio is not None else "")})
+    return out

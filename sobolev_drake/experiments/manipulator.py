@@ -153,4 +153,6 @@ register_campaign("manipulator", CampaignDefinition(
     randomizes="the two torque disturbances (amplitudes, start times, period)",
     parameters={n: f"arm parameter {n} of the simulated truth" for n in ("m1", "m2", "I1", "I2", "l1", "l2")},
     default_perturb={"m1": 0.1, "m2": 0.1, "I1": 0.1, "I2": 0.1},
-    smoke_duration=CAMPAIGN_SMOKE_DURATION))
+    smoke_duration=CAMPAIGN_SMOKE_DURATION,
+    claims=tuple((f"W2/W∞ has a smaller {c} than H∞ (Table 5.3)", "W2/W∞", "H∞", c)
+                 for c in ("ISE q1", "ISE q2"))))

@@ -3,9 +3,8 @@ Table 6.4).
 
 The 16-vertex ±10 % polytope in m, Ixx, Iyy, Izz of the hover linearization (6.44)–(6.45)
 (:mod:`sobolev_drake.models.quadrotor_linear`) with a disk region r = 100, the W∞ LMI optimum
-flown unregularized (it lies on the feedthrough bound, docs/design.md §8.2), H∞ with its input
-weight ρ tuned to a similar ISE, and the flights along Table 6.3 on the nonlinear Drake
-quadrotor (one reused diagram, :mod:`sobolev_drake.rigs.quadrotor_hover`).
+flown unregularized (on the feedthrough bound, docs/design.md §8.2), H∞ with ρ tuned to a similar
+ISE, flown along Table 6.3 on the nonlinear quadrotor (:mod:`sobolev_drake.rigs.quadrotor_hover`).
 
 See docs/experiments/quadrotor-polytopic.md.
 """
@@ -14,14 +13,17 @@ from __future__ import annotations
 
 import json
 import time
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from sobolev_drake.campaign import CampaignDefinition, register_campaign
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.harness import quiet
 from sobolev_drake.models.quadrotor_linear import UNCERTAIN, hinf_input_weight, input_scale, vertices
-from sobolev_drake.rigs.quadrotor_hover import QuadrotorHoverRig, flight_indices
+from sobolev_drake.rigs.quadrotor_hover import (CAMPAIGN_INDICES, QuadrotorHoverRig, campaign_flight,
+                                                 flight_indices)
 from sobolev_drake.rigs.quadrotor_hover_plots import plot_flights
 from sobolev_drake.synthesis.designs import LinearDesign
 from sobolev_drake.tuning import match_parameter
@@ -163,3 +165,28 @@ def run(out_dir, *, duration=None, record=False, smoke=False, log=print):
         res.outputs["meshcat_html"] = viz.save_recording_html(rrig.meshcat, rrig.recorder,
                                                               out_dir / "quadrotor-polytopic_Winf.html")
     return res
+
+
+CAMPAIGN_DESIGNS = {WINF.label: {"spec": WINF}, HINF.label: {"spec": HINF, "rho": RHO_TUNED}}  # -> design()
+CAMPAIGN_SMOKE_DURATION = 2.0  # s
+
+
+@lru_cache(maxsize=None)
+def _campaign_gain(label):
+    """K of a campaign design on the 16-vertex polytope, synthesized once per process."""
+    return np.asarray(design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0].K)
+
+
+def campaign_case(case) -> dict:
+    """A design of :data:`CAMPAIGN_DESIGNS` flown on the truth, q(0) and disturbances its seed
+    draws; returns "indices", "success" (no divergence) and "failure"."""
+    duration = case.duration or (CAMPAIGN_SMOKE_DURATION if case.smoke else 40.0)
+    return campaign_flight(_campaign_gain(case.design), duration, case)
+
+
+register_campaign("quadrotor-polytopic", CampaignDefinition(
+    designs=tuple(CAMPAIGN_DESIGNS), indices=tuple(CAMPAIGN_INDICES), run=campaign_case,
+    randomizes="the truth's m, Ixx, Iyy, Izz (inside the designs' ±10 % polytope), q(0) and the disturbances",
+    parameters={n: f"quadrotor parameter {n} of the simulated truth" for n in (*UNCERTAIN, "l", "b", "d")},
+    default_perturb=dict.fromkeys(UNCERTAIN, 0.1), smoke_duration=CAMPAIGN_SMOKE_DURATION,
+    claims=(("W∞ demands less control effort (IADU) than H∞ (Table 6.4)", "W∞", "H∞", "IADU"),)))

@@ -3,12 +3,15 @@
 
 Scenario: q(0) = :data:`Q0`, q̇(0) = 0; δy = 10 N on 10–15 s and δz = 10 sin(0.4πt) N on
 25–30 s; Ω² = Ω²_hover + K(x̂ − x̂_r) clipped to [0, :data:`U_MAX_FACTOR` Ω²_hover].  A flight
-whose tilt exceeds :data:`DIVERGED_TILT` is stopped.  See docs/experiments/quadrotor-polytopic.md.
+whose tilt exceeds :data:`DIVERGED_TILT` is stopped.  The simulated vehicle, the disturbance
+(:func:`disturbance_pulses`) and q(0) may be changed (a campaign's draws) while the controller
+keeps the nominal trim.  See docs/experiments/quadrotor-polytopic.md.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder, EventStatus
@@ -22,12 +25,63 @@ from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 from sobolev_drake.systems.reference_catalogue import table_6_3
 
-__all__ = ["Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "flight_indices"]
+__all__ = ["Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "disturbance_pulses", "drawn_scenario",
+           "flight_indices", "CAMPAIGN_INDICES", "campaign_flight"]
 
 #: initial configuration [ϕ θ ψ x y z] of every flight
 Q0 = np.array([0, 0, 0, 4.0, 0, 1.0])
 U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), docs/design.md §8.1
 DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) beyond this tilt
+
+
+def disturbance_pulses(step=10.0, step_from=10.0, sine=10.0, sine_omega=0.4 * np.pi, sine_from=25.0):
+    """The scenario's generalized-force pulses (defaults): δy = ``step`` N for 5 s from
+    ``step_from``, then δz = ``sine`` sin(``sine_omega`` t) N for 5 s from ``sine_from``.
+
+    Parameters
+    ----------
+    step : float
+        Amplitude of the δy step (N).
+    step_from : float
+        Start of the step (s).
+    sine : float
+        Amplitude of the δz sine (N).
+    sine_omega : float
+        Angular frequency of the sine (rad/s).
+    sine_from : float
+        Start of the sine (s).
+
+    Returns
+    -------
+    list of dict
+        Pulses for ``TimeProfiledForce(6, pulses)``.
+    """
+    return [{"index": 4, "value": float(step), "from": float(step_from), "to": float(step_from) + 5.0},
+            {"index": 5, "value": lambda t: sine * np.sin(sine_omega * t), "from": float(sine_from),
+             "to": float(sine_from) + 5.0}]
+
+
+def drawn_scenario(rng_initial, rng_disturbance):
+    """A random version of the scenario (a campaign seed's): q(0) = :data:`Q0` + ±0.1 rad on
+    each angle and ±0.5 m on each position; step and sine amplitudes 5–15 N, their start
+    times ±2 s around 10 s and 25 s and the sine's frequency ±25 % around 0.2 Hz (uniform).
+
+    Parameters
+    ----------
+    rng_initial : numpy.random.Generator
+        Draws q(0) (six numbers).
+    rng_disturbance : numpy.random.Generator
+        Draws the disturbance (five numbers).
+
+    Returns
+    -------
+    (ndarray, list of dict)
+        q(0) for :meth:`QuadrotorHoverRig.run` and ``pulses`` for :class:`QuadrotorHoverRig`.
+    """
+    q0 = Q0 + np.r_[rng_initial.uniform(-0.1, 0.1, 3), rng_initial.uniform(-0.5, 0.5, 3)]
+    r = rng_disturbance
+    return q0, disturbance_pulses(r.uniform(5, 15), r.uniform(8, 12), r.uniform(5, 15),
+                                  0.4 * np.pi * r.uniform(0.75, 1.25), r.uniform(23, 27))
 
 
 class QuadrotorHoverRig(LoggedLoop):
@@ -43,13 +97,18 @@ class QuadrotorHoverRig(LoggedLoop):
         Sampling period of the logs (s).
     params : QuadrotorParams, optional
         The vehicle; ``QuadrotorParams.chapter6_nominal()`` by default.
+    truth : QuadrotorParams, optional
+        The simulated vehicle when it differs from ``params`` (the controller's trim Ω²_hover
+        and limits stay those of ``params``).
+    pulses : list of dict, optional
+        The disturbance, :func:`disturbance_pulses` by default.
     """
 
-    def __init__(self, *, record=False, log_period=0.01, params=None):
+    def __init__(self, *, record=False, log_period=0.01, params=None, truth=None, pulses=None):
         p = params or QuadrotorParams.chapter6_nominal()
         self.hover = p.hover_input()
         b = DiagramBuilder()
-        self.h = add_quadrotor(b, p)
+        self.h = add_quadrotor(b, truth or p)
         self.ctrl = b.AddSystem(LinearStateFeedback(np.zeros((4, 12)), u_r=np.full(4, self.hover),
                                                     reference_port=True, u_min=0.0,
                                                     u_max=U_MAX_FACTOR * self.hover))
@@ -58,9 +117,7 @@ class QuadrotorHoverRig(LoggedLoop):
         sel[3:6, 0:3] = np.eye(3)
         sel[9:12, 3:6] = np.eye(3)
         to_x = b.AddSystem(MatrixGain(sel))
-        pulses = [{"index": 4, "value": 10.0, "from": 10.0, "to": 15.0},
-                  {"index": 5, "value": lambda t: 10.0 * np.sin(0.4 * np.pi * t), "from": 25.0, "to": 30.0}]
-        self.w = b.AddSystem(TimeProfiledForce(6, pulses))
+        self.w = b.AddSystem(TimeProfiledForce(6, disturbance_pulses() if pulses is None else pulses))
         b.Connect(self.ref.GetOutputPort("reference"), to_x.get_input_port())
         b.Connect(to_x.get_output_port(), self.ctrl.GetInputPort("x_r"))
         b.Connect(self.h.x, self.ctrl.GetInputPort("x"))
@@ -70,8 +127,8 @@ class QuadrotorHoverRig(LoggedLoop):
                         ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
                     log_period, record)
 
-    def run(self, K, duration):
-        """Fly Ω² = Ω²_hover + K (x̂ − x̂_r) for ``duration`` s from q(0) = :data:`Q0`.
+    def run(self, K, duration, q0=None):
+        """Fly Ω² = Ω²_hover + K (x̂ − x̂_r) for ``duration`` s from q(0) = ``q0``, q̇(0) = 0.
 
         Parameters
         ----------
@@ -79,6 +136,8 @@ class QuadrotorHoverRig(LoggedLoop):
             State-feedback gain in Ω² units.
         duration : float
             Simulated time (s); the run stops earlier beyond :data:`DIVERGED_TILT`.
+        q0 : array_like, shape (6,), optional
+            Initial configuration [ϕ θ ψ x y z]; :data:`Q0` by default.
 
         Returns
         -------
@@ -87,7 +146,7 @@ class QuadrotorHoverRig(LoggedLoop):
         """
         ctx = self.context
         ctx.SetTime(0.0)
-        self.h.set_state(ctx, self.diagram, Q0, np.zeros(6))
+        self.h.set_state(ctx, self.diagram, Q0 if q0 is None else np.asarray(q0, float), np.zeros(6))
         self.ctrl.set_gains(self.ctrl.GetMyMutableContextFromRoot(ctx), np.asarray(K))
         self.clear_logs(ctx)
         t0 = time.perf_counter()
@@ -138,3 +197,39 @@ def flight_indices(d):
             "final_position_error_m": float(np.linalg.norm(e[-1, 3:6])),
             "max_tilt_deg": float(np.degrees(np.abs(d["x"][:2]).max())),
             "finite": bool(np.all(np.isfinite(d["x"])) and not diverged)}
+
+
+#: the indices of a campaign record (lower is better): {record name: key of :func:`flight_indices`}
+CAMPAIGN_INDICES = {"ISE": "ise", "IADU": "iadu", "saturated [s]": "saturation_s", "ISE position": "ise_position",
+                    "final position error [m]": "final_position_error_m", "max tilt [deg]": "max_tilt_deg"}
+
+
+def campaign_flight(K, duration, case):
+    """Fly K on the scenario a campaign case draws, and return the case's record.
+
+    The truth is ``QuadrotorParams.chapter6_nominal()`` with the parameters of
+    ``case.draws()`` scaled (the controller keeps the nominal trim and limits); q(0) and the
+    disturbance come from :func:`drawn_scenario` on the case's "initial" and "disturbance"
+    streams.  Nothing depends on the design, so designs flown on one seed are paired.
+
+    Parameters
+    ----------
+    K : array_like, shape (4, 12)
+        State-feedback gain in Ω² units.
+    duration : float
+        Simulated time (s).
+    case : sobolev_drake.campaign.Case
+        Gives ``draws()`` ({parameter: factor}) and ``rng(stream)``.
+
+    Returns
+    -------
+    dict
+        "indices" ({name of :data:`CAMPAIGN_INDICES`: value}), "success" (finite and not
+        diverged, :data:`DIVERGED_TILT`) and "failure".
+    """
+    nominal = QuadrotorParams.chapter6_nominal()
+    truth = replace(nominal, **{k: getattr(nominal, k) * f for k, f in case.draws().items()})
+    q0, pulses = drawn_scenario(case.rng("initial"), case.rng("disturbance"))
+    idx = flight_indices(QuadrotorHoverRig(truth=truth, pulses=pulses).run(K, duration, q0))
+    return {"indices": {k: idx[v] for k, v in CAMPAIGN_INDICES.items()}, "success": idx["finite"],
+            "failure": "" if idx["finite"] else "diverged (tilt beyond DIVERGED_TILT or non-finite state)"}

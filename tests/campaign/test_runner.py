@@ -89,6 +89,12 @@ def test_process_pool_and_dask_local_give_the_numbers_of_the_inline_run(tmp_path
     inline, n = records(tmp_path / "inline")
     assert n == 4 and inline == records(tmp_path / "pool")[0] == records(tmp_path / "dask")[0]
     assert summary["cases"] == 4 and (tmp_path / "dask" / "summary.json").exists()
+    # the thesis' claims, as paired statistics: two seeds, each claim compared on both
+    claims = summary["claims"]
+    assert [c["index"] for c in claims] == ["ISE q1", "ISE q2"]
+    assert all(c["n_paired"] == 2 and c["statement"] for c in claims)
+    assert "Thesis claims over the campaign" in (tmp_path / "dask" / "summary.md").read_text(
+        encoding="utf-8")
 
 
 def _campaign(out, *extra):
