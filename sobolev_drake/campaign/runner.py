@@ -4,7 +4,7 @@ Executors (no scheduler of our own):
 
 * ``workers=0`` — in this process (debugging, tests);
 * ``scheduler=None`` — a ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes,
-  each replaced after ``tasks_per_worker`` cases because Python LeafSystems are never freed
+  renewed every ``workers × tasks_per_worker`` cases because Python LeafSystems are never freed
   (docs/design.md §8.6);
 * ``scheduler="dask-local"`` — a ``distributed.LocalCluster`` of ``workers`` single-threaded
   processes; any other string is the address of a running Dask scheduler.
@@ -114,12 +114,17 @@ def _inline(cases, workers, scheduler, tasks_per_worker):
 
 
 def _processes(cases, workers, scheduler, tasks_per_worker):
-    ctx = multiprocessing.get_context("spawn")        # max_tasks_per_child needs spawn
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                             max_tasks_per_child=tasks_per_worker) as pool:
-        futures = [pool.submit(run_case, c) for c in cases]
-        for f in as_completed(futures):
-            yield f.result()
+    # A fresh pool every `workers × tasks_per_worker` cases bounds what a worker accumulates
+    # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
+    # not used: on Python 3.11 the pool stops scheduling once a worker retires (seen here, a
+    # campaign hung after exactly tasks_per_worker cases).
+    ctx = multiprocessing.get_context("spawn")
+    per_round = workers * tasks_per_worker
+    for start in range(0, len(cases), per_round):
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = [pool.submit(run_case, c) for c in cases[start:start + per_round]]
+            for f in as_completed(futures):
+                yield f.result()
 
 
 def _dask(cases, workers, scheduler, tasks_per_worker):
@@ -178,7 +183,7 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     progress : bool
         Show a progress bar on stderr.
     tasks_per_worker : int
-        Cases a worker process runs before it is replaced (process pool only).
+        Cases per worker process before the pool is renewed (process pool only).
 
     Returns
     -------

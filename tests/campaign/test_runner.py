@@ -137,3 +137,13 @@ def test_resume_after_a_kill_loses_and_duplicates_nothing(tmp_path, kill):
     assert lines == len(after) == 12 and set(after) == expected          # none lost, none twice
     assert all(after[k] == v for k, v in before.items())                # old records untouched
     assert f"({12 - len(before)} run now" in done.stdout
+
+
+def test_the_process_pool_is_renewed_without_losing_cases(tmp_path):
+    # 2 seeds × 2 designs, two cases per worker and round: two pools in turn
+    summary = run_campaign("manipulator", seeds=2, workers=1, tasks_per_worker=2,
+                           out_dir=tmp_path, **SMOKE)
+    recs, lines = records(tmp_path)
+    assert summary["ran"] == lines == len(recs) == 4
+    assert len({json.loads(line)["pid"] for line in (tmp_path / "records.jsonl").read_text(
+        encoding="utf-8").splitlines()}) == 2                    # each round its own process
