@@ -147,3 +147,13 @@ def test_the_process_pool_is_renewed_without_losing_cases(tmp_path):
     assert summary["ran"] == lines == len(recs) == 4
     assert len({json.loads(line)["pid"] for line in (tmp_path / "records.jsonl").read_text(
         encoding="utf-8").splitlines()}) == 2                    # each round its own process
+
+
+def test_a_running_scheduler_is_reached_by_its_address(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        run_campaign("manipulator", seeds=1, workers=1, scheduler=cluster.scheduler_address,
+                     out_dir=tmp_path / "remote", **SMOKE)
+    run_campaign("manipulator", seeds=1, workers=0, out_dir=tmp_path / "inline", **SMOKE)
+    assert records(tmp_path / "remote")[0] == records(tmp_path / "inline")[0]
