@@ -81,13 +81,15 @@ def literal_noise_turbulence():
 
 
 def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None,
-                    max_wall_s=600.0, controller_state0=None, velocity_reference="zero"):
+                    max_wall_s=600.0, controller_state0=None, velocity_reference="zero",
+                    plant_params=None):
     """Fly ``ctrl`` on the nonlinear plant (Table 7.1 path, von Kármán wind); returns logs.
 
     The run stops early (``data["stopped"]`` says why, ``data["t"][-1]`` when) if the state
     stops being finite, |φ| or |θ| exceeds 90° (the linear design has lost the aircraft), or
     the wall time exceeds ``max_wall_s`` (stiff or chattering closed loop).  The plant has the
-    parameters of the model ``trim`` was computed on (``crossflow``).
+    parameters of the model ``trim`` was computed on (``crossflow``) unless ``plant_params``
+    replaces them (the controller keeps the trim and the design).
 
     Parameters
     ----------
@@ -111,6 +113,9 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
         Initial state of a dynamic controller (default 0).
     velocity_reference : str, default "zero"
         "zero" (Δq̇ = q̇, the thesis' q̇_r = 0) or "path" (q̇ − q̇_path).
+    plant_params : TiltrotorParams, optional
+        Parameters of the flown plant (default: those of ``trim.info["model"]``), e.g. a
+        perturbed mass or inertia of a Monte-Carlo case.
 
     Returns
     -------
@@ -125,7 +130,8 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     from sobolev_drake.tiltrotor.plant import add_tiltrotor
 
     b = DiagramBuilder()
-    h = add_tiltrotor(b, trim.info["model"].params)  # the plant the trim was computed on
+    # the plant the trim was computed on, unless a perturbed truth is flown
+    h = add_tiltrotor(b, trim.info["model"].params if plant_params is None else plant_params)
     ref = b.AddSystem(hover_reference())
     c = b.AddSystem(LinearHoverController(ctrl, trim, velocity_reference))
     (turb,) = mission_wind_sources("hover_linear", turbulence=turbulence)

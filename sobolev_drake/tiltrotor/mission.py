@@ -141,7 +141,8 @@ def _plant_port(handles, name):
     raise KeyError(f"tilt-rotor plant handles expose no input port {name!r}")
 
 
-def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None):
+def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None,
+                  plant_params=None, wind_gusts=None, force_disturbances=None):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Parameters
@@ -159,6 +160,11 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
         Given, a recorder is added.
     params : TiltrotorParams, optional
         Parameters of the plant and of the controller's model (default: the defaults).
+    plant_params : TiltrotorParams, optional
+        Given, the flown plant has these parameters while the controller keeps the model of
+        ``params`` (a perturbed truth, e.g. a Monte-Carlo case).
+    wind_gusts, force_disturbances : list of dict, optional
+        Pulse events (:func:`pulses`) replacing the mission file's.
 
     Returns
     -------
@@ -172,8 +178,14 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 
     spec = load("tiltrotor_missions")[SCENARIOS[scenario]]
     builder = DiagramBuilder()
-    handles = tr.add_tiltrotor(builder, params)
-    law = make_law(handles.model, tc.thesis_inner_law(), schedule=schedule)
+    if plant_params is None:
+        handles = tr.add_tiltrotor(builder, params)
+        model = handles.model
+    else:  # perturbed truth; the controller's model keeps the nominal parameters
+        from sobolev_drake.tiltrotor.trim import tiltrotor_model
+        handles = tr.add_tiltrotor(builder, plant_params)
+        model = tiltrotor_model(params)
+    law = make_law(model, tc.thesis_inner_law(), schedule=schedule)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
     ref = builder.AddSystem(mission_reference(scenario))
@@ -181,12 +193,13 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     # wind: measured constant part (Assumption 19) + unmeasured gusts (footnote 8); C++
     # primitives so the plant's every-stage wind evaluation stays cheap.
     const = builder.AddSystem(ConstantVectorSource(np.asarray(spec["constant_wind"], float)))
-    tg, vg = pulses(spec.get("wind_gusts", []), duration)
+    tg, vg = pulses(spec.get("wind_gusts", []) if wind_gusts is None else wind_gusts, duration)
     gust = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(tg, vg)))
     wind = builder.AddSystem(Adder(2, 3))
     builder.Connect(const.get_output_port(), wind.get_input_port(0))
     builder.Connect(gust.get_output_port(), wind.get_input_port(1))
-    tf, vf = pulses(spec.get("force_disturbances", []), duration)
+    tf, vf = pulses(spec.get("force_disturbances", []) if force_disturbances is None
+                    else force_disturbances, duration)
     force = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(tf, vf)))
     builder.Connect(wind.get_output_port(), _plant_port(handles, "wind"))
     builder.Connect(force.get_output_port(), _plant_port(handles, "force_disturbance"))
@@ -216,7 +229,8 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 
 
 def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
-                     integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None):
+                     integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None,
+                     plant_params=None, wind_gusts=None, force_disturbances=None):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate a mission.
 
     The integrator's maximum step is the controller period (the sampled controller's events
@@ -242,6 +256,10 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         Controller sample period (s).
     params : TiltrotorParams, optional
         Plant and controller-model parameters.
+    plant_params : TiltrotorParams, optional
+        Parameters of the flown plant only (:func:`build_mission`).
+    wind_gusts, force_disturbances : list of dict, optional
+        Pulse events replacing the mission file's (:func:`build_mission`).
 
     Returns
     -------
@@ -259,7 +277,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         from sobolev_drake import viz
         meshcat = viz.start_meshcat()
     built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period,
-                          params=params)
+                          params=params, plant_params=plant_params, wind_gusts=wind_gusts,
+                          force_disturbances=force_disturbances)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
