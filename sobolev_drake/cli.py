@@ -80,6 +80,9 @@ def _parser() -> argparse.ArgumentParser:
                         "(repeatable; default: the campaign's; --perturb none for none)")
     c.add_argument("--designs", nargs="+", default=None, help="a subset of the designs")
     c.add_argument("--duration", type=_duration, default=None, help="simulated seconds per case")
+    c.add_argument("--tasks-per-worker", type=_count, default=20,
+                   help="cases per worker process before the pool is renewed (default 20; raise it "
+                        "when a campaign's designs are slow to synthesize)")
     c.add_argument("--resume", action="store_true", help="skip the cases already recorded in --out")
     c.add_argument("--smoke", action="store_true", help="short cases (for testing the pipeline)")
     c.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -129,7 +132,8 @@ def _cmd_campaign(args) -> int:
                                designs=args.designs, workers=args.workers, scheduler=args.scheduler,
                                perturb=_perturbations(args.perturb), resume=args.resume,
                                duration=args.duration, smoke=args.smoke,
-                               progress=not args.no_progress, out_dir=args.out)
+                               progress=not args.no_progress, out_dir=args.out,
+                               tasks_per_worker=args.tasks_per_worker)
     except (UnknownCampaignError, ValueError, FileExistsError) as err:
         print(f"sobolev-drake: {err}", file=sys.stderr)
         return 2

@@ -293,6 +293,8 @@ def claim_statistics(defn, summary) -> list:
     """
     out = []
     for text, a, b, index in defn.claims:
+        if a not in summary["designs"] or b not in summary["designs"]:
+            continue                              # a campaign run on a subset of the designs
         comp = next((c for c in summary["comparisons"]
                      if (c["a"], c["b"], c["index"]) == (a, b, index)), None)
         if comp is None or comp["share_a_better"] is None:

@@ -192,4 +192,7 @@ def add_claims(res, metrics, smoke):
 register_campaign("tiltrotor-hover-linear", CampaignDefinition(
     designs=DESIGNS, indices=campaigns.HOVER_INDICES, randomizes=campaigns.HOVER_RANDOMIZES,
     run=campaigns.hover_linear_case, parameters=campaigns.HOVER_PARAMETERS,
-    smoke_duration=campaigns.HOVER_SMOKE_DURATION))
+    smoke_duration=campaigns.HOVER_SMOKE_DURATION,
+    claims=(*((f"{dm} has a smaller {i} than {ref} (Table 7.2)", dm, ref, i) for ref, dm in DM_PAIRS
+              for i in ("ISE", "IADU")),
+            ("W∞-O.F. has a smaller IADU than W∞ (Table 7.2)", "W∞-O.F.", "W∞", "IADU"))))
