@@ -11,7 +11,7 @@ from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import viz
 
-__all__ = ["LoggedLoop", "quiet"]
+__all__ = ["LoggedLoop", "add_log_sinks", "collect_logs", "quiet"]
 
 
 def quiet(fn, *args, **kw):
@@ -38,6 +38,53 @@ def quiet(fn, *args, **kw):
     return res, sorted({str(w.message) for w in caught})
 
 
+def add_log_sinks(b, ports, log_period):
+    """Add a ``VectorLogSink`` per port to a builder, in the order given.
+
+    Parameters
+    ----------
+    b : DiagramBuilder
+        The builder.
+    ports : sequence of (str, OutputPort)
+        The ports to log, with their labels.
+    log_period : float
+        Sampling period of the logs (s).
+
+    Returns
+    -------
+    dict
+        {label: VectorLogSink}.
+    """
+    sinks = {}
+    for label, port in ports:
+        s = b.AddSystem(VectorLogSink(port.size(), log_period))
+        b.Connect(port, s.get_input_port())
+        sinks[label] = s
+    return sinks
+
+
+def collect_logs(sinks, ctx):
+    """{label: samples, "t": times} of log sinks after a run, trimmed to a common length.
+
+    Parameters
+    ----------
+    sinks : dict
+        {label: VectorLogSink} (:func:`add_log_sinks`); the one labelled "x" gives the times.
+    ctx : Context
+        Root context of the diagram after the run.
+
+    Returns
+    -------
+    dict
+        ``{label: ndarray (size, k)}`` of every sink and ``"t"``: ndarray (k,) of sample times
+        (s), all trimmed to the shortest length k.
+    """
+    data = {k: s.FindLog(ctx).data().copy() for k, s in sinks.items()}
+    data["t"] = sinks["x"].FindLog(ctx).sample_times().copy()
+    n = min(v.shape[-1] for v in data.values())
+    return {k: v[..., :n] for k, v in data.items()}
+
+
 class LoggedLoop:
     """A closed-loop diagram built once and run many times (a tuning search, several designs).
 
@@ -61,11 +108,7 @@ class LoggedLoop:
         record : bool
             Add a Meshcat recorder (``self.meshcat``, ``self.recorder``).
         """
-        self.sinks = {}
-        for label, port in ports:
-            s = b.AddSystem(VectorLogSink(port.size(), log_period))
-            b.Connect(port, s.get_input_port())
-            self.sinks[label] = s
+        self.sinks = add_log_sinks(b, ports, log_period)
         self.meshcat = self.recorder = None
         if record:
             self.meshcat = viz.start_meshcat()
@@ -102,9 +145,6 @@ class LoggedLoop:
             sample times (s, from the log labelled "x"), all trimmed to the shortest length
             k, and ``"wall_s"``: float, wall-clock seconds since ``t0``.
         """
-        data = {k: s.FindLog(ctx).data().copy() for k, s in self.sinks.items()}
-        data["t"] = self.sinks["x"].FindLog(ctx).sample_times().copy()
-        n = min(v.shape[-1] for v in data.values())
-        data = {k: v[..., :n] for k, v in data.items()}
+        data = collect_logs(self.sinks, ctx)
         data["wall_s"] = time.perf_counter() - t0
         return data

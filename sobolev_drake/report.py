@@ -17,7 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "markdown_table", "write_table", "write_reproduction",
+__all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "percent_rows", "markdown_table", "write_table", "write_reproduction",
            "save_result", "load_result"]
 
 DASH = "—"
@@ -82,6 +82,26 @@ def percent_of(value, base) -> str:
     str
     """
     return f"{value:.4g} ({100 * value / base:.0f}%)" if base else f"{value:.4g}"
+
+
+def percent_rows(values, base, columns) -> list:
+    """Table rows "label, value (percentage of the base row's value), ..." per labelled row.
+
+    Parameters
+    ----------
+    values : dict
+        {row label: {column: float}}, in row order.
+    base : str
+        The label of the row every column is a percentage of.
+    columns : sequence of str
+        The columns, in order.
+
+    Returns
+    -------
+    list of list
+        ``[label, percent_of(values[label][c], values[base][c]) for c in columns]`` per row.
+    """
+    return [[label, *(percent_of(v[c], values[base][c]) for c in columns)] for label, v in values.items()]
 
 
 def fmt(x) -> str:

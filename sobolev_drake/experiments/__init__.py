@@ -17,8 +17,7 @@ import importlib
 import math
 import pkgutil
 import warnings
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Callable
 
 # the result records live with the code that saves and loads them; re-exported here for the

@@ -16,18 +16,15 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, plots, report, viz
+from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.two_wheeled import add_two_wheeled, make_two_wheeled_model
-from sobolev_drake.report import percent_of
-from sobolev_drake.rigs.mechanical import build_loop, run_loop, tracked_errors
-from sobolev_drake.synthesis.mechanical import (controlled_gains, matched_hinf_surface,
-                                                stabilized_gains)
+from sobolev_drake.report import percent_rows
+from sobolev_drake.rigs.mechanical import build_loop, compare_with_matched_hinf, tracked_errors
+from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
-from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import HinfLaw, Partition, SobolevLaw
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const
-from sobolev_drake.tuning import match_by_regula_falsi
 
 PARTITION = Partition(controlled=[1], stabilized=[0])          # q = [ϕ θ]: qc = θ, qs = ϕ
 GAMMAS = (1000.0, 300.0, 2.0, 0.001)                            # Γ0..Γ3
@@ -112,24 +109,15 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
     holder["controller"] = loop.controller
     law = loop.controller.law
     outputs, claims = {}, []
-    w_run = run_loop(loop, w_inner, duration, Q0, QD0, label="W2/W∞")
+    cmp = compare_with_matched_hinf(loop, w_inner, duration, Q0, QD0, indices, match="ISE θ",
+                                    iters=1 if smoke else 9, rtol=0.01, decreasing=False,
+                                    record_to=out_dir / "balance_coupled_w.html" if record else None)
     if record:
-        outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
-                                                           out_dir / "balance_coupled_w.html")
-    w_idx = indices(w_run)
-    surface = matched_hinf_surface(w_inner.controlled)
-
-    def evaluate(wu):
-        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, QD0, label="H∞")
-        return indices(r)["ISE θ"], r
-
-    wu, h_run, hist = match_by_regula_falsi(
-        evaluate, w_idx["ISE θ"], omega_u_guess(law, w_inner.controlled, Q0, QD0),
-        iters=1 if smoke else 9, rtol=0.01, decreasing=False)
-    h_idx = indices(h_run)
-    rows = [[k, *(percent_of(idx[c], h_idx[c]) for c in COLS)]
-            for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
-    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+        outputs["meshcat W2/W∞"] = cmp.recording
+    w_run, w_idx, h_run, h_idx, wu, hist, surface = (
+        cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface)
+    rows = percent_rows({"W2/W∞": w_idx, "H∞": h_idx}, "H∞", COLS)
+    th = percent_rows(THESIS, "H∞", COLS)
     md, js, table = report.write_table(
         out_dir, "balance_coupled", ["controller", *COLS], rows, thesis_rows=th,
         title=f"Table 5.7 (two-wheeled vehicle, input coupling, {duration:g} s, torque limit "

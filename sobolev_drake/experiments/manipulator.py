@@ -14,18 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, plots, report, viz
+from sobolev_drake import norms, plots, report
 from sobolev_drake.campaign import CampaignDefinition, register_campaign
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.arm import ArmParams, add_arm, make_arm_model
-from sobolev_drake.report import percent_of
-from sobolev_drake.rigs.mechanical import build_loop, run_loop, sobolev_bound, tracked_errors
+from sobolev_drake.report import percent_rows
+from sobolev_drake.rigs.mechanical import (build_loop, compare_with_matched_hinf, run_loop, sobolev_bound,
+                                           tracked_errors)
 from sobolev_drake.synthesis.mechanical import controlled_gains, matched_hinf_surface
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import table_5_2
-from sobolev_drake.tuning import match_by_regula_falsi
 
 WEIGHTS = ([100, 200], [500, 400], [40, 40], [0.0720, 0.0126])
 Q0, QD0 = np.array([np.pi / 4, 0.0]), np.zeros(2)
@@ -62,31 +62,20 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
     law = loop.controller.law
     outputs, claims = {}, []
 
-    w_run = run_loop(loop, w_inner, duration, Q0, QD0, label="W2/W∞")
-    if record:
-        outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
-                                                           out_dir / "manipulator_w.html")
-    w_idx = indices(w_run, law)
-    bound = sobolev_bound(w_run, loop.controller.law, make_arm_model())
-
-    surface = matched_hinf_surface(gains)
     M0 = np.diag(ctrl_model.M(Q0))
     omega0 = 1.0 / np.sqrt(np.mean(M0 * np.diag(gains.blocks["Q"]) / np.diag(gains.weights["Y3"])))
-
-    def evaluate(wu):
-        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, QD0, label="H∞")
-        return indices(r, law)["IADU"], r
-
-    wu, h_run, hist = match_by_regula_falsi(evaluate, w_idx["IADU"], omega0, iters=2 if smoke else 6)
-    h_idx = indices(h_run, law)
+    cmp = compare_with_matched_hinf(loop, w_inner, duration, Q0, QD0, lambda r: indices(r, law),
+                                    omega_u0=omega0, iters=2 if smoke else 6,
+                                    record_to=out_dir / "manipulator_w.html" if record else None)
+    w_run, w_idx, h_run, h_idx, wu, hist, surface = (
+        cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface)
+    if record:
+        outputs["meshcat W2/W∞"] = cmp.recording
+    bound = sobolev_bound(w_run, law, make_arm_model())
 
     cols = ["controller", "IADU Σ|dτ/dt|", "ISE q1", "ISE q2"]
-    rows = [["W2/W∞", percent_of(w_idx["IADU"], h_idx["IADU"]), percent_of(w_idx["ISE q1"], h_idx["ISE q1"]),
-             percent_of(w_idx["ISE q2"], h_idx["ISE q2"])],
-            ["H∞", percent_of(h_idx["IADU"], h_idx["IADU"]), percent_of(h_idx["ISE q1"], h_idx["ISE q1"]),
-             percent_of(h_idx["ISE q2"], h_idx["ISE q2"])]]
-    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in ("IADU", "ISE q1", "ISE q2"))]
-          for k in ("W2/W∞", "H∞")]
+    rows = percent_rows({"W2/W∞": w_idx, "H∞": h_idx}, "H∞", ("IADU", "ISE q1", "ISE q2"))
+    th = percent_rows(THESIS, "H∞", ("IADU", "ISE q1", "ISE q2"))
     md, js, table = report.write_table(out_dir, "manipulator", cols, rows, thesis_rows=th,
                                        title=f"Table 5.3 (manipulator, {duration:g} s)")
     outputs.update({"table (md)": md, "table (json)": js})

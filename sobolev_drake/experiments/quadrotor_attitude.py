@@ -14,17 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, plots, report, viz
+from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
-from sobolev_drake.report import percent_of
-from sobolev_drake.rigs.mechanical import build_loop, run_loop, sobolev_bound, tracked_errors
-from sobolev_drake.synthesis.mechanical import controlled_gains, matched_hinf_surface
+from sobolev_drake.report import percent_rows
+from sobolev_drake.rigs.mechanical import build_loop, compare_with_matched_hinf, sobolev_bound, tracked_errors
+from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
-from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
+from sobolev_drake.systems.hinf_baseline import omega_u_guess
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import table_5_5
-from sobolev_drake.tuning import match_by_regula_falsi
 
 WEIGHTS = ([1, 1, 1, 1], [1, 1, 1, 1], [0.61, 0.6, 0.6, 0.6], [2e-3, 1e-7, 1e-7, 1e-7])
 PARTITION = Partition(controlled=[5, 0, 1, 2], uncontrolled=[3, 4])  # z ϕ θ ψ | x y
@@ -69,25 +68,17 @@ def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> Ex
     law = loop.controller.law
     outputs, claims = {}, []
     qd0 = np.zeros(6)
-    w_run = run_loop(loop, w_inner, duration, Q0, qd0, label="W2/W∞")
-    if record:
-        outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
-                                                           out_dir / "quadrotor_attitude_w.html")
-    w_idx = indices(w_run, law)
-    surface = matched_hinf_surface(gains)
-
-    def evaluate(wu):
-        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, qd0, label="H∞")
-        return indices(r, law)["IADU"], r
-
     # start 3× softer than the W law's ė gain: the saturated H∞ law at that gain chatters
-    wu, h_run, hist = match_by_regula_falsi(evaluate, w_idx["IADU"],
-                                            3.0 * omega_u_guess(law, gains, Q0, qd0),
-                                            iters=1 if smoke else 6)
-    h_idx = indices(h_run, law)
-    rows = [[k, *(percent_of(idx[c], h_idx[c]) for c in COLS)]
-            for k, idx in (("W2/W∞", w_idx), ("H∞", h_idx))]
-    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+    cmp = compare_with_matched_hinf(loop, w_inner, duration, Q0, qd0, lambda r: indices(r, law),
+                                    omega_u0=3.0 * omega_u_guess(law, gains, Q0, qd0),
+                                    iters=1 if smoke else 6,
+                                    record_to=out_dir / "quadrotor_attitude_w.html" if record else None)
+    if record:
+        outputs["meshcat W2/W∞"] = cmp.recording
+    w_run, w_idx, h_run, h_idx, wu, hist, surface = (
+        cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface)
+    rows = percent_rows({"W2/W∞": w_idx, "H∞": h_idx}, "H∞", COLS)
+    th = percent_rows(THESIS, "H∞", COLS)
     md, js, table = report.write_table(out_dir, "quadrotor_attitude", ["controller", *COLS], rows,
                                        thesis_rows=th,
                                        title=f"Table 5.6 (quadrotor, reduced model, {duration:g} s, "

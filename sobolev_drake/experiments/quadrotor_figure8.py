@@ -15,20 +15,19 @@ from pathlib import Path
 
 import numpy as np
 
-from sobolev_drake import norms, plots, report, viz
+from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor, make_quadrotor_model
-from sobolev_drake.report import percent_of
-from sobolev_drake.rigs.mechanical import bperp_signal, build_loop, run_loop, tracked_errors
-from sobolev_drake.synthesis.mechanical import (controlled_gains, matched_hinf_surface,
-                                                stabilized_gains)
+from sobolev_drake.report import percent_of, percent_rows
+from sobolev_drake.rigs.mechanical import (bperp_signal, build_loop, compare_with_matched_hinf, run_loop,
+                                           tracked_errors)
+from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
-from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
 from sobolev_drake.systems.reference_catalogue import trajectory
 from sobolev_drake.systems.references import TrajectoryReference
 from sobolev_drake.systems.rotor_allocation import RotorAllocation
-from sobolev_drake.tuning import match_by_regula_falsi
 
 PARTITION = Partition(controlled=[2, 3, 4, 5], stabilized=[0, 1])   # q = [ϕ θ ψ x y z]
 GAMMAS = ([10, 10, 10, 10], [12.8, 18.8, 18.8, 12.8], [0.01, 0.1, 0.1, 0.1],
@@ -96,23 +95,16 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
     law = loop.controller.law
     outputs, claims = {}, []
     qd0 = np.zeros(6)
-    w_run = run_loop(loop, w_inner, duration, Q0, qd0, label="W2/W∞")
-    if record:
-        outputs["meshcat W2/W∞"] = viz.save_recording_html(loop.meshcat, loop.recorder,
-                                                           out_dir / "quadrotor_figure8_w.html")
-    w_idx = indices(w_run, law)
-    gains = w_inner.controlled
-    surface = matched_hinf_surface(gains)
-
-    def evaluate(wu):
-        r = run_loop(loop, matched_hinf_law(surface, wu), duration, Q0, qd0, label="H∞")
-        return indices(r, law)["IADU"], r
-
     # same IADU as W2/W∞ (thesis rule); if that run diverged, the thesis' printed IADU instead
-    target = THESIS["H∞"]["IADU"] if w_run["failed"] else w_idx["IADU"]
-    wu, h_run, hist = match_by_regula_falsi(evaluate, target, omega_u_guess(law, gains, Q0, qd0),
-                                            iters=1 if smoke else int(tune_iters))
-    h_idx = indices(h_run, law)
+    cmp = compare_with_matched_hinf(loop, w_inner, duration, Q0, qd0, lambda r: indices(r, law),
+                                    target_if_w_failed=THESIS["H∞"]["IADU"],
+                                    iters=1 if smoke else int(tune_iters),
+                                    record_to=out_dir / "quadrotor_figure8_w.html" if record else None)
+    w_run, w_idx, h_run, h_idx, wu, hist, surface, target = (
+        cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface,
+        cmp.target)
+    if record:
+        outputs["meshcat W2/W∞"] = cmp.recording
     runs = {f"W2/W∞ [{allocation}]": w_run, f"H∞ [{allocation}]": h_run}
     idx = {f"W2/W∞ [{allocation}]": w_idx, f"H∞ [{allocation}]": h_idx}
     qr, qdr, _ = reference().evaluate(0.0)
@@ -135,7 +127,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv",
             rows.append([f"{name} — {r['failed'][:70]}", *(["—"] * len(COLS))])
         else:
             rows.append([name, *(percent_of(v[c], base[c]) for c in COLS)])
-    th = [[k, *(percent_of(THESIS[k][c], THESIS["H∞"][c]) for c in COLS)] for k in ("W2/W∞", "H∞")]
+    th = percent_rows(THESIS, "H∞", COLS)
     th += [None] * (len(rows) - 2)                             # the thesis ran B† only
     md, js, table = report.write_table(
         out_dir, "quadrotor_figure8", ["controller [allocation]", *COLS], rows, thesis_rows=th,

@@ -14,9 +14,10 @@ import numpy as np
 import scipy.linalg as sla
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LinearSystem, MatrixGain, Multiplexer, TrajectorySource, VectorLogSink
+from pydrake.systems.primitives import LinearSystem, MatrixGain, Multiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from sobolev_drake.harness import add_log_sinks
 from sobolev_drake.models.simple_linear import SIMPLE, X0
 from sobolev_drake.synthesis.closed_loop_bounds import closed_loop_matrices, initial_state
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
@@ -77,11 +78,8 @@ def simulate(design, data, duration, seed=0, dt_noise=1e-3):
             b.Connect(plant.get_output_port(), meas.get_input_port())
             b.Connect(meas.get_output_port(), ctrl.GetInputPort("y"))
     b.Connect(ctrl.GetOutputPort("u"), mux.get_input_port(0))
-    logs = {}
-    for name, port in [("x", plant.get_output_port()), ("u", ctrl.GetOutputPort("u")),
-                       ("w", dist.get_output_port())]:
-        logs[name] = b.AddSystem(VectorLogSink(port.size(), publish_period=1e-3))
-        b.Connect(port, logs[name].get_input_port())
+    logs = add_log_sinks(b, [("x", plant.get_output_port()), ("u", ctrl.GetOutputPort("u")),
+                             ("w", dist.get_output_port())], 1e-3)
     diagram = b.Build()
     ctx = diagram.CreateDefaultContext()
     diagram.GetMutableSubsystemContext(plant, ctx).SetContinuousState(X0)

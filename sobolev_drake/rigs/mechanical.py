@@ -17,15 +17,17 @@ from typing import Callable
 import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder, EventStatus
-from pydrake.systems.primitives import VectorLogSink
 from scipy.linalg import null_space
 
 from sobolev_drake import viz
-from sobolev_drake.synthesis.mechanical import winf_gamma
+from sobolev_drake.harness import add_log_sinks
+from sobolev_drake.synthesis.mechanical import matched_hinf_surface, winf_gamma
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import MechanicalController
+from sobolev_drake.tuning import match_by_regula_falsi
 
-__all__ = ["MechanicalLoop", "build_loop", "run_loop", "tracked_errors", "sobolev_bound",
-           "left_annihilator", "bperp_signal"]
+__all__ = ["MechanicalLoop", "build_loop", "run_loop", "MatchedComparison", "compare_with_matched_hinf",
+           "tracked_errors", "sobolev_bound", "left_annihilator", "bperp_signal"]
 
 
 @dataclass
@@ -103,14 +105,10 @@ def build_loop(add_plant: Callable, controller_model, partition, inner, referenc
     b.Connect(ref.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
     b.Connect(ctrl.GetOutputPort("u"), h.u)
     b.Connect(dist.GetOutputPort("generalized_force"), h.disturbance)
-    sinks = {}
-    for name, port in (("x", h.x), ("u", ctrl.GetOutputPort("u")),
-                       ("ref", ref.GetOutputPort("reference")),
-                       ("w", dist.GetOutputPort("generalized_force")),
-                       ("ei", ctrl.GetOutputPort("error_integral"))):
-        sink = b.AddSystem(VectorLogSink(port.size()))
-        b.Connect(port, sink.get_input_port())
-        sinks[name] = sink
+    sinks = add_log_sinks(b, (("x", h.x), ("u", ctrl.GetOutputPort("u")),
+                              ("ref", ref.GetOutputPort("reference")),
+                              ("w", dist.GetOutputPort("generalized_force")),
+                              ("ei", ctrl.GetOutputPort("error_integral"))), 0.0)   # per step
     meshcat = recorder = None
     if record:
         meshcat = viz.start_meshcat()
@@ -192,6 +190,102 @@ def run_loop(loop: MechanicalLoop, inner, duration, q0, qd0, *, label="", accura
     out["failed"] = failed
     out["label"] = label
     return out
+
+
+@dataclass
+class MatchedComparison:
+    """The W2/W∞ run and the classic H∞ run tuned to it (:func:`compare_with_matched_hinf`).
+
+    Attributes
+    ----------
+    w_run, hinf_run : dict
+        The runs (:func:`run_loop`).
+    w_indices, hinf_indices : dict
+        Their indices.
+    omega_u : float
+        The H∞ input weight ωu of ``hinf_run``.
+    history : list of (float, float)
+        The search's (ωu, index) evaluations.
+    target : float
+        The index value the search aimed at.
+    surface : tuple of float
+        The H∞ law's surface (ω1, ω2, ω3) (:func:`~sobolev_drake.synthesis.mechanical.matched_hinf_surface`).
+    recording : Path or None
+        The W2/W∞ run's Meshcat recording (standalone HTML), when asked for.
+    """
+
+    w_run: dict
+    w_indices: dict
+    hinf_run: dict
+    hinf_indices: dict
+    omega_u: float
+    history: list
+    target: float
+    surface: tuple
+    recording: object = None
+
+
+def compare_with_matched_hinf(loop, w_inner, duration, q0, qd0, indices, *, match="IADU",
+                              omega_u0=None, target_if_w_failed=None, iters=6, rtol=0.02,
+                              decreasing=True, record_to=None) -> MatchedComparison:
+    """Fly the W2/W∞ law, then the classic H∞ law on the same surface with ωu searched so that
+    one index equals the W2/W∞ run's (the thesis' comparison rule, e.g. the same IADU).
+
+    The H∞ law is :func:`~sobolev_drake.systems.hinf_baseline.matched_hinf_law` on
+    :func:`~sobolev_drake.synthesis.mechanical.matched_hinf_surface` of the W law's controlled
+    gains; ωu comes from :func:`~sobolev_drake.tuning.match_by_regula_falsi`.
+
+    Parameters
+    ----------
+    loop : MechanicalLoop
+        From :func:`build_loop` (with ``record=True`` for ``record_to``).
+    w_inner : SobolevLaw
+        The W2/W∞ inner law.
+    duration : float
+        Simulated time of every run (s).
+    q0, qd0 : array_like, shape (n,)
+        Initial state of every run, thesis order.
+    indices : callable
+        ``indices(run) -> dict`` of float.
+    match : str, default "IADU"
+        The index the H∞ law is tuned to.
+    omega_u0 : float, optional
+        First ωu of the search; :func:`~sobolev_drake.systems.hinf_baseline.omega_u_guess` by
+        default.
+    target_if_w_failed : float, optional
+        Target of the search when the W2/W∞ run failed (its own index is then not a fair
+        target); the failed run's index by default.
+    iters, rtol, decreasing
+        As for :func:`~sobolev_drake.tuning.match_by_regula_falsi` (``decreasing=False`` when
+        the index grows with ωu, e.g. an ISE).
+    record_to : str or Path, optional
+        Save the W2/W∞ run's recording there (before the H∞ runs replace it).
+
+    Returns
+    -------
+    MatchedComparison
+    """
+    if record_to is not None and loop.meshcat is None:
+        raise ValueError(f"record_to={str(record_to)!r} needs a loop built with record=True")
+    w_run = run_loop(loop, w_inner, duration, q0, qd0, label="W2/W∞")
+    recording = None
+    if record_to is not None:
+        recording = viz.save_recording_html(loop.meshcat, loop.recorder, record_to)
+    w_idx = indices(w_run)
+    gains = w_inner.controlled
+    surface = matched_hinf_surface(gains)
+    if omega_u0 is None:
+        omega_u0 = omega_u_guess(loop.controller.law, gains, q0, qd0)
+
+    def evaluate(wu):
+        r = run_loop(loop, matched_hinf_law(surface, wu), duration, q0, qd0, label="H∞")
+        return indices(r)[match], r
+
+    target = (target_if_w_failed if w_run["failed"] and target_if_w_failed is not None
+              else w_idx[match])
+    wu, h_run, hist = match_by_regula_falsi(evaluate, target, omega_u0, iters=iters, rtol=rtol,
+                                            decreasing=decreasing)
+    return MatchedComparison(w_run, w_idx, h_run, indices(h_run), wu, hist, target, surface, recording)
 
 
 def tracked_errors(run, law):

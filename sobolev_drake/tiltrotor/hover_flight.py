@@ -14,8 +14,9 @@ import time
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
+from pydrake.systems.primitives import ConstantVectorSource
 
+from sobolev_drake.harness import add_log_sinks, collect_logs
 from sobolev_drake.tiltrotor.linear_controller import LinearHoverController, check_velocity_reference
 
 __all__ = ["Q0", "hover_reference", "initial_error", "literal_noise_turbulence", "simulate_design",
@@ -143,14 +144,10 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     b.Connect(ref.GetOutputPort("reference"), c.GetInputPort("reference"))
     for name in ("propeller_speed", "servo_torque", "surface_deflection"):
         b.Connect(c.GetOutputPort(name), getattr(h, name))
-    sinks = {}
-    for label, port in [("x", h.x), ("reference", ref.GetOutputPort("reference")),
-                        ("du", c.GetOutputPort("delta_u")), ("wind", turb.GetOutputPort("wind")),
-                        ("n", c.GetOutputPort("propeller_speed")),
-                        ("ts", c.GetOutputPort("servo_torque"))]:
-        s = b.AddSystem(VectorLogSink(port.size(), log_period))
-        b.Connect(port, s.get_input_port())
-        sinks[label] = s
+    sinks = add_log_sinks(b, [("x", h.x), ("reference", ref.GetOutputPort("reference")),
+                              ("du", c.GetOutputPort("delta_u")), ("wind", turb.GetOutputPort("wind")),
+                              ("n", c.GetOutputPort("propeller_speed")),
+                              ("ts", c.GetOutputPort("servo_torque"))], log_period)
     recorder = None
     if meshcat is not None and h.scene_graph is not None:
         from sobolev_drake import viz
@@ -187,10 +184,7 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     sim.set_monitor(monitor)
     sim.AdvanceTo(duration)
     wall = time.perf_counter() - t0
-    data = {k: s.FindLog(ctx).data().copy() for k, s in sinks.items()}
-    data["t"] = sinks["x"].FindLog(ctx).sample_times().copy()
-    n = min(v.shape[-1] for v in data.values())
-    data = {k: v[..., :n] for k, v in data.items()}
+    data = collect_logs(sinks, ctx)
     data["wall_s"] = wall
     data["stopped"] = (f"stopped at t = {ctx.get_time():.2f} s: {why[-1]}" if why else "")
     data["recorder"] = recorder

@@ -99,6 +99,11 @@ def _params_of(model_or_params):
     return params
 
 
+def _checked_state(model, q, qdot, zeta):
+    return (_params_of(model), check_vector("q", q, 8), check_vector("qdot", qdot, 8),
+            check_vector("zeta", zeta, 3))
+
+
 def _check_torque(torque):
     if torque not in ("through_thrust", "passive"):
         raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
@@ -191,10 +196,7 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
     AffineTerms
         B, ϑ_passive, surface air speeds and rotor inflow.
     """
-    p = _params_of(model)
-    q = check_vector("q", q, 8)
-    qdot = check_vector("qdot", qdot, 8)
-    zeta = check_vector("zeta", zeta, 3)
+    p, q, qdot, zeta = _checked_state(model, q, qdot, zeta)
     nl = [N_REF, N_REF] if n is None else check_vector("n", n, 2).tolist()
     _check_torque(torque)
     return affine_terms_scalar(p, q.tolist(), qdot.tolist(), zeta.tolist(), nl, torque)
@@ -322,10 +324,7 @@ def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thr
         ϑ_passive.
     """
     _check_torque(torque)
-    p = _params_of(model)
-    q = check_vector("q", q, 8)
-    qdot = check_vector("qdot", qdot, 8)
-    zeta = check_vector("zeta", zeta, 3)
+    p, q, qdot, zeta = _checked_state(model, q, qdot, zeta)
     n = np.full(2, N_REF) if n is None else check_vector("n", n, 2)
     prop, aero = cores(p)
     Gf, Gt = prop.unit_columns(q)
@@ -369,10 +368,7 @@ def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
     ndarray, shape (8,)
         ϑ, thesis order.
     """
-    p = _params_of(model)
-    q = check_vector("q", q, 8)
-    qdot = check_vector("qdot", qdot, 8)
-    zeta = check_vector("zeta", zeta, 3)
+    p, q, qdot, zeta = _checked_state(model, q, qdot, zeta)
     n = check_vector("n", n, 2)
     tau_s = check_vector("tau_s", tau_s, 2)
     delta = check_vector("delta", delta, 4)

@@ -15,10 +15,11 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, ConstantVectorSource, TrajectorySource, VectorLogSink
+from pydrake.systems.primitives import Adder, ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.data import load
+from sobolev_drake.harness import add_log_sinks
 from sobolev_drake.systems.reference_catalogue import tiltrotor_mission_reference as mission_reference
 
 __all__ = ["HOVER", "TRANSITION", "CRUISE", "SCENARIOS", "DURATIONS", "scenario_1_phases",
@@ -208,17 +209,12 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     builder.Connect(const.get_output_port(), ctrl.GetInputPort("wind_measured"))
     for name in ("propeller_speed", "servo_torque", "surface_deflection"):
         builder.Connect(ctrl.GetOutputPort(name), _plant_port(handles, name))
-    logs = {}
     # one log sample per controller sample: a log period of 5 controller periods gives event
     # times k·0.05 and j·0.01 that differ by an ulp at some instants, each costing the
     # integrator an extra (1e-16 s) step
-    log_period = period
-    for label, port in [("x", handles.x), ("reference", ref.GetOutputPort("reference")),
-                        ("wind", wind.get_output_port()), ("force", force.get_output_port()),
-                        ("record", ctrl.GetOutputPort("sample_record"))]:
-        sink = builder.AddSystem(VectorLogSink(port.size(), log_period))
-        builder.Connect(port, sink.get_input_port())
-        logs[label] = sink
+    logs = add_log_sinks(builder, [("x", handles.x), ("reference", ref.GetOutputPort("reference")),
+                                   ("wind", wind.get_output_port()), ("force", force.get_output_port()),
+                                   ("record", ctrl.GetOutputPort("sample_record"))], period)
     recorder = None
     if meshcat is not None and handles.scene_graph is not None:
         from sobolev_drake import viz

@@ -15,7 +15,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pytest
 from scipy.linalg import expm
 
 import sobolev_drake as sd

@@ -1,7 +1,6 @@
 """Tilt-rotor nonlinear W∞ law (thesis §7.3.2): gains, partition, u*, allocation bookkeeping."""
 
 import numpy as np
-import pytest
 from scipy.linalg import solve_continuous_are
 
 from sobolev_drake.tiltrotor import controller as tc
