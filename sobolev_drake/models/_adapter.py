@@ -8,6 +8,11 @@ q_drake = T q_thesis, so the generalized force to apply is
 
 (K is the model's ``friction``; zero unless the model defines it).  One class serves every model;
 ``B(q)`` is re-evaluated from the state at every call (state-dependent for the quadrotor).
+
+A model whose equations deliberately differ from its plant's (``follows_own_equations``, e.g.
+the arm with the thesis' printed inertia matrix) gets the force that makes the plant follow the
+model: with q̈ = M_model⁻¹(B u + w − K − h_model), the plant needs
+τ = M_plant q̈ + h_plant, h = C q̇ + g (thesis order, then mapped as above).
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from sobolev_drake.models.base import check_vector
+from sobolev_drake.models.base import MechanicalModel, check_vector
 
 
 class ThesisForceAdapter(LeafSystem):
@@ -62,6 +67,11 @@ class ThesisForceAdapter(LeafSystem):
         friction = getattr(self.model, "friction", None)
         if friction is not None:
             tau = tau - friction(qdot)
+        if getattr(self.model, "follows_own_equations", False):
+            m = self.model
+            qddot = np.linalg.solve(m.M(q), tau - m.Cqdot(q, qdot) - m.g(q))
+            tau = (MechanicalModel.M(m, q) @ qddot + MechanicalModel.Cqdot(m, q, qdot)
+                   + MechanicalModel.g(m, q))
         return tau
 
     def _thesis_state(self, context) -> np.ndarray:

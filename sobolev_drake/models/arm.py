@@ -14,6 +14,12 @@ model, which is also what the URDF produces::
 
 with lc_i = l_i / 2 and I_i the moment of inertia of link i about its centre of mass.
 C (5.121) and g (5.122) are printed correctly.
+
+The printed matrix is kept as a reading (``inertia="thesis-printed"``,
+:class:`ThesisPrintedArmModel`): it is what reproduces the thesis' Table 5.3 W2/W∞ row
+(docs/experiments/manipulator.md).  It is not an Euler–Lagrange model (the printed C is not
+built from its Christoffel symbols), so no URDF has it: the plant stays the physical
+MultibodyPlant and its adapter applies the force that makes it follow the printed equations.
 """
 
 from __future__ import annotations
@@ -29,7 +35,11 @@ from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapt
                                           verify_against_closed_forms)
 from sobolev_drake.validation import check_parameter_fields
 
-__all__ = ["ArmParams", "TwoLinkArmModel", "make_arm_model", "add_arm"]
+__all__ = ["ArmParams", "INERTIA_READINGS", "TwoLinkArmModel", "ThesisPrintedArmModel",
+           "make_arm_model", "add_arm"]
+
+#: the arm's inertia matrix: the physical one (Spong) or the thesis' printed (5.120)
+INERTIA_READINGS = ("physical", "thesis-printed")
 
 
 @dataclass(frozen=True)
@@ -128,6 +138,29 @@ class TwoLinkArmModel(MechanicalModel):
         d22 = p.m2 * p.lc2**2 + p.I2
         return np.array([[d11, d12], [d12, d22]])
 
+    def M_printed(self, q) -> np.ndarray:
+        """Inertia matrix (5.120) exactly as printed: d11 with the extra m2·2 l1 lc2² and d12
+        with l1 lc2² cos q2 (module docstring); positive definite for Table 5.1.
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [q1, q2] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+            The printed M(q).
+        """
+        q = check_vector("q", q, 2)
+        p = self.params
+        c2 = np.cos(q[1])
+        d11 = (p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2**2 + 2 * p.l1 * p.lc2 * c2)
+               + p.I1 + p.I2)
+        d12 = p.m2 * (p.lc2**2 + p.l1 * p.lc2**2 * c2) + p.I2
+        d22 = p.m2 * p.lc2**2 + p.I2
+        return np.array([[d11, d12], [d12, d22]])
+
     def C_closed_form(self, q, qdot) -> np.ndarray:
         """C(q, q̇) of (5.121), h = −m2 l1 lc2 sin q2.
 
@@ -197,22 +230,89 @@ class TwoLinkArmModel(MechanicalModel):
         return np.eye(2)
 
 
-def make_arm_model(params: ArmParams | None = None) -> TwoLinkArmModel:
-    """Standalone TwoLinkArmModel on its own plant (no SceneGraph).
+class ThesisPrintedArmModel(TwoLinkArmModel):
+    """The arm with the thesis' printed inertia matrix (5.120) in place of the physical one;
+    C q̇ and g stay the plant's (printed correctly).
+
+    As a controller's model it gives the thesis' W2/W∞ law; as a simulated plant
+    (``add_arm(..., inertia="thesis-printed")``) its adapter makes the physical MultibodyPlant
+    follow M_printed q̈ + C q̇ + g = τ + w.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant, optional
+        As for :class:`TwoLinkArmModel` (the physical plant).
+    params : ArmParams, optional
+        Table 5.1 values by default.
+    """
+
+    #: the adapter applies the force that makes the plant follow this model's equations
+    follows_own_equations = True
+
+    def __init__(self, plant=None, params: ArmParams | None = None):
+        super().__init__(plant, params)
+        # the printed M replaces M_closed_form, so check the plant's own M separately
+        q = np.array([0.3, -0.8])
+        physical = TwoLinkArmModel.M_closed_form(self, q)
+        if not np.allclose(MechanicalModel.M(self, q), physical, rtol=1e-8, atol=0.0):
+            raise ValueError("arm: the plant's M(q) differs from the closed form of model.params; "
+                             "build the plant with the same parameters")
+
+    def M(self, q) -> np.ndarray:
+        """The printed inertia matrix :meth:`~TwoLinkArmModel.M_printed`.
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [q1, q2] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+        """
+        return self.M_printed(q)
+
+    def M_closed_form(self, q) -> np.ndarray:
+        """The printed inertia matrix (the closed form this model stands for).
+
+        Parameters
+        ----------
+        q : array_like, shape (2,)
+            [q1, q2] (rad).
+
+        Returns
+        -------
+        ndarray, shape (2, 2)
+        """
+        return self.M_printed(q)
+
+
+def _check_inertia(inertia):
+    if inertia not in INERTIA_READINGS:
+        raise ValueError(f"inertia must be one of {INERTIA_READINGS}, got {inertia!r}")
+    return TwoLinkArmModel if inertia == "physical" else ThesisPrintedArmModel
+
+
+def make_arm_model(params: ArmParams | None = None, inertia: str = "physical") -> TwoLinkArmModel:
+    """Standalone arm model on its own plant (no SceneGraph).
 
     Parameters
     ----------
     params : ArmParams, optional
         Table 5.1 values by default.
+    inertia : str, default "physical"
+        One of :data:`INERTIA_READINGS`: the physical M or the thesis' printed (5.120).
 
     Returns
     -------
     TwoLinkArmModel
+        A :class:`ThesisPrintedArmModel` for ``inertia="thesis-printed"``.
     """
-    return TwoLinkArmModel(None, params)
+    return _check_inertia(inertia)(None, params)
 
 
-def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHandles:
+def add_arm(builder: DiagramBuilder, params: ArmParams | None = None,
+            inertia: str = "physical") -> PlantHandles:
     """Add the arm (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 
     Parameters
@@ -221,6 +321,8 @@ def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHa
         The builder the systems are added to.
     params : ArmParams, optional
         Table 5.1 values by default.
+    inertia : str, default "physical"
+        One of :data:`INERTIA_READINGS`; "thesis-printed" simulates the printed (5.120).
 
     Returns
     -------
@@ -228,9 +330,10 @@ def add_arm(builder: DiagramBuilder, params: ArmParams | None = None) -> PlantHa
         ``u`` = joint torques [τ1, τ2] (N m); ``disturbance`` = [w1, w2];
         ``x`` = [q1 q2 q̇1 q̇2].
     """
+    model_class = _check_inertia(inertia)
     params = params or ArmParams()
     plant, scene_graph = build_plant(_arm_urdf(params), params.g, builder)
-    return attach_adapter(builder, plant, scene_graph, TwoLinkArmModel(plant, params), "arm")
+    return attach_adapter(builder, plant, scene_graph, model_class(plant, params), "arm")
 
 
 Params = ArmParams  # short alias

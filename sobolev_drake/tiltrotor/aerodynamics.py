@@ -40,12 +40,12 @@ the side force, which rotates with α (|c_y(±90°)| ≤ 0.07: 0.2 N at 12 m/s).
 
 Reverse flow (``TiltrotorParams.reverse_flow``; u < 0: flying backwards through the air, e.g.
 hovering in a tail wind).  The tables cover α ∈ [−90°, 90°] only.  (7.39)'s atan(w/u) would map
-reverse flow to a small α but orient the drag *along* the motion.  ``"clipped"`` (default, the
+reverse flow to a small α but orient the drag *along* the motion.  ``"clipped"`` (the thesis'
 form above) gives α = ±90° by the sign of w, so the drag acts across the flow and the loads jump
 where w changes sign: 44 N at 10 m/s backwards for the whole aircraft, 1.4 N and 0.4 N m on
 the fuselage at 3.3 m/s.  The hover mission meets it at 18.6 s and its state slides along
 that switching surface (RK5 at 1e-7 creeps through in 10 µs steps; RK3 ends 72 mm from it,
-``benchmarks/tiltrotor_integrators.py``).  ``"mirrored"`` reads the tables at atan2(w, |u|)
+``benchmarks/tiltrotor_integrators.py``).  ``"mirrored"`` (default) reads the tables at atan2(w, |u|)
 (front and back of each surface mirrored) and orients the wind axes by the flow direction
 θ = atan2(w, u): identical in forward flow, continuous over the whole circle of flow
 directions (with ``crossflow="independence"``; the thesis crossflow form still jumps in pure

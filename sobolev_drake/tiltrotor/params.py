@@ -38,7 +38,7 @@ SURFACES = ("F", "WR", "WL", "TR", "TL", "I")
 CROSSFLOW_MODELS = ("independence", "thesis")
 #: how the angle-of-attack tables (−90°…90°) meet reverse flow u < 0
 #: (``TiltrotorParams.reverse_flow``; see the aerodynamics module docstring)
-REVERSE_FLOW_MODELS = ("clipped", "mirrored")
+REVERSE_FLOW_MODELS = ("mirrored", "clipped")
 
 
 def _v(x):
@@ -103,9 +103,10 @@ class TiltrotorParams:
     crossflow : {"independence", "thesis"}, default "independence"
         How the angle-of-attack tables meet sideslip (see the aerodynamics module): on the
         x–z-plane dynamic pressure, or on κ = ½ρV² as (7.41)–(7.45) are written.
-    reverse_flow : {"clipped", "mirrored"}, default "clipped"
-        How the angle-of-attack tables meet reverse flow u < 0: α = atan2(w, max(u, 0)), or
-        tables at atan2(w, |u|) with axes along the flow.
+    reverse_flow : {"mirrored", "clipped"}, default "mirrored"
+        How the angle-of-attack tables meet reverse flow u < 0: tables at atan2(w, |u|) with
+        axes along the flow (continuous; identical to "clipped" in forward flow), or the
+        thesis form α = atan2(w, max(u, 0)), which jumps where w changes sign.
     """
 
     g: float = 9.8
@@ -146,7 +147,7 @@ class TiltrotorParams:
     crossflow: str = "independence"
     # "clipped": α = atan2(w, max(u, 0)) (loads jump where w changes sign in reverse flow);
     # "mirrored": tables at atan2(w, |u|), axes along the flow (continuous; see aerodynamics)
-    reverse_flow: str = "clipped"
+    reverse_flow: str = "mirrored"
 
     def __post_init__(self):
         check_parameter_fields(self, positive=_POSITIVE)

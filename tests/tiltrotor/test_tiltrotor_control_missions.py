@@ -241,7 +241,7 @@ def test_mission_params_reach_plant_and_controller_model():
     from sobolev_drake.tiltrotor.mission import build_mission
     from sobolev_drake.tiltrotor.params import TiltrotorParams
 
-    built = build_mission(1, 1.0, params=TiltrotorParams(reverse_flow="mirrored"))
-    assert built["handles"].model.params.reverse_flow == "mirrored"
-    assert built["handles"].forces.aero.mirrored
-    assert built["law"].mech_law.model.params.reverse_flow == "mirrored"
+    built = build_mission(1, 1.0, params=TiltrotorParams(reverse_flow="clipped"))
+    assert built["handles"].model.params.reverse_flow == "clipped"
+    assert not built["handles"].forces.aero.mirrored
+    assert built["law"].mech_law.model.params.reverse_flow == "clipped"

@@ -412,12 +412,13 @@ def _flow_circle(aero, V, thetas):
 
 
 def test_reverse_flow_models():
-    """Flying backwards (u < 0): "clipped" (default) reads the ±90° table entries and jumps
-    where w changes sign; "mirrored" reads the tables at atan2(w, |u|) with the wind axes along
+    """Flying backwards (u < 0): "clipped" (the thesis' form) reads the ±90° table entries and
+    jumps where w changes sign; "mirrored" (default) reads the tables at atan2(w, |u|) with the wind axes along
     the flow: continuous over the whole circle of flow directions, equal in forward flow,
     and its drag opposes the air-relative motion of every surface with positive drag data."""
     from sobolev_drake.tiltrotor.params import TiltrotorParams
-    clipped, mirrored = AeroModel(TiltrotorParams()), AeroModel(TiltrotorParams(reverse_flow="mirrored"))
+    clipped, mirrored = AeroModel(TiltrotorParams(reverse_flow="clipped")), AeroModel(TiltrotorParams())
+    assert TiltrotorParams().reverse_flow == "mirrored"
     V = 10.0
     back = np.radians([179.999, 180.001])                 # w changes sign in reverse flow
     jump_c = np.abs(np.diff(_flow_circle(clipped, V, back), axis=0)).max()
