@@ -277,10 +277,10 @@ def _cmd_reproduce(args) -> int:
         except Exception as err:  # one broken experiment must not hide the others' results
             crashed.append(name)
             results.append(_crash_result(name, err, None))
-    campaigns = _campaign_sections(out_root)
-    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns)
+    campaigns, why = _campaign_sections(out_root), exps.thesis_differences()
+    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns, differences=why)
     # same content with links relative to the current directory
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns)
+    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns, differences=why)
     print(f"wrote {path} and {local.name}")
     if crashed:
         print(f"sobolev-drake: {len(crashed)} experiment(s) crashed: {', '.join(crashed)}", file=sys.stderr)
@@ -301,9 +301,9 @@ def _cmd_report(args) -> int:
     except (OSError, ValueError, KeyError) as err:
         raise UsageError(f"cannot read the results under {str(out_root)!r}: {err}") from None
     _writable_dir(out_root)
-    campaigns = _campaign_sections(out_root)
-    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns)
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns)
+    campaigns, why = _campaign_sections(out_root), exps.thesis_differences()
+    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns, differences=why)
+    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns, differences=why)
     print(f"wrote {path} and {local.name} from {len(results)} result(s)")
     return 0
 

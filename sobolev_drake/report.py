@@ -253,7 +253,7 @@ def _rel(p, base: Path) -> str:
 
 
 def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments",
-                       campaigns: Sequence = ()) -> Path:
+                       campaigns: Sequence = (), differences: str = "") -> Path:
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
     claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs.
 
@@ -268,6 +268,9 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
     campaigns : sequence of str, optional
         Markdown sections of campaign summaries (``summary.md`` of each campaign), appended
         under "Campaigns".
+    differences : str, optional
+        Markdown paragraphs on why the thesis' numbers differ from ours (one per table),
+        appended under "Why the thesis' numbers differ".
 
     Returns
     -------
@@ -310,6 +313,8 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
                   "The thesis compares designs on one disturbance realization and one parameter set; "
                   "here each comparison is repeated over many seeds (`sobolev-drake campaign`).", ""]
         lines += [str(c).strip() + "\n" for c in campaigns]
+    if differences.strip():
+        lines += ["", "# Why the thesis' numbers differ", "", differences.strip(), ""]
     path.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
     return path
 

@@ -14,6 +14,7 @@ An experiment's ``run`` callable has the signature::
 from __future__ import annotations
 
 import importlib
+from importlib import resources
 import math
 import pkgutil
 import warnings
@@ -25,7 +26,12 @@ from typing import Callable
 from sobolev_drake.report import Claim, ExperimentResult
 
 __all__ = ["Claim", "ExperimentResult", "Experiment", "UnknownExperimentError", "register",
-           "discover", "get", "flagship", "MAX_DURATION_FACTOR", "MIN_DURATION_FACTOR"]
+           "discover", "get", "flagship", "thesis_differences", "THESIS_TABLES", "MAX_DURATION_FACTOR",
+           "MIN_DURATION_FACTOR"]
+
+#: the thesis tables whose numbers the experiments compare with ours, each explained in
+#: ``thesis_differences.md`` (a test checks one section per table)
+THESIS_TABLES = ("4.2", "5.3", "5.6", "5.7", "5.9", "6.1", "6.2", "6.4", "7.2")
 
 
 @dataclass
@@ -133,3 +139,16 @@ def flagship() -> Experiment:
     if not flag:
         raise UnknownExperimentError("no flagship experiment is registered")
     return max(flag, key=lambda e: (e.flagship, e.name))
+
+
+def thesis_differences() -> str:
+    """Why the thesis' printed numbers differ from ours: one markdown section per table of
+    :data:`THESIS_TABLES` (the readings that reproduce them, or the evidence that none exists),
+    as REPRODUCTION.md prints it.
+
+    Returns
+    -------
+    str
+        The markdown text of ``sobolev_drake/experiments/thesis_differences.md``.
+    """
+    return (resources.files(__name__) / "thesis_differences.md").read_text(encoding="utf-8")
