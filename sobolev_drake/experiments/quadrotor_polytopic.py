@@ -38,7 +38,7 @@ RHO_GRID = np.logspace(0.5, 3.0, 6)  # ρ ≤ 0.1 diverges (saturation)
 W_RTOL = 1e-2
 #: smoke mode (no search): the ρ a full 16-vertex run found (the smoke polytope has 2); it
 #: follows the W∞ optimum's K, see docs/experiments/quadrotor-polytopic.md
-RHO_TUNED = 365.2
+RHO_TUNED = 453.2
 
 
 WINF, HINF = LinearDesign("W∞", "winf"), LinearDesign("H∞", "hinf")   # rows of Table 6.4
