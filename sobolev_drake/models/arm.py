@@ -272,19 +272,8 @@ class ThesisPrintedArmModel(TwoLinkArmModel):
         """
         return self.M_printed(q)
 
-    def M_closed_form(self, q) -> np.ndarray:
-        """The printed inertia matrix (the closed form this model stands for).
-
-        Parameters
-        ----------
-        q : array_like, shape (2,)
-            [q1, q2] (rad).
-
-        Returns
-        -------
-        ndarray, shape (2, 2)
-        """
-        return self.M_printed(q)
+    #: the closed form this model stands for is the printed one too
+    M_closed_form = M
 
 
 def _check_inertia(inertia):
