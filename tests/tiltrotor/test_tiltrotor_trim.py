@@ -106,7 +106,9 @@ def test_linearization_unpacks(hover):
 def test_hover_wind_limit_crosswind_vs_thesis_crossflow():
     """Heading-held hover in a steady lateral wind: with the thesis' crossflow form the attitude
     passes 60° at ≈ 12.5 m/s (flat-plate α-table drag in sideways flow); with the independence
-    principle the trims exist to ≈ 21 m/s, mirror-symmetric, and headwind is no limit."""
+    principle the trims exist to ≈ 21 m/s, mirror-symmetric, and headwind is no limit.  The
+    thesis' form is both literal readings (crossflow and reverse flow): its crossflow terms with
+    the mirrored reverse flow jump at u = 0, which a heading-held hover in crosswind sits on."""
     from sobolev_drake.tiltrotor.plant import TiltrotorModel
     from sobolev_drake.tiltrotor.params import TiltrotorParams
     from sobolev_drake.tiltrotor.trim import hover_wind_limit
@@ -119,7 +121,8 @@ def test_hover_wind_limit_crosswind_vs_thesis_crossflow():
     r = right.trims[16]                                   # 8 m/s: the trim balances independently
     np.testing.assert_allclose(balance(None, r.q, r.qdot, r.zeta, r.n, r.tau_s, r.delta), 0, atol=1e-8)
     assert hover_wind_limit(180.0, max_speed=15.0).limit == np.inf
-    thesis = hover_wind_limit(90.0, model=TiltrotorModel(TiltrotorParams(crossflow="thesis")))
+    thesis = hover_wind_limit(90.0, model=TiltrotorModel(TiltrotorParams(crossflow="thesis",
+                                                                         reverse_flow="clipped")))
     assert 12.0 < thesis.limit < 13.0 and "passes 60°" in thesis.reason
     assert thesis.attitude_deg()[-1] > 55.0
     with pytest.raises(ValueError, match="attitude_limit_deg"):
