@@ -35,7 +35,7 @@ def _t52() -> PiecewiseTrajectory:
         description="thesis Table 5.2: q1_r = pi/2, q2_r = (pi/2) sin(2 pi t/10)")
 
 
-def _t55() -> PiecewiseTrajectory:
+def _t55(psi: str = "printed") -> PiecewiseTrajectory:
     """Table 5.5 (quadrotor altitude and attitude [z m, φ, θ, ψ rad]).
 
     t ≤ 8:       z = 5 − sin(2πt/8)/2,  φ = θ = ψ = (π/4) sin(2πt/5)
@@ -45,12 +45,17 @@ def _t55() -> PiecewiseTrajectory:
     (ż jumps by π/8), φ jumps from −0.462 to 0, and ψ jumps from −0.462 to 2π sin(0.4π) = 5.98 rad
     (the printed amplitude "2π" of the second ψ piece is large but unambiguous in the text); θ is
     analytic.  The last piece is used for t > 30 as well.
+
+    ``psi="continuous"`` keeps ψ = (π/4) sin(2πt/5) after t = 8 (no jump): the reading that
+    reproduces the thesis' Table 5.6, whose ISE ψ ≈ ISE θ rules out a 6 rad jump.
     """
+    if psi not in ("printed", "continuous"):
+        raise ValueError(f"psi must be 'printed' or 'continuous', got {psi!r}")
     s5 = sine(PI / 4, 2 * PI / 5)
     return PiecewiseTrajectory(
         ["z", "phi", "theta", "psi"],
         [[sine(-0.5, 2 * PI / 8, offset=5.0), s5, s5, s5],
-         [const(5.0), const(0.0), s5, sine(2 * PI, 2 * PI / 40)]],
+         [const(5.0), const(0.0), s5, sine(2 * PI, 2 * PI / 40) if psi == "printed" else s5]],
         breakpoints=[8.0],
         description="thesis Table 5.5 (z, phi, theta, psi); discontinuous at t = 8 as in the thesis")
 
@@ -219,8 +224,21 @@ def table_5_2() -> TrajectoryReference:
     return TrajectoryReference(_t52())
 
 
-def table_5_5() -> TrajectoryReference:
-    return TrajectoryReference(_t55())
+def table_5_5(psi: str = "printed") -> TrajectoryReference:
+    """Table 5.5 (quadrotor altitude and attitude [z m, φ, θ, ψ rad]) as a reference system.
+
+    Parameters
+    ----------
+    psi : {"printed", "continuous"}, default "printed"
+        ψ after t = 8 s: the printed 2π sin(2πt/40) (a 6.44 rad jump at 8 s) or
+        (π/4) sin(2πt/5) continued (the reading that reproduces Table 5.6).
+
+    Returns
+    -------
+    TrajectoryReference
+        Outputs [z φ θ ψ] with rates and accelerations (see ``PiecewiseTrajectory``).
+    """
+    return TrajectoryReference(_t55(psi))
 
 
 def table_5_8() -> TrajectoryReference:
@@ -239,7 +257,7 @@ def envelope_mission() -> TrajectoryReference:
     return TrajectoryReference(_envelope())
 
 
-for _f, _src in ((table_5_2, _t52), (table_5_5, _t55), (table_5_8, _t58), (table_6_3, _t63),
+for _f, _src in ((table_5_2, _t52), (table_5_8, _t58), (table_6_3, _t63),
                  (table_7_1, _t71), (envelope_mission, _envelope)):
     _f.__doc__ = _src.__doc__
 

@@ -173,3 +173,19 @@ def test_scalar_evaluation_equals_vectorized():
     # a user Coordinate without a scalar form falls back to the vectorized function
     tr = PiecewiseTrajectory(["a"], [[Coordinate(lambda t: (t * t, 2 * t, 2 + 0 * t))]])
     assert tr.evaluate_scalar(3.0) == ([9.0], [6.0], [2.0])
+
+
+def test_table_5_5_continuous_psi_reading():
+    """psi="continuous" keeps ψ_r = (π/4) sin(2πt/5) after 8 s (no 6.44 rad jump); the other
+    coordinates are the printed ones; an unknown reading is refused."""
+    from sobolev_drake.systems.reference_catalogue import table_5_5
+    printed, cont = table_5_5(), table_5_5(psi="continuous")
+    for t in (1.0, 7.9, 8.1, 12.3, 29.0):
+        q_p, qd_p, _ = printed.evaluate(t)
+        q_c, qd_c, _ = cont.evaluate(t)
+        np.testing.assert_array_equal(q_c[:3], q_p[:3])
+        assert q_c[3] == pytest.approx(np.pi / 4 * np.sin(2 * np.pi * t / 5), abs=1e-12)
+    before, after = cont.evaluate(8.0 - 1e-9)[0][3], cont.evaluate(8.0 + 1e-9)[0][3]
+    assert abs(after - before) < 1e-6 and abs(printed.evaluate(8.0 + 1e-9)[0][3] - before) > 6.0
+    with pytest.raises(ValueError, match="psi must be"):
+        table_5_5(psi="wrapped")
