@@ -91,17 +91,19 @@ def percent_rows(values, base, columns) -> list:
     ----------
     values : dict
         {row label: {column: float}}, in row order.
-    base : str
-        The label of the row every column is a percentage of.
+    base : str or dict
+        The label of the row every column is a percentage of, or that row's values
+        ({column: float}, e.g. a thesis row that is not among ``values``).
     columns : sequence of str
         The columns, in order.
 
     Returns
     -------
     list of list
-        ``[label, percent_of(values[label][c], values[base][c]) for c in columns]`` per row.
+        ``[label, percent_of(values[label][c], base_row[c]) for c in columns]`` per row.
     """
-    return [[label, *(percent_of(v[c], values[base][c]) for c in columns)] for label, v in values.items()]
+    base_row = values[base] if isinstance(base, str) else base
+    return [[label, *(percent_of(v[c], base_row[c]) for c in columns)] for label, v in values.items()]
 
 
 def fmt(x) -> str:

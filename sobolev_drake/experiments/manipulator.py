@@ -129,20 +129,19 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
 def printed_reading(duration, gains, smoke=False) -> dict:
     """W2/W∞ and the equal-IADU classic H∞ on the thesis-printed reading (:data:`PRINTED`), and
     W2/W∞ with the printed M alone: {"W2/W∞", "H∞", "unclipped": indices, "hinf_omega_u"}."""
-    lim = np.full(2, PRINTED_TORQUE_LIMIT)
-    out = {}
-    for key, lo, hi in (("unclipped", None, None), ("clipped", -lim, lim)):
+    def printed_loop(lower=None, upper=None):
         inner = SobolevLaw(gains)
         loop = build_loop(lambda b: add_arm(b, inertia="thesis-printed"), make_arm_model(inertia="thesis-printed"),
-                          Partition(controlled=[0, 1]), inner, table_5_2(), disturbance(), lower=lo, upper=hi)
-        law = loop.controller.law
-        if key == "unclipped":
-            out[key] = indices(run_loop(loop, inner, duration, Q0, QD0, label="W2/W∞ printed M"), law)
-            continue
-        cmp = compare_with_matched_hinf(loop, inner, duration, Q0, QD0, lambda r: indices(r, law),
-                                        omega_u0=HINF_OMEGA_U, iters=2 if smoke else 6)
-        out.update({"W2/W∞": cmp.w_indices, "H∞": cmp.hinf_indices, "hinf_omega_u": cmp.omega_u})
-    return out
+                          Partition(controlled=[0, 1]), inner, table_5_2(), disturbance(), lower=lower, upper=upper)
+        return loop, inner, loop.controller.law
+
+    loop, inner, law = printed_loop()
+    unclipped = indices(run_loop(loop, inner, duration, Q0, QD0, label="W2/W∞ printed M"), law)
+    lim = np.full(2, PRINTED_TORQUE_LIMIT)
+    loop, inner, law = printed_loop(-lim, lim)
+    cmp = compare_with_matched_hinf(loop, inner, duration, Q0, QD0, lambda r: indices(r, law),
+                                    omega_u0=HINF_OMEGA_U, iters=2 if smoke else 6)
+    return {"W2/W∞": cmp.w_indices, "H∞": cmp.hinf_indices, "hinf_omega_u": cmp.omega_u, "unclipped": unclipped}
 
 
 #: the H∞ σ-gain of the full run's equal-IADU search (metrics "hinf_omega_u"); a campaign keeps

@@ -82,8 +82,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> Ex
         cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface)
     reading = reading_run(params, gains, duration)
     rows = percent_rows({"W2/W∞": w_idx, "H∞": h_idx}, "H∞", COLS)
-    rows += percent_rows({f"W2/W∞ — {READING} (% of the thesis' W2/W∞)": reading, "thesis": THESIS["W2/W∞"]},
-                         "thesis", COLS)[:1]
+    rows += percent_rows({f"W2/W∞ — {READING} (% of the thesis' W2/W∞)": reading}, THESIS["W2/W∞"], COLS)
     th = percent_rows(THESIS, "H∞", COLS) + [None]
     md, js, table = report.write_table(out_dir, "quadrotor_attitude", ["controller", *COLS], rows,
                                        thesis_rows=th,

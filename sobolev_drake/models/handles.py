@@ -239,8 +239,11 @@ def coordinate_map(plant: MultibodyPlant, joints_and_scales) -> np.ndarray:
 
 def verify_against_closed_forms(model, q, tol: float = 1e-8) -> None:
     """Raise ValueError if the plant's M(q), g(q) (and B(q)) disagree with the model's closed
-    forms at ``q`` — catches a plant built with parameters other than ``model.params``."""
-    pairs = [("M", model.M(q), model.M_closed_form(q)), ("g", model.g(q), model.g_closed_form(q))]
+    forms at ``q`` — catches a plant built with parameters other than ``model.params``.  M and g
+    are the plant's own (the base class' Drake evaluations), also for a model that replaces its
+    M by another reading (``ThesisPrintedArmModel``)."""
+    pairs = [("M", MechanicalModel.M(model, q), model.M_closed_form(q)),
+             ("g", MechanicalModel.g(model, q), model.g_closed_form(q))]
     if hasattr(model, "B_closed_form"):
         pairs.append(("B", model.B(q), model.B_closed_form(q)))
     for what, drake_value, closed in pairs:
