@@ -9,7 +9,10 @@ diagram from it (Drake systems do not pickle) and returns a small record.
 
 A :class:`CampaignDefinition` is what an experiment declares to be run as a campaign: its
 designs, what a seed randomizes, which parameters may be perturbed, the indices its records
-carry and the function that runs one case.
+carry and the function that runs one case.  A campaign whose designs come from a numerical
+synthesis also declares ``synthesize``: each design is then synthesized once per campaign and
+pinned in the output folder, so every case and every resume flies the same controller even where
+the solver's stopping point is not reproducible (singular LMI optima).
 """
 
 from __future__ import annotations
@@ -21,7 +24,12 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["Case", "CampaignDefinition"]
+__all__ = ["Case", "CampaignDefinition", "DesignFailed"]
+
+
+class DesignFailed(Exception):
+    """A campaign design could not be synthesized; its message is recorded as the failure of
+    every case of that design (it must depend on the design only — no wall times)."""
 
 
 @dataclass(frozen=True)
@@ -112,7 +120,9 @@ class CampaignDefinition:
         the summary).
     run : callable
         ``run(case) -> dict`` with "indices" ({name: float}), "success" (bool), optionally
-        "failure" (str) and "peaks" ({name: float}).  It must depend on the case only.
+        "failure" (str) and "peaks" ({name: float}).  It must depend on the case only.  With
+        ``synthesize`` it is ``run(case, design)``, ``design`` being what ``synthesize``
+        returned for ``case.design``.
     parameters : dict
         {parameter name: description} of what ``--perturb NAME=FRACTION`` may scale.
     default_perturb : dict
@@ -123,6 +133,12 @@ class CampaignDefinition:
         The thesis' comparison claims this campaign tests, as (text, design A, design B,
         index): "A has the smaller index"; the summary states each as the share of paired
         seeds where it holds.
+    synthesize : callable, optional
+        ``synthesize(label) -> design``: the controller of one design, picklable (arrays, not
+        Drake systems).  The runner calls it once per campaign and design, in a worker, and
+        pins the result in the output folder (``designs.pkl``); a resume reuses it.  It raises
+        :class:`DesignFailed` (or any exception) when the synthesis fails; every case of that
+        design is then a failed record.  None: ``run(case)`` builds its own controller.
     """
 
     designs: tuple
@@ -133,6 +149,7 @@ class CampaignDefinition:
     default_perturb: dict = field(default_factory=dict)
     smoke_duration: float = 1.0
     claims: tuple = ()
+    synthesize: Callable | None = None
 
     def __post_init__(self):
         if not self.designs or len(set(self.designs)) != len(self.designs):
@@ -144,5 +161,7 @@ class CampaignDefinition:
             if (len(claim) != 4 or claim[1] not in self.designs or claim[2] not in self.designs
                     or claim[3] not in self.indices):
                 raise ValueError(f"a claim is (text, design, design, index) of this campaign, got {claim!r}")
+        if self.synthesize is not None and not callable(self.synthesize):
+            raise TypeError(f"synthesize must be callable or None, got {type(self.synthesize).__name__}")
         if not (math.isfinite(self.smoke_duration) and self.smoke_duration > 0):
             raise ValueError(f"smoke_duration must be > 0, got {self.smoke_duration!r}")

@@ -10,12 +10,15 @@ Executors (no scheduler of our own):
   processes; any other string is the address of a running Dask scheduler.
 
 Each case's record is appended to the store as it arrives (:mod:`.store`); with
-``resume=True`` the cases already recorded are skipped.  A progress bar (tqdm) shows the rate
+``resume=True`` the cases already recorded are skipped.  A campaign that declares
+``synthesize`` has its designs synthesized first (one task per design, on the same executor)
+and pinned in the store; every case then flies the pinned copy.  A progress bar (tqdm) shows the rate
 and the projected finish.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import multiprocessing
@@ -24,11 +27,12 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-from sobolev_drake.campaign.case import Case
+from sobolev_drake.campaign.case import Case, DesignFailed
 from sobolev_drake.campaign.registry import get_campaign
 from sobolev_drake.campaign.store import CampaignStore
 
-__all__ = ["make_cases", "run_case", "run_campaign"]
+__all__ = ["make_cases", "synthesize_design", "run_case", "run_campaign", "write_summary",
+           "claim_statistics"]
 
 
 def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, perturb=None,
@@ -79,7 +83,45 @@ def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, pert
             for s in range(first_seed, first_seed + seeds) for d in designs]
 
 
-def run_case(case: Case) -> dict:
+def synthesize_design(name: str, label: str) -> dict:
+    """Synthesize one design of a campaign that declares ``synthesize`` (in whatever process
+    holds the call).
+
+    Parameters
+    ----------
+    name : str
+        The campaign name.
+    label : str
+        One of its designs.
+
+    Returns
+    -------
+    dict
+        {"design": the synthesized design} or, when the synthesis raised, {"failure": str}
+        ("synthesis failed: …", the exception's type and first message line).
+    """
+    defn = get_campaign(name)
+    if defn.synthesize is None:
+        raise ValueError(f"campaign {name!r} declares no synthesize; its cases build their own controllers")
+    try:
+        return {"design": defn.synthesize(label)}
+    except DesignFailed as exc:
+        return {"failure": f"synthesis failed: {_first_line(exc)}"}
+    except Exception as exc:  # noqa: BLE001 - every case of the design records it
+        return {"failure": f"synthesis failed: {type(exc).__name__}: {_first_line(exc)}"}
+
+
+@functools.lru_cache(maxsize=None)
+def _design_in_process(name, label):
+    # run_case without a pinned design: synthesize once per process
+    return synthesize_design(name, label)
+
+
+def _first_line(exc):
+    return str(exc).splitlines()[0][:300] if str(exc) else ""
+
+
+def run_case(case: Case, pinned: dict | None = None) -> dict:
     """Run one case (in whatever process holds it) and return its record.
 
     A case that raises is a failed record (its exception type and first message line), not a
@@ -88,6 +130,10 @@ def run_case(case: Case) -> dict:
     Parameters
     ----------
     case : Case
+    pinned : dict, optional
+        For a campaign that declares ``synthesize``: the case's design as
+        :func:`synthesize_design` returned it (the campaign's pinned copy).  None synthesizes
+        it in this process (once per process and design).
 
     Returns
     -------
@@ -96,11 +142,17 @@ def run_case(case: Case) -> dict:
         "failure", "peaks", "wall_s", "pid".
     """
     t0 = time.perf_counter()
+    defn = get_campaign(case.campaign)
     try:
-        out = dict(get_campaign(case.campaign).run(case))
+        if defn.synthesize is None:
+            out = dict(defn.run(case))
+        else:
+            if pinned is None:
+                pinned = _design_in_process(case.campaign, case.design)
+            out = ({"success": False, "failure": pinned["failure"]} if "failure" in pinned
+                   else dict(defn.run(case, pinned["design"])))
     except Exception as exc:  # noqa: BLE001 - recorded as the case's failure
-        out = {"success": False, "indices": {},
-               "failure": f"{type(exc).__name__}: {str(exc).splitlines()[0][:300] if str(exc) else ''}"}
+        out = {"success": False, "indices": {}, "failure": f"{type(exc).__name__}: {_first_line(exc)}"}
     return {"key": case.key, "campaign": case.campaign, "design": case.design, "seed": case.seed,
             "perturb_values": case.draws(), "indices": {k: float(v) for k, v in out.get("indices", {}).items()},
             "success": bool(out.get("success", False)), "failure": str(out.get("failure", "")),
@@ -108,26 +160,28 @@ def run_case(case: Case) -> dict:
             "wall_s": time.perf_counter() - t0, "pid": os.getpid()}
 
 
-def _inline(cases, workers, scheduler, tasks_per_worker):
-    for case in cases:
-        yield run_case(case)
+# Executors: call fn(*args) for every tuple of `calls`, yielding the results as they finish.
+
+def _inline(fn, calls, workers, scheduler, tasks_per_worker):
+    for args in calls:
+        yield fn(*args)
 
 
-def _processes(cases, workers, scheduler, tasks_per_worker):
-    # A fresh pool every `workers × tasks_per_worker` cases bounds what a worker accumulates
+def _processes(fn, calls, workers, scheduler, tasks_per_worker):
+    # A fresh pool every `workers × tasks_per_worker` calls bounds what a worker accumulates
     # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
     # not used: on Python 3.11 the pool stops scheduling once a worker retires (seen here, a
     # campaign hung after exactly tasks_per_worker cases).
     ctx = multiprocessing.get_context("spawn")
     per_round = workers * tasks_per_worker
-    for start in range(0, len(cases), per_round):
+    for start in range(0, len(calls), per_round):
         with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(run_case, c) for c in cases[start:start + per_round]]
+            futures = [pool.submit(fn, *args) for args in calls[start:start + per_round]]
             for f in as_completed(futures):
                 yield f.result()
 
 
-def _dask(cases, workers, scheduler, tasks_per_worker):
+def _dask(fn, calls, workers, scheduler, tasks_per_worker):
     try:
         from distributed import Client, LocalCluster, as_completed as dask_completed
     except ImportError:
@@ -141,13 +195,30 @@ def _dask(cases, workers, scheduler, tasks_per_worker):
     else:
         client = Client(scheduler)
     try:
-        futures = client.map(run_case, cases, pure=False)
+        futures = [client.submit(fn, *args, pure=False) for args in calls]
         for f in dask_completed(futures):
             yield f.result()
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def _pin_designs(name, labels, store, executor, workers, scheduler):
+    """The pinned designs of ``labels``: those already in the store, the others synthesized
+    (in parallel on the executor) and added to it."""
+    pinned = store.load_designs()
+    missing = [label for label in labels if label not in pinned]
+    if missing:
+        results = executor(_synthesize_labelled, [(name, label) for label in missing], workers,
+                           scheduler, len(missing))
+        pinned.update(dict(results))
+        store.save_designs(pinned)
+    return pinned
+
+
+def _synthesize_labelled(name, label):
+    return label, synthesize_design(name, label)
 
 
 def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs=None,
@@ -212,8 +283,14 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     if progress and todo:
         from tqdm import tqdm
         bar = tqdm(total=len(todo), desc=f"campaign {name}", unit="case", smoothing=0.1)
+    defn = get_campaign(name)
+    calls = [(c,) for c in todo]
+    if defn.synthesize is not None and todo:
+        pinned = _pin_designs(name, sorted({c.design for c in todo}), store, executor,
+                              max(workers, 1), scheduler)
+        calls = [(c, pinned[c.design]) for c in todo]
     try:
-        for record in executor(todo, max(workers, 1), scheduler, tasks_per_worker):
+        for record in executor(run_case, calls, max(workers, 1), scheduler, tasks_per_worker):
             store.append(record)
             if bar is not None:
                 bar.update(1)
@@ -224,7 +301,7 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     records = [r for r in store.load().values() if r["design"] in config["designs"]]
     keys = {c.key for c in cases}
     records = [r for r in records if r["key"] in keys]
-    return write_summary(name, records, [d for d in get_campaign(name).designs if d in config["designs"]],
+    return write_summary(name, records, [d for d in defn.designs if d in config["designs"]],
                          Path(out_dir), extra={"cases": len(cases), "ran": len(todo), "wall_s": wall,
                                                "config": config})
 

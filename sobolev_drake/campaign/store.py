@@ -4,19 +4,22 @@ Records are appended to ``records.jsonl`` as soon as a case finishes, one JSON l
 written in one call and flushed to disk, so a killed worker or machine loses only the cases in
 flight.  A trailing partial line (the process died while writing it) is dropped when the file is
 reopened.  ``campaign.json`` holds what defines the cases; resuming with a different
-definition is refused.
+definition is refused.  ``designs.pkl`` pins the synthesized designs of a campaign that declares
+``synthesize`` (:meth:`CampaignStore.load_designs`): a resume flies the same controllers.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import pickle
 from pathlib import Path
 
 __all__ = ["CampaignStore"]
 
 RECORDS = "records.jsonl"
 CONFIG = "campaign.json"
+DESIGNS = "designs.pkl"
 
 
 class CampaignStore:
@@ -33,6 +36,7 @@ class CampaignStore:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.records_path = self.dir / RECORDS
         self.config_path = self.dir / CONFIG
+        self.designs_path = self.dir / DESIGNS
 
     def start(self, config: dict, *, resume: bool) -> dict:
         """Begin (or resume) a campaign with ``config``; returns the records already done.
@@ -57,6 +61,7 @@ class CampaignStore:
                 raise FileExistsError(f"{self.records_path} already holds {len(done)} records; "
                                       "pass --resume to continue it, or choose another --out")
             self.records_path.write_text("", encoding="utf-8")
+            self.designs_path.unlink(missing_ok=True)     # a new campaign synthesizes anew
         elif self.config_path.exists():
             old = json.loads(self.config_path.read_text(encoding="utf-8"))
             fixed = ("campaign", "designs", "perturb", "duration", "smoke")
@@ -107,3 +112,32 @@ class CampaignStore:
             f.write(line)
             f.flush()
             os.fsync(f.fileno())
+
+    def load_designs(self) -> dict:
+        """The pinned designs, {label: {"design": object} or {"failure": str}} (empty if none).
+
+        Returns
+        -------
+        dict
+        """
+        if not self.designs_path.exists():
+            return {}
+        with open(self.designs_path, "rb") as f:
+            pinned = pickle.load(f)
+        if not isinstance(pinned, dict):
+            raise ValueError(f"{self.designs_path} does not hold a campaign's designs")
+        return pinned
+
+    def save_designs(self, pinned: dict) -> None:
+        """Pin ``pinned`` (as :meth:`load_designs` returns it), replacing the file atomically.
+
+        Parameters
+        ----------
+        pinned : dict
+        """
+        tmp = self.designs_path.with_suffix(".tmp")
+        with open(tmp, "wb") as f:
+            pickle.dump(pinned, f, protocol=pickle.HIGHEST_PROTOCOL)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, self.designs_path)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import time
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -171,21 +170,21 @@ CAMPAIGN_DESIGNS = {WINF.label: {"spec": WINF}, HINF.label: {"spec": HINF, "rho"
 CAMPAIGN_SMOKE_DURATION = 2.0  # s
 
 
-@lru_cache(maxsize=None)
-def _campaign_gain(label):
-    """K of a campaign design on the 16-vertex polytope, synthesized once per process."""
+def campaign_gain(label):
+    """K of a campaign design on the 16-vertex polytope (the campaign pins it once per run)."""
     return np.asarray(design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0].K)
 
 
-def campaign_case(case) -> dict:
-    """A design of :data:`CAMPAIGN_DESIGNS` flown on the truth, q(0) and disturbances its seed
-    draws; returns "indices", "success" (no divergence) and "failure"."""
+def campaign_case(case, K) -> dict:
+    """A design of :data:`CAMPAIGN_DESIGNS` (its gain ``K``) flown on the truth, q(0) and
+    disturbances its seed draws; returns "indices", "success" (no divergence) and "failure"."""
     duration = case.duration or (CAMPAIGN_SMOKE_DURATION if case.smoke else 40.0)
-    return campaign_flight(_campaign_gain(case.design), duration, case)
+    return campaign_flight(K, duration, case)
 
 
 register_campaign("quadrotor-polytopic", CampaignDefinition(
     designs=tuple(CAMPAIGN_DESIGNS), indices=tuple(CAMPAIGN_INDICES), run=campaign_case,
+    synthesize=campaign_gain,
     randomizes="the truth's m, Ixx, Iyy, Izz (inside the designs' ±10 % polytope), q(0) and the disturbances",
     parameters={n: f"quadrotor parameter {n} of the simulated truth" for n in (*UNCERTAIN, "l", "b", "d")},
     default_perturb=dict.fromkeys(UNCERTAIN, 0.1), smoke_duration=CAMPAIGN_SMOKE_DURATION,

@@ -3,8 +3,9 @@
 * ``tiltrotor-hover-linear``: one Table 7.2 design (:data:`~.linear_design.DESIGN_SPECS`)
   flown along the Table 7.1 path (:func:`hover_linear_case`).  A seed draws the von Kármán
   turbulence realization and nothing else; the truth's masses, inertias and the turbulence
-  intensity σ may be perturbed (``--perturb``).  The designs are synthesized once per process
-  on the nominal model and the controller keeps it.
+  intensity σ may be perturbed (``--perturb``).  The designs are synthesized once per campaign
+  on the nominal model (:func:`hover_design`, pinned in the output folder by the runner) and
+  the controller keeps it.
 * ``tiltrotor-envelope``: the full-envelope mission with the nonlinear W∞ law
   (:func:`envelope_case`).  The mission file's gusts and force pulses are deterministic, so a
   seed draws each pulse's amplitude and time around them (:func:`envelope_disturbances`);
@@ -98,13 +99,17 @@ def _hover_setup():
     return trim, linearize(trim), initial_error(trim, "zero")
 
 
-@functools.lru_cache(maxsize=None)
-def hover_design(label):
-    """A Table 7.2 design, synthesized once per process (seconds to minutes) as the
-    experiment's default run does (transient regularization, default backends).
+#: what a flight needs of a design dict (:class:`~.linear_controller.LinearController`)
+_FLOWN_KEYS = ("kind", "K", "AK", "BK", "CK", "DK", "C", "order", "gamma")
 
-    A failed synthesis is kept too (W∞-O.F.D (thesis LMI) fails after ~40 s): every case of
-    that design is a failed record without solving again.
+
+def hover_design(label):
+    """A Table 7.2 design, synthesized as the experiment's default run does (transient
+    regularization, default backends): seconds to minutes.
+
+    A campaign calls it once per design and pins the result (``CampaignDefinition.synthesize``),
+    because the dynamic-multiplier optima are singular LMIs whose γ moves in the 4th digit from
+    one solve to the next: synthesizing per worker would fly slightly different controllers.
 
     Parameters
     ----------
@@ -113,19 +118,28 @@ def hover_design(label):
 
     Returns
     -------
-    (dict or None, str)
-        The design dict of :func:`~sobolev_drake.tiltrotor.linear_design.design` (shared: do
-        not modify) and "", or None and why the synthesis failed.
+    dict
+        The controller's matrices ("kind", "K" or "AK", "BK", "CK", "DK", "C") and "gamma":
+        picklable, what :func:`hover_linear_case` flies.
+
+    Raises
+    ------
+    DesignFailed
+        When the synthesis fails (W∞-O.F.D (thesis LMI) does, after ~40 s); the message names
+        the exception, without the solve's wall time, so every record of the design is the same.
     """
+    from sobolev_drake.campaign import DesignFailed
     from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS, design
 
+    if label not in DESIGN_SPECS:
+        raise ValueError(f"label must be a Table 7.2 design {tuple(DESIGN_SPECS)}, got {label!r}")
     trim, lin, x0 = _hover_setup()
     try:
-        return design(lin, DESIGN_SPECS[label], initial_state=x0), ""
+        full = design(lin, DESIGN_SPECS[label], initial_state=x0)
     except Exception as exc:  # noqa: BLE001 - the experiment reports it as a table row too
-        # without the solve's wall time ("[LMI path: 37.9 s]"): a record depends on the case only
         why = re.sub(r"\s*\[LMI path: [^\]]*\]", "", str(exc).splitlines()[0] if str(exc) else "")
-        return None, f"synthesis failed: {type(exc).__name__}: {why[:300]}"
+        raise DesignFailed(f"{type(exc).__name__}: {why[:300]}") from exc
+    return {k: full[k] for k in _FLOWN_KEYS if k in full}
 
 
 def hover_turbulence(case):
@@ -155,7 +169,7 @@ def hover_turbulence(case):
     return seed, p
 
 
-def hover_linear_case(case) -> dict:
+def hover_linear_case(case, ctrl) -> dict:
     """Fly one Table 7.2 design of ``case`` on the (perturbed) nonlinear plant in its
     turbulence; success is the experiment's "tracks the path" claim (finite, not stopped,
     |φ|, |θ| < 60°).
@@ -164,18 +178,16 @@ def hover_linear_case(case) -> dict:
     ----------
     case : Case
         A ``tiltrotor-hover-linear`` case (design: a Table 7.2 label).
+    ctrl : dict
+        Its design, from :func:`hover_design`.
 
     Returns
     -------
     dict
-        "indices" (:data:`HOVER_INDICES`; none if the synthesis failed), "success", "failure",
-        "peaks" (peak lateral wind).
+        "indices" (:data:`HOVER_INDICES`), "success", "failure", "peaks" (peak lateral wind).
     """
     from sobolev_drake.tiltrotor.hover_flight import flight_indices, simulate_design
 
-    ctrl, why = hover_design(case.design)
-    if ctrl is None:
-        return {"indices": {}, "success": False, "failure": why}
     trim = _hover_setup()[0]
     seed, turbulence = hover_turbulence(case)
     duration = case.duration or (HOVER_SMOKE_DURATION if case.smoke else HOVER_DURATION)

@@ -157,3 +157,43 @@ def test_a_running_scheduler_is_reached_by_its_address(tmp_path):
                      out_dir=tmp_path / "remote", **SMOKE)
     run_campaign("manipulator", seeds=1, workers=0, out_dir=tmp_path / "inline", **SMOKE)
     assert records(tmp_path / "remote")[0] == records(tmp_path / "inline")[0]
+
+
+def test_designs_are_synthesized_once_and_pinned_across_resumes(tmp_path):
+    """A solver whose answer moves from one solve to the next (as singular LMI optima do):
+    every case of a campaign, resumed or not, flies the one pinned copy."""
+    from sobolev_drake.campaign import CampaignDefinition, DesignFailed, register_campaign
+
+    solves = []
+
+    def synthesize(label):
+        solves.append(label)
+        if label == "broken":
+            raise DesignFailed("no feasible point")
+        return {"gain": 1.0 + 1e-4 * len(solves)}          # a different optimum every solve
+
+    def run(case, design):
+        return {"indices": {"J": design["gain"] * (1 + case.seed)}, "success": True}
+
+    register_campaign("test-pinned", CampaignDefinition(
+        designs=("stable", "broken"), indices=("J",), randomizes="nothing", run=run,
+        synthesize=synthesize))
+    run_campaign("test-pinned", seeds=2, out_dir=tmp_path, workers=0, progress=False)
+    assert sorted(solves) == ["broken", "stable"]
+    run_campaign("test-pinned", seeds=4, out_dir=tmp_path, workers=0, progress=False, resume=True)
+    assert sorted(solves) == ["broken", "stable"]          # the resume solved nothing again
+    recs, lines = records(tmp_path)
+    assert lines == 8
+    gains = {r["indices"]["J"] / (1 + r["seed"]) for r in recs.values() if r["design"] == "stable"}
+    assert len(gains) == 1                                  # one controller for all four seeds
+    broken = [r for r in recs.values() if r["design"] == "broken"]
+    assert all(not r["success"] and r["failure"] == "synthesis failed: no feasible point" for r in broken)
+    # a new campaign in the same folder is refused; in a fresh folder it synthesizes anew
+    run_campaign("test-pinned", seeds=1, out_dir=tmp_path / "again", workers=0, progress=False)
+    assert len(solves) == 4
+
+
+def test_run_case_without_a_pinned_design_synthesizes_in_process():
+    from sobolev_drake.campaign import synthesize_design
+    with pytest.raises(ValueError, match="declares no synthesize"):
+        synthesize_design("manipulator", "H∞")
