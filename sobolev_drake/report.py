@@ -17,7 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "percent_rows", "markdown_table", "write_table", "write_reproduction",
+__all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "percent_rows", "reading_claim", "markdown_table", "write_table", "write_reproduction",
            "save_result", "load_result"]
 
 DASH = "—"
@@ -104,6 +104,41 @@ def percent_rows(values, base, columns) -> list:
     """
     base_row = values[base] if isinstance(base, str) else base
     return [[label, *(percent_of(v[c], base_row[c]) for c in columns)] for label, v in values.items()]
+
+
+def reading_claim(text, values, thesis_row, columns, tolerance, *, digits=1, extra="") -> Claim:
+    """The claim "a reading reproduces a thesis row": every column within ``tolerance``.
+
+    Parameters
+    ----------
+    text : str
+        The claim's statement, e.g. "W2/W∞ with the thesis-printed M reproduces the thesis'
+        W2/W∞ row within 1 %".
+    values : dict
+        {column: float} of the reading.
+    thesis_row : dict
+        {column: float} of the thesis' row (non-zero).
+    columns : sequence of str
+        The columns compared.
+    tolerance : float
+        Largest relative deviation allowed (0.01 for 1 %).
+    digits : int, default 1
+        Decimals of the percentages in the detail.
+    extra : str, default ""
+        Appended to the detail ("; " first).
+
+    Returns
+    -------
+    Claim
+        Held when every |value / thesis − 1| < tolerance; the detail lists each value and its
+        signed deviation.
+    """
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"tolerance must be a finite fraction > 0, got {tolerance!r}")
+    off = {c: values[c] / thesis_row[c] - 1 for c in columns}
+    detail = ", ".join(f"{c} {values[c]:.4g} ({100 * v:+.{digits}f} %)" for c, v in off.items())
+    return Claim(text, all(abs(v) < tolerance for v in off.values()),
+                 detail + (f"; {extra}" if extra else ""))
 
 
 def fmt(x) -> str:

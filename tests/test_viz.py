@@ -294,3 +294,16 @@ def test_reproduction_appends_campaign_sections(tmp_path):
     path = report.write_reproduction([r], tmp_path / "R.md", campaigns=["## Campaign x\n\nbody"])
     text = path.read_text(encoding="utf-8")
     assert text.index("# Campaigns") < text.index("## Campaign x") and "body" in text
+
+
+def test_reading_claim_holds_only_when_every_column_is_within_tolerance():
+    from sobolev_drake.report import reading_claim
+    thesis = {"IADU": 845.8, "ISE q1": 0.2545}
+    ok = reading_claim("reads", {"IADU": 849.0, "ISE q1": 0.2545}, thesis, ["IADU", "ISE q1"], 0.01,
+                       digits=2, extra="note")
+    assert ok.held and ok.detail == "IADU 849 (+0.38 %), ISE q1 0.2545 (+0.00 %); note"
+    # one column 1.2 % off fails a 1 % reading; a NaN never holds
+    assert not reading_claim("x", {"IADU": 856.0, "ISE q1": 0.2545}, thesis, ["IADU", "ISE q1"], 0.01).held
+    assert not reading_claim("x", {"IADU": float("nan"), "ISE q1": 0.2545}, thesis, ["IADU"], 0.5).held
+    with pytest.raises(ValueError, match="tolerance must be"):
+        reading_claim("x", thesis, thesis, ["IADU"], 0.0)

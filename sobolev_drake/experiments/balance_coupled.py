@@ -19,9 +19,11 @@ import numpy as np
 from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.two_wheeled import add_two_wheeled, make_two_wheeled_model
-from sobolev_drake.report import percent_rows
-from sobolev_drake.rigs.mechanical import build_loop, compare_with_matched_hinf, tracked_errors
+from sobolev_drake.report import percent_rows, reading_claim
+from sobolev_drake.rigs.mechanical import build_loop, compare_with_matched_hinf, run_loop, tracked_errors
+from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface, scaled_surface
 from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
+from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.mechanical_controller import HinfLaw, Partition, SobolevLaw
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const
@@ -34,6 +36,12 @@ THESIS = {"W2/W∞": {"IADU": 79.5, "ISE θ": 0.047, "ISE ϕ̇": 4.975e4},
           "H∞": {"IADU": 108.3, "ISE θ": 0.0468, "ISE ϕ̇": 5.032e4}}
 COLS = ["IADU", "ISE θ", "ISE ϕ̇"]
 B_PERP = np.array([1.0, 1.0]) / np.sqrt(2.0)                    # left annihilator of B = [1, −1]ᵀ
+#: an H∞ tuning fitted to the thesis' H∞ row (the thesis prints none): the W-matched surface's
+#: error polynomial s² + c1 s + c0 with c1 × 3.75 and c0 × 16, ωu from an equal-ISE θ search on
+#: it, no torque limit (docs/experiments/balance-coupled.md); fitted, so it shows only that
+#: some tuning gives the row
+HINF_READING_FACTORS, HINF_READING_OMEGA_U = (3.75, 16.0), 0.6915
+HINF_READING = "surface c1 × 3.75, c0 × 16, ωu 0.6915, no torque limit (fitted)"
 
 
 def sobolev_inner() -> SobolevLaw:
@@ -69,6 +77,38 @@ def annihilator_residual(run, model) -> np.ndarray:
     return out
 
 
+def coupled_loop(model, w_inner, limit, hinf_phidot, record=False):
+    """The closed loop of this experiment: τ = B†u* clipped to ±``limit`` (None: no limit) and,
+    with ``hinf_phidot="matched"``, an H∞ law's ϕ̇ damping replaced by the W law's."""
+    base, holder = make_allocation(limit), {}
+    # ϕ̇ damping of the W law in force units: M_ϕϕ Υ1⁻¹U (M_ϕϕ = (M + m)r² + Ir is constant)
+    w_damping = float(model.M(Q0)[0, 0] * w_inner.stabilized.K[0, 0])
+
+    def alloc(u, q, qd):
+        inner = holder["controller"].law.law
+        if hinf_phidot == "matched" and isinstance(inner, HinfLaw):
+            # the classic law damps q̇s with the σ gain R⁻¹ (u*_ϕ ∋ −R⁻¹ϕ̇), which fights the
+            # balance under a constant wθ; give it the W law's ϕ̇ damping instead
+            # (docs/experiments/balance-coupled.md)
+            u = np.array(u, dtype=float)
+            u[0] += (inner.gains.R_inv - w_damping) * qd[0]
+        return base(u, q, qd)
+
+    loop = build_loop(add_two_wheeled, model, PARTITION, w_inner, reference(), disturbance(),
+                      allocation=alloc, record=record)
+    holder["controller"] = loop.controller
+    return loop
+
+
+def hinf_reading(duration) -> dict:
+    """Indices of the classic H∞ of :data:`HINF_READING` (fitted to the thesis' H∞ row)."""
+    w_inner = sobolev_inner()
+    loop = coupled_loop(make_two_wheeled_model(), w_inner, None, "matched")
+    surface = scaled_surface(matched_hinf_surface(w_inner.controlled), *HINF_READING_FACTORS)
+    return indices(run_loop(loop, matched_hinf_law(surface, HINF_READING_OMEGA_U), duration, Q0, QD0,
+                            label="H∞ reading"))
+
+
 def make_allocation(limit):
     """τ = B†u* = (u*_ϕ − u*_θ)/2 (5.118), saturated to ±``limit``: with a single input this is
     exactly the bounded least-squares allocation min ‖u* − Bτ‖ s.t. |τ| ≤ limit (a convex 1-D
@@ -90,23 +130,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
         raise ValueError(f"hinf_phidot must be 'matched' or 'equal', got {hinf_phidot!r}")
     w_inner = sobolev_inner()
     model = make_two_wheeled_model()
-    base, holder = make_allocation(lim), {}
-    # ϕ̇ damping of the W law in force units: M_ϕϕ Υ1⁻¹U (M_ϕϕ = (M + m)r² + Ir is constant)
-    w_damping = float(model.M(Q0)[0, 0] * w_inner.stabilized.K[0, 0])
-
-    def alloc(u, q, qd):
-        inner = holder["controller"].law.law
-        if hinf_phidot == "matched" and isinstance(inner, HinfLaw):
-            # the classic law damps q̇s with the σ gain R⁻¹ (u*_ϕ ∋ −R⁻¹ϕ̇), which fights the
-            # balance under a constant wθ; give it the W law's ϕ̇ damping instead
-            # (docs/experiments/balance-coupled.md)
-            u = np.array(u, dtype=float)
-            u[0] += (inner.gains.R_inv - w_damping) * qd[0]
-        return base(u, q, qd)
-
-    loop = build_loop(add_two_wheeled, model, PARTITION, w_inner, reference(), disturbance(),
-                      allocation=alloc, record=record)
-    holder["controller"] = loop.controller
+    loop = coupled_loop(model, w_inner, lim, hinf_phidot, record=record)
     law = loop.controller.law
     outputs, claims = {}, []
     cmp = compare_with_matched_hinf(loop, w_inner, duration, Q0, QD0, indices, match="ISE θ",
@@ -116,8 +140,10 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
         outputs["meshcat W2/W∞"] = cmp.recording
     w_run, w_idx, h_run, h_idx, wu, hist, surface = (
         cmp.w_run, cmp.w_indices, cmp.hinf_run, cmp.hinf_indices, cmp.omega_u, cmp.history, cmp.surface)
+    reading = hinf_reading(duration)
     rows = percent_rows({"W2/W∞": w_idx, "H∞": h_idx}, "H∞", COLS)
-    th = percent_rows(THESIS, "H∞", COLS)
+    rows += percent_rows({f"H∞ — {HINF_READING} (% of the thesis' H∞)": reading}, THESIS["H∞"], COLS)
+    th = percent_rows(THESIS, "H∞", COLS) + [None]
     md, js, table = report.write_table(
         out_dir, "balance_coupled", ["controller", *COLS], rows, thesis_rows=th,
         title=f"Table 5.7 (two-wheeled vehicle, input coupling, {duration:g} s, torque limit "
@@ -156,9 +182,13 @@ def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
     claims.append(Claim("ISE ϕ̇ similar for both controllers (thesis 98 %; within ±10 %)",
                         abs(w_idx["ISE ϕ̇"] / h_idx["ISE ϕ̇"] - 1) < 0.1,
                         f"{100 * w_idx['ISE ϕ̇'] / h_idx['ISE ϕ̇']:.0f} %"))
+    claims.append(reading_claim(f"an H∞ tuning ({HINF_READING}) reproduces the thesis' H∞ row within 2 %",
+                                reading, THESIS["H∞"], COLS, 0.02))
+    claims.append(reading_claim("our W2/W∞ run reproduces the thesis' W2/W∞ row within 2 %",
+                                w_idx, THESIS["W2/W∞"], COLS, 0.02))
     e, _ = tracked_errors(w_run, law)
     metrics = {"W2/W∞": w_idx, "H∞": h_idx, "hinf_omega_u": wu, "hinf_surface": surface,
                "hinf_search": hist, "duration": duration, "final_theta_W": float(e[-1, 0]),
                "torque_limit": lim, "saturated_fraction": sat, "hinf_phidot": hinf_phidot,
-               "bperp_max": {k: float(r["bperp"].max()) for k, r in runs.items()}}
+               "bperp_max": {k: float(r["bperp"].max()) for k, r in runs.items()}, "hinf_reading": reading}
     return ExperimentResult("balance-coupled", outputs, metrics, claims, table)

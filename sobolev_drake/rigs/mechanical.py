@@ -21,7 +21,8 @@ from scipy.linalg import null_space
 
 from sobolev_drake import viz
 from sobolev_drake.harness import add_log_sinks
-from sobolev_drake.synthesis.mechanical import matched_hinf_surface, winf_gamma
+from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface
+from sobolev_drake.synthesis.mechanical import winf_gamma
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import MechanicalController
 from sobolev_drake.tuning import match_by_regula_falsi
@@ -209,7 +210,7 @@ class MatchedComparison:
     target : float
         The index value the search aimed at.
     surface : tuple of float
-        The H∞ law's surface (ω1, ω2, ω3) (:func:`~sobolev_drake.synthesis.mechanical.matched_hinf_surface`).
+        The H∞ law's surface (ω1, ω2, ω3) (:func:`~sobolev_drake.synthesis.hinf_surface.matched_hinf_surface`).
     recording : Path or None
         The W2/W∞ run's Meshcat recording (standalone HTML), when asked for.
     """
@@ -232,7 +233,7 @@ def compare_with_matched_hinf(loop, w_inner, duration, q0, qd0, indices, *, matc
     one index equals the W2/W∞ run's (the thesis' comparison rule, e.g. the same IADU).
 
     The H∞ law is :func:`~sobolev_drake.systems.hinf_baseline.matched_hinf_law` on
-    :func:`~sobolev_drake.synthesis.mechanical.matched_hinf_surface` of the W law's controlled
+    :func:`~sobolev_drake.synthesis.hinf_surface.matched_hinf_surface` of the W law's controlled
     gains; ωu comes from :func:`~sobolev_drake.tuning.match_by_regula_falsi`.
 
     Parameters

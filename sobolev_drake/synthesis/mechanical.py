@@ -38,7 +38,7 @@ from ..validation import real_array, real_scalar
 __all__ = [
     "SobolevGains", "controlled_gains", "regulated_gains", "stabilized_gains", "sobolev_gains",
     "controlled_closed_form", "regulated_closed_form", "stabilized_closed_form",
-    "winf_gamma", "HinfMechanicalGains", "hinf_mechanical_gains", "matched_hinf_surface",
+    "winf_gamma", "HinfMechanicalGains", "hinf_mechanical_gains",
 ]
 
 _NORMS = ("W2", "Winf")
@@ -462,30 +462,3 @@ def hinf_mechanical_gains(omega1: float, omega2: float, omega3: float, omega_u: 
         With T11 = ω1c, T12 = s c, T13 = ω3c, c = γωu/√(γ² − ωu²), s = √(ω2² + 2ω1ω3).
     """
     return HinfMechanicalGains(omega1, omega2, omega3, omega_u, gamma)   # checked there
-
-
-def matched_hinf_surface(gains: SobolevGains) -> tuple[float, float, float]:
-    """(ω1, ω2, ω3) of a classic H∞ sliding surface that aims at the W design's error dynamics.
-
-    The thesis tunes its H∞ baselines "by trial and error" and prints no weights.  Our rule: the
-    surface ė + (s/ω1) e + (ω3/ω1) ∫e with ω1 = 1 takes the mean, over the controlled DOF, of the
-    slow factor s² + (k/q) s + t/q of the W closed-loop polynomials s³ + (q/y3)s² + (k/y3)s + t/y3
-    (blocks Q, K, T of the W2/W∞ solution), so both controllers aim at the same error dynamics;
-    ω2 then follows from s² = ω2² + 2ω1ω3 (clipped at 0).
-
-    Parameters
-    ----------
-    gains : SobolevGains
-        The W2/W∞ gains of the controlled DOF (blocks "Q", "K", "T").
-
-    Returns
-    -------
-    (float, float, float)
-        ω1 = 1, ω2, ω3 for :func:`hinf_mechanical_gains`.
-    """
-    q = np.diag(gains.blocks["Q"])
-    k = np.diag(gains.blocks["K"])
-    t = np.diag(gains.blocks["T"])
-    c1, c0 = float(np.mean(k / q)), float(np.mean(t / q))
-    w2sq = c1 ** 2 - 2 * c0
-    return 1.0, float(np.sqrt(max(w2sq, 0.0))), c0

@@ -1,6 +1,6 @@
 """The classic nonlinear H∞ baseline of the chapter-5 comparisons, matched to a W2/W∞ design.
 
-The surface comes from :func:`sobolev_drake.synthesis.mechanical.matched_hinf_surface`; the one
+The surface comes from :func:`sobolev_drake.synthesis.hinf_surface.matched_hinf_surface`; the one
 free weight, the σ-gain 1/ωu², is then searched (e.g. with
 :func:`sobolev_drake.tuning.match_by_regula_falsi`) so that a named index matches the W2/W∞ run.
 γ = 2ωu: the law does not depend on γ, only its certificate does.
@@ -22,7 +22,7 @@ def matched_hinf_law(surface, omega_u: float) -> HinfLaw:
     Parameters
     ----------
     surface : (float, float, float)
-        From :func:`~sobolev_drake.synthesis.mechanical.matched_hinf_surface`.
+        From :func:`~sobolev_drake.synthesis.hinf_surface.matched_hinf_surface`.
     omega_u : float
         ωu > 0.
 

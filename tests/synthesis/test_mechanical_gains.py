@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface
 from sobolev_drake.synthesis.mechanical import (controlled_closed_form, controlled_gains,
-                                                hinf_mechanical_gains, matched_hinf_surface,
+                                                hinf_mechanical_gains,
                                                 regulated_closed_form,
                                                 regulated_gains, sobolev_gains,
                                                 stabilized_closed_form, stabilized_gains,
@@ -227,3 +228,37 @@ def test_matched_hinf_surface_is_the_slow_factor_of_the_w_design():
     s = np.sqrt(w2 ** 2 + 2 * w1 * w3)
     assert w1 == 1.0
     assert s / w1 == pytest.approx(k / q) and w3 / w1 == pytest.approx(t / q)
+
+
+@pytest.mark.parametrize("surface", [(1.0, 9.55, 17.44), (2.0, 3.0, 1.5)])
+def test_scaled_surface_scales_the_error_polynomial(surface):
+    from sobolev_drake.synthesis.hinf_surface import scaled_surface
+
+    def roots(s):
+        w1, w2, w3 = s
+        return np.sort_complex(np.roots([1.0, np.sqrt(w2 ** 2 + 2 * w1 * w3) / w1, w3 / w1]))
+
+    # default: the same dynamics a times faster, i.e. every root times a (ω1 kept)
+    for a in (0.855, 1.0, 3.0):
+        scaled = scaled_surface(surface, a)
+        assert scaled[0] == surface[0]
+        np.testing.assert_allclose(roots(scaled), a * roots(surface), rtol=1e-12, atol=1e-12)
+    # separate factors: the coefficients themselves (the balance-coupled reading's surface)
+    w1, w2, w3 = scaled_surface(surface, 3.75, 16.0)
+    s0 = np.sqrt(surface[1] ** 2 + 2 * surface[0] * surface[2]) / surface[0]
+    assert np.sqrt(w2 ** 2 + 2 * w1 * w3) / w1 == pytest.approx(3.75 * s0, rel=1e-14)
+    assert w3 / w1 == pytest.approx(16.0 * surface[2] / surface[0], rel=1e-14)
+    hinf_mechanical_gains(w1, w2, w3, 0.7, 1.4)             # a valid classic H∞ surface
+
+
+def test_scaled_surface_rejects_what_no_surface_represents():
+    from sobolev_drake.synthesis.hinf_surface import scaled_surface
+    with pytest.raises(ValueError, match="c1_factor must be"):
+        scaled_surface((1.0, 1.0, 1.0), 0.0)
+    with pytest.raises(ValueError, match="c0_factor must be"):
+        scaled_surface((1.0, 1.0, 1.0), 1.0, float("nan"))
+    with pytest.raises(ValueError, match="surface must be"):
+        scaled_surface((-1.0, 1.0, 1.0), 1.0)
+    # c1² = 3 before; c1 × 1, c0 × 2 gives c1² = 3 < 2c0 = 4
+    with pytest.raises(ValueError, match="needs c1² >= 2c0"):
+        scaled_surface((1.0, 1.0, 1.0), 1.0, 2.0)
