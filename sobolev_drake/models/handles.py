@@ -239,13 +239,15 @@ def coordinate_map(plant: MultibodyPlant, joints_and_scales) -> np.ndarray:
 
 def verify_against_closed_forms(model, q, tol: float = 1e-8) -> None:
     """Raise ValueError if the plant's M(q), g(q) (and B(q)) disagree with the model's closed
-    forms at ``q`` — catches a plant built with parameters other than ``model.params``.  M and g
-    are the plant's own (the base class' Drake evaluations), also for a model that replaces its
-    M by another reading (``ThesisPrintedArmModel``)."""
+    forms at ``q`` — catches a plant built with parameters other than ``model.params``.  M, g and
+    B are the plant's own (the base class' Drake evaluations, ``model.B_plant`` where a model
+    defines it), also for a model that replaces them by another reading
+    (``ThesisPrintedArmModel``, ``ThesisPrintedQuadrotorModel``)."""
     pairs = [("M", MechanicalModel.M(model, q), model.M_closed_form(q)),
              ("g", MechanicalModel.g(model, q), model.g_closed_form(q))]
     if hasattr(model, "B_closed_form"):
-        pairs.append(("B", model.B(q), model.B_closed_form(q)))
+        plant_B = model.B_plant if hasattr(model, "B_plant") else model.B
+        pairs.append(("B", plant_B(q), model.B_closed_form(q)))
     for what, drake_value, closed in pairs:
         err = np.linalg.norm(drake_value - closed) / max(np.linalg.norm(closed), 1e-300)
         if err > tol:

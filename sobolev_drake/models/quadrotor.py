@@ -22,6 +22,12 @@ B₀ of (5.123) keeps only the body-z component d cos α of each drag torque; a 
 the tilted rotor axis would add ∓d sin α to the roll/pitch rows (≈ 9 % of l b cos α).  Both are
 available: ``reaction_torque="thesis"`` (default, equals (5.123)) or ``"axial"``.
 
+The label W′_η can also be read literally (``euler_matrix="thesis-printed"``,
+:class:`ThesisPrintedQuadrotorModel`, :mod:`~sobolev_drake.models.euler_zyx`): M_η = W I Wᵀ and
+torques through W, with C the Christoffel C of that M.  It is not a rigid body; the model's
+adapter then makes the physical MultibodyPlant follow the printed equations (as the arm's
+printed inertia does).
+
 Drake model: joint chain x, y, z, yaw, pitch, roll (docs/design.md §3), rotor frames
 ``rotor1..rotor4`` fixed to the body; ``B(q)`` is computed from the rotor frames with Drake's spatial-velocity
 Jacobians (Jᵀ applied to each rotor's spatial force), not from the closed form.
@@ -34,7 +40,7 @@ Ixx = Iyy = 0.0384 kg m² (Table 5.4: 2.2 kg, 0.0363 kg m²); Izz (0.0615) agree
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
@@ -44,107 +50,22 @@ from pydrake.multibody.tree import FixedOffsetFrame, JacobianWrtVariable
 from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.models.euler_zyx import (EULER_READINGS, angular_coriolis, angular_inertia,
+                                            euler_rate_matrix, euler_rate_matrix_dot, torque_map)
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
                                           coordinate_map, urdf_text,
                                           verify_against_closed_forms)
-from sobolev_drake.validation import check_parameter_fields
+from sobolev_drake.models.quadrotor_params import QuadrotorParams
 
 __all__ = [
     "QuadrotorParams", "euler_rate_matrix", "euler_rate_matrix_dot", "rotation_zyx", "rotor_poses",
-    "QuadrotorModel", "make_quadrotor_model", "add_quadrotor",
+    "QuadrotorModel", "ThesisPrintedQuadrotorModel", "make_quadrotor_model", "add_quadrotor",
 ]
 
 THESIS_ORDER = ("phi", "theta", "psi", "x", "y", "z")
 ROTOR_DIRECTIONS = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0], [0, -1.0, 0]])
 ROTOR_SPIN = np.array([1.0, -1.0, 1.0, -1.0])
 REACTION_MODES = ("thesis", "axial")
-
-
-@dataclass(frozen=True)
-class QuadrotorParams:
-    """Table 5.4 (SI units; ``alpha`` in radians).
-
-    Parameters
-    ----------
-    Ixx, Iyy, Izz : float, default 0.0363, 0.0363, 0.0615
-        Principal moments of inertia of the body (kg m²); positive, triangle inequality.
-    m : float, default 2.2
-        Mass (kg).
-    alpha : float, default 5° in rad
-        Rotor tilt toward the centre (rad), in (−π/2, π/2).
-    l : float, default 0.21
-        Distance from the centre to each rotor (m).
-    g : float, default 9.8
-        Gravitational acceleration (m/s²).
-    b : float, default 2.9e-5
-        Thrust coefficient: thrust b Ω² along the rotor axis.
-    d : float, default 6e-6
-        Drag (reaction torque) coefficient: torque d Ω².
-    """
-
-    Ixx: float = 0.0363
-    Iyy: float = 0.0363
-    Izz: float = 0.0615
-    m: float = 2.2
-    alpha: float = np.deg2rad(5.0)
-    l: float = 0.21
-    g: float = 9.8
-    b: float = 2.9e-5
-    d: float = 6e-6
-
-    @classmethod
-    def chapter6_nominal(cls) -> "QuadrotorParams":
-        """Centres of the ±10 % uncertainty boxes of section 6.5.3 (m = 2.24, Ixx = Iyy = 0.0384).
-
-        Returns
-        -------
-        QuadrotorParams
-            Table 5.4 with m, Ixx, Iyy replaced (Izz = 0.0615 unchanged).
-        """
-        return cls(Ixx=0.0384, Iyy=0.0384, Izz=0.0615, m=2.24)
-
-    def __post_init__(self):
-        self.validate()
-
-    def validate(self) -> "QuadrotorParams":
-        """Check the fields (``ValueError`` otherwise): positive values, |alpha| < π/2 and the
-        triangle inequality of the inertias.
-
-        Returns
-        -------
-        QuadrotorParams
-            ``self``, for chaining.
-        """
-        check_parameter_fields(self, positive=("Ixx", "Iyy", "Izz", "m", "l", "g", "b", "d"))
-        if not abs(self.alpha) < np.pi / 2:
-            raise ValueError(f"quadrotor tilt alpha must be in (-pi/2, pi/2) rad, got {self.alpha}")
-        I = (self.Ixx, self.Iyy, self.Izz)
-        if max(I) > sum(I) - max(I):
-            raise ValueError(f"quadrotor inertia {I} violates the triangle inequality")
-        return self
-
-    def hover_input(self) -> float:
-        """Ω² per rotor that balances gravity: m g / (4 b cos α).
-
-        Returns
-        -------
-        float
-            The hover input Ω² (rad²/s²).
-        """
-        return self.m * self.g / (4 * self.b * np.cos(self.alpha))
-
-
-def euler_rate_matrix(phi: float, theta: float) -> np.ndarray:
-    """W with ω_B = W [ϕ̇ θ̇ ψ̇] (ZYX angles; the matrix printed in (5.123))."""
-    sp, cp, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
-    return np.array([[1.0, 0.0, -st], [0.0, cp, sp * ct], [0.0, -sp, cp * ct]])
-
-
-def euler_rate_matrix_dot(phi, theta, phidot, thetadot) -> np.ndarray:
-    sp, cp, st, ct = np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta)
-    return np.array([[0.0, 0.0, -ct * thetadot],
-                     [0.0, -sp * phidot, cp * ct * phidot - sp * st * thetadot],
-                     [0.0, -cp * phidot, -sp * ct * phidot - cp * st * thetadot]])
 
 
 def rotation_zyx(phi: float, theta: float, psi: float) -> np.ndarray:
@@ -203,6 +124,8 @@ class QuadrotorModel(MechanicalModel):
     """
 
     num_inputs = 4
+    #: the reading of (5.123)'s W′_η this model uses (:data:`~.euler_zyx.EULER_READINGS`)
+    euler_matrix = "physical"
 
     def __init__(self, plant=None, params: QuadrotorParams | None = None, *, tilt=None,
                  reaction_torque: str = "thesis"):
@@ -426,24 +349,121 @@ class QuadrotorModel(MechanicalModel):
         return np.column_stack(cols)
 
 
+class ThesisPrintedQuadrotorModel(QuadrotorModel):
+    """The quadrotor with (5.123)'s W′_η read literally: the rotational block of M is W I Wᵀ,
+    C q̇ the Christoffel C of that M, body torques enter through W
+    (:mod:`~sobolev_drake.models.euler_zyx`); translation, g and the rotor forces are the
+    plant's.  The closed forms (``M_closed_form`` …) stay the physical ones: the plant is
+    checked against them.  At ϕ = θ = 0 both readings coincide.
+
+    As a controller's model it gives the law the thesis' printed equations imply; as a
+    simulated plant (``add_quadrotor(..., euler_matrix="thesis-printed")``) its adapter makes
+    the physical MultibodyPlant follow M q̈ + C q̇ + g = B τ + w of this reading.
+
+    Parameters
+    ----------
+    plant, params, tilt, reaction_torque
+        As for :class:`QuadrotorModel`.
+    """
+
+    euler_matrix = "thesis-printed"
+    #: the adapter applies the force that makes the plant follow this model's equations
+    follows_own_equations = True
+
+    def _inertia(self):
+        p = self.params
+        return np.diag([p.Ixx, p.Iyy, p.Izz])
+
+    def M(self, q) -> np.ndarray:
+        """M(q) = blockdiag(W I Wᵀ, m I₃).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 6)
+        """
+        q = check_vector("q", q, 6)
+        M = np.zeros((6, 6))
+        M[:3, :3] = angular_inertia(self._inertia(), q[0], q[1], self.euler_matrix)
+        M[3:, 3:] = self.params.m * np.eye(3)
+        return M
+
+    def Cqdot(self, q, qdot) -> np.ndarray:
+        """C(q, q̇) q̇ of :meth:`M` (Christoffel symbols of the first kind).
+
+        Parameters
+        ----------
+        q, qdot : array_like, shape (6,)
+            [ϕ θ ψ x y z] and its rates.
+
+        Returns
+        -------
+        ndarray, shape (6,)
+        """
+        q, qdot = check_vector("q", q, 6), check_vector("qdot", qdot, 6)
+        return np.r_[angular_coriolis(self._inertia(), q[:3], qdot[:3], self.euler_matrix), np.zeros(3)]
+
+    def B_plant(self, q) -> np.ndarray:
+        """The simulated plant's B(q) (:meth:`QuadrotorModel.B`, Drake's Jacobians).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+        """
+        return QuadrotorModel.B(self, q)
+
+    def B(self, q) -> np.ndarray:
+        """B(q) with the torque rows W τ_B (in place of the plant's Wᵀ τ_B).
+
+        Parameters
+        ----------
+        q : array_like, shape (6,)
+            [ϕ θ ψ x y z].
+
+        Returns
+        -------
+        ndarray, shape (6, 4)
+        """
+        B = self.B_plant(q)
+        B[:3] = torque_map(q[0], q[1], self.euler_matrix) @ self._wrench_B[:3]
+        return B
+
+
+def _model_class(euler_matrix):
+    if euler_matrix not in EULER_READINGS:
+        raise ValueError(f"euler_matrix must be one of {EULER_READINGS}, got {euler_matrix!r}")
+    return QuadrotorModel if euler_matrix == "physical" else ThesisPrintedQuadrotorModel
+
+
 def make_quadrotor_model(params: QuadrotorParams | None = None, *, tilt=None,
-                         reaction_torque: str = "thesis") -> QuadrotorModel:
+                         reaction_torque: str = "thesis", euler_matrix: str = "physical") -> QuadrotorModel:
     """Standalone QuadrotorModel on its own plant (no SceneGraph).
 
     Parameters
     ----------
     params, tilt, reaction_torque
         As in :class:`QuadrotorModel`.
+    euler_matrix : {"physical", "thesis-printed"}, default "physical"
+        "thesis-printed" gives a :class:`ThesisPrintedQuadrotorModel`.
 
     Returns
     -------
     QuadrotorModel
     """
-    return QuadrotorModel(None, params, tilt=tilt, reaction_torque=reaction_torque)
+    return _model_class(euler_matrix)(None, params, tilt=tilt, reaction_torque=reaction_torque)
 
 
 def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None, *, tilt=None,
-                  reaction_torque: str = "thesis") -> PlantHandles:
+                  reaction_torque: str = "thesis", euler_matrix: str = "physical") -> PlantHandles:
     """Add the quadrotor (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 
     B(q) is recomputed from the plant state at every adapter evaluation.
@@ -459,6 +479,9 @@ def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None
         ``tilt=0`` for the untilted truth of section 5.3.2.
     reaction_torque : {"thesis", "axial"}, default "thesis"
         See :class:`QuadrotorModel`.
+    euler_matrix : {"physical", "thesis-printed"}, default "physical"
+        "thesis-printed" simulates (5.123) with W′_η read literally
+        (:class:`ThesisPrintedQuadrotorModel`).
 
     Returns
     -------
@@ -466,12 +489,13 @@ def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None
         ``u`` = [Ω1² Ω2² Ω3² Ω4²] (rad²/s²); ``disturbance`` = [δϕ δθ δψ δx δy δz];
         ``x`` = [ϕ θ ψ x y z, rates].
     """
+    model_class = _model_class(euler_matrix)
     params = (params or QuadrotorParams()).validate()
     if tilt is not None:
         params = replace(params, alpha=float(tilt)).validate()
     plant, scene_graph = build_plant(_quadrotor_urdf(params), params.g, builder,
                                      before_finalize=_add_rotors(params, params.alpha))
-    model = QuadrotorModel(plant, params, reaction_torque=reaction_torque)
+    model = model_class(plant, params, reaction_torque=reaction_torque)
     return attach_adapter(builder, plant, scene_graph, model, "quadrotor")
 
 
