@@ -2,9 +2,7 @@
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
 from scipy.integrate import solve_ivp
 
 from sobolev_drake.models.arm import ThesisPrintedArmModel, TwoLinkArmModel, add_arm, make_arm_model
@@ -27,28 +25,15 @@ def test_printed_inertia_matrix_is_the_printed_formula():
     assert not PlantDynamics(printed).fast and PlantDynamics(physical).fast
 
 
-def test_printed_plant_follows_the_printed_equations():
+def test_printed_plant_follows_the_printed_equations(fly_constant):
     """The MultibodyPlant driven through the adapter integrates M_printed q̈ + C q̇ + g = τ + w;
     compared with scipy's integration of the closed forms.  Tolerance: both integrators run at
     ~1e-10 relative accuracy over 1 s of motion of ~6 rad (errors ~1e-9 rad), so 1e-6 rad leaves
     a factor of several hundred for error growth; the physical arm ends ~2 rad away (checked too)."""
     tau, w = np.array([30.0, -5.0]), np.array([0.0, 2.0])
     q0, qd0 = np.array([np.pi / 4, 0.3]), np.array([0.0, 0.5])
-    finals = {}
-    for inertia in ("thesis-printed", "physical"):
-        b = DiagramBuilder()
-        h = add_arm(b, inertia=inertia)
-        b.Connect(b.AddSystem(ConstantVectorSource(tau)).get_output_port(), h.u)
-        b.Connect(b.AddSystem(ConstantVectorSource(w)).get_output_port(), h.disturbance)
-        diagram = b.Build()
-        sim = Simulator(diagram)
-        ctx = sim.get_mutable_context()
-        pctx = diagram.GetMutableSubsystemContext(h.plant, ctx)
-        h.plant.SetPositions(pctx, h.model.to_drake(q0))
-        h.plant.SetVelocities(pctx, h.model.to_drake(qd0))
-        sim.get_mutable_integrator().set_target_accuracy(1e-10)
-        sim.AdvanceTo(1.0)
-        finals[inertia] = h.x.Eval(h.adapter.GetMyContextFromRoot(ctx))
+    finals = {inertia: fly_constant(lambda b, inertia=inertia: add_arm(b, inertia=inertia), q0, qd0, tau, w, 1.0)
+              for inertia in ("thesis-printed", "physical")}
     m = make_arm_model(inertia="thesis-printed")
 
     def rhs(_, x):

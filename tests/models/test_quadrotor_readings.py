@@ -4,9 +4,7 @@ follows the printed equations, bad input."""
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
 from scipy.integrate import solve_ivp
 
 from sobolev_drake.models.euler_zyx import (EULER_READINGS, angular_coriolis, angular_inertia,
@@ -78,7 +76,7 @@ def test_printed_model_differs_only_off_level_attitude():
     assert not PlantDynamics(printed).fast and PlantDynamics(physical).fast
 
 
-def test_printed_plant_follows_the_printed_equations():
+def test_printed_plant_follows_the_printed_equations(fly_constant):
     """The MultibodyPlant driven through the adapter integrates the printed equations; compared
     with scipy's integration of the printed closed forms.  Both integrators run at ~1e-10
     relative accuracy over 1 s (errors ~1e-9 rad), so 1e-6 rad leaves a wide margin for error
@@ -88,21 +86,8 @@ def test_printed_plant_follows_the_printed_equations():
     tau = hover * np.array([1.05, 0.97, 1.0, 1.02])          # a tumbling, climbing command
     w = np.array([0.02, -0.01, 0.0, 0.0, 0.0, 0.0])
     q0, qd0 = np.array([0.6, -0.5, 0.3, 0.0, 0.0, 1.0]), np.array([0.5, -0.3, 0.8, 0.0, 0.0, 0.0])
-    finals = {}
-    for reading in EULER_READINGS:
-        b = DiagramBuilder()
-        h = add_quadrotor(b, euler_matrix=reading)
-        b.Connect(b.AddSystem(ConstantVectorSource(tau)).get_output_port(), h.u)
-        b.Connect(b.AddSystem(ConstantVectorSource(w)).get_output_port(), h.disturbance)
-        diagram = b.Build()
-        sim = Simulator(diagram)
-        ctx = sim.get_mutable_context()
-        pctx = diagram.GetMutableSubsystemContext(h.plant, ctx)
-        h.plant.SetPositions(pctx, h.model.to_drake(q0))
-        h.plant.SetVelocities(pctx, h.model.to_drake(qd0))
-        sim.get_mutable_integrator().set_target_accuracy(1e-10)
-        sim.AdvanceTo(1.0)
-        finals[reading] = h.x.Eval(h.adapter.GetMyContextFromRoot(ctx))
+    finals = {r: fly_constant(lambda b, r=r: add_quadrotor(b, euler_matrix=r), q0, qd0, tau, w, 1.0)
+              for r in EULER_READINGS}
 
     def rhs(_, x):
         q, qd = x[:6], x[6:]
