@@ -12,8 +12,8 @@ Executors (no scheduler of our own):
 Each case's record is appended to the store as it arrives (:mod:`.store`); with
 ``resume=True`` the cases already recorded are skipped.  A campaign that declares
 ``synthesize`` has its designs synthesized first (one task per design, on the same executor)
-and pinned in the store; every case then flies the pinned copy.  A progress bar (tqdm) shows the rate
-and the projected finish.
+and pinned in the store; every case then flies the pinned copy.  A progress bar (tqdm) shows
+the rate and the projected finish.
 """
 
 from __future__ import annotations
