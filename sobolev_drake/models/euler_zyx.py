@@ -10,8 +10,9 @@ kinetic energy of a rigid body.  Both readings have their Christoffel C computed
 partial derivatives of M_η, so either is a consistent Lagrangian system.
 
 The physical reading is what :class:`~sobolev_drake.models.quadrotor.QuadrotorModel` uses by
-default; its closed forms (Wᵀ(I Ẇ η̇ + ω × I ω)) are checked against :func:`coriolis` in the
-tests.
+default; its closed forms (Wᵀ(I Ẇ η̇ + ω × I ω)) are checked against :func:`angular_coriolis`
+in the tests.  Both readings are one formula: with A = W (physical) or A = Wᵀ (thesis-printed),
+M_η = Aᵀ I A and body torques enter through Aᵀ.
 """
 
 from __future__ import annotations
@@ -79,13 +80,13 @@ def euler_rate_matrix_dot(phi, theta, phidot, thetadot) -> np.ndarray:
     return d_phi * phidot + d_theta * thetadot
 
 
-def _check_reading(reading):
+def _rate_map(phi, theta, reading):
+    """(A, ∂A/∂ϕ, ∂A/∂θ) with A = W (physical) or Wᵀ (thesis-printed): M_η = Aᵀ I A."""
     if reading not in EULER_READINGS:
         raise ValueError(f"reading must be one of {EULER_READINGS}, got {reading!r}")
-
-
-def _metric(I, W, reading):
-    return W.T @ I @ W if reading == "physical" else W @ I @ W.T
+    W = euler_rate_matrix(phi, theta)
+    d_phi, d_theta = euler_rate_matrix_partials(phi, theta)
+    return (W, d_phi, d_theta) if reading == "physical" else (W.T, d_phi.T, d_theta.T)
 
 
 def angular_inertia(inertia, phi: float, theta: float, reading: str = "physical") -> np.ndarray:
@@ -104,8 +105,8 @@ def angular_inertia(inertia, phi: float, theta: float, reading: str = "physical"
     -------
     ndarray, shape (3, 3)
     """
-    _check_reading(reading)
-    return _metric(np.asarray(inertia, dtype=float), euler_rate_matrix(phi, theta), reading)
+    A = _rate_map(phi, theta, reading)[0]
+    return A.T @ np.asarray(inertia, dtype=float) @ A
 
 
 def angular_coriolis(inertia, eta, eta_dot, reading: str = "physical") -> np.ndarray:
@@ -125,15 +126,10 @@ def angular_coriolis(inertia, eta, eta_dot, reading: str = "physical") -> np.nda
     -------
     ndarray, shape (3,)
     """
-    _check_reading(reading)
     I = np.asarray(inertia, dtype=float)
-    phi, theta = float(eta[0]), float(eta[1])
     v = np.asarray(eta_dot, dtype=float)
-    W = euler_rate_matrix(phi, theta)
-    partials = []
-    for dW in euler_rate_matrix_partials(phi, theta):
-        # ∂(Wᵀ I W) = dWᵀ I W + Wᵀ I dW;  ∂(W I Wᵀ) = dW I Wᵀ + W I dWᵀ
-        partials.append(dW.T @ I @ W + W.T @ I @ dW if reading == "physical" else dW @ I @ W.T + W @ I @ dW.T)
+    A, *dA = _rate_map(float(eta[0]), float(eta[1]), reading)
+    partials = [d.T @ I @ A + A.T @ I @ d for d in dA]          # ∂(Aᵀ I A)/∂ϕ, ∂/∂θ
     m_dot = partials[0] * v[0] + partials[1] * v[1]
     grad = np.array([v @ partials[0] @ v, v @ partials[1] @ v, 0.0])
     return m_dot @ v - 0.5 * grad
@@ -153,6 +149,4 @@ def torque_map(phi: float, theta: float, reading: str = "physical") -> np.ndarra
     -------
     ndarray, shape (3, 3)
     """
-    _check_reading(reading)
-    W = euler_rate_matrix(phi, theta)
-    return W.T if reading == "physical" else W
+    return _rate_map(phi, theta, reading)[0].T

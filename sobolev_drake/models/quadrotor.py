@@ -165,12 +165,17 @@ class QuadrotorModel(MechanicalModel):
         ndarray, shape (6, 6)
             M(q).
         """
-        q = check_vector("q", q, 6)
+        return self._mass_matrix(q, "physical")
+
+    def _inertia(self):
         p = self.params
-        W = euler_rate_matrix(q[0], q[1])
+        return np.diag([p.Ixx, p.Iyy, p.Izz])
+
+    def _mass_matrix(self, q, reading):
+        q = check_vector("q", q, 6)
         M = np.zeros((6, 6))
-        M[:3, :3] = W.T @ np.diag([p.Ixx, p.Iyy, p.Izz]) @ W
-        M[3:, 3:] = p.m * np.eye(3)
+        M[:3, :3] = angular_inertia(self._inertia(), q[0], q[1], reading)
+        M[3:, 3:] = self.params.m * np.eye(3)
         return M
 
     def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
@@ -188,8 +193,7 @@ class QuadrotorModel(MechanicalModel):
         """
         q = check_vector("q", q, 6)
         qdot = check_vector("qdot", qdot, 6)
-        p = self.params
-        I = np.diag([p.Ixx, p.Iyy, p.Izz])
+        I = self._inertia()
         W = euler_rate_matrix(q[0], q[1])
         Wdot = euler_rate_matrix_dot(q[0], q[1], qdot[0], qdot[1])
         eta_dot = qdot[:3]
@@ -370,10 +374,6 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
     #: the adapter applies the force that makes the plant follow this model's equations
     follows_own_equations = True
 
-    def _inertia(self):
-        p = self.params
-        return np.diag([p.Ixx, p.Iyy, p.Izz])
-
     def M(self, q) -> np.ndarray:
         """M(q) = blockdiag(W I Wᵀ, m I₃).
 
@@ -386,11 +386,7 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
         -------
         ndarray, shape (6, 6)
         """
-        q = check_vector("q", q, 6)
-        M = np.zeros((6, 6))
-        M[:3, :3] = angular_inertia(self._inertia(), q[0], q[1], self.euler_matrix)
-        M[3:, 3:] = self.params.m * np.eye(3)
-        return M
+        return self._mass_matrix(q, self.euler_matrix)
 
     def Cqdot(self, q, qdot) -> np.ndarray:
         """C(q, q̇) q̇ of :meth:`M` (Christoffel symbols of the first kind).
