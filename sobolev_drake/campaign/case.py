@@ -139,6 +139,16 @@ class CampaignDefinition:
         pins the result in the output folder (``designs.pkl``); a resume reuses it.  It raises
         :class:`DesignFailed` (or any exception) when the synthesis fails; every case of that
         design is then a failed record.  None: ``run(case)`` builds its own controller.
+        The design must be data (numbers, strings, lists, dicts with string keys, numpy arrays):
+        it is pinned as JSON (:mod:`sobolev_drake.datafile`), never pickled.
+    design_spec : callable, optional
+        ``design_spec(label) -> object``: what defines design ``label`` (its specification
+        dataclass, weights, …).  Its fingerprint is pinned with the design; a resume whose code
+        defines the design differently is refused.  None: the label alone.
+    check_design : callable, optional
+        ``check_design(label, design)`` raising ``ValueError`` when ``design`` is not of the
+        structure ``synthesize`` produces (keys, shapes, finiteness).  Run on every design read
+        back from the output folder.
     """
 
     designs: tuple
@@ -150,6 +160,8 @@ class CampaignDefinition:
     smoke_duration: float = 1.0
     claims: tuple = ()
     synthesize: Callable | None = None
+    design_spec: Callable | None = None
+    check_design: Callable | None = None
 
     def __post_init__(self):
         if not self.designs or len(set(self.designs)) != len(self.designs):
@@ -161,7 +173,9 @@ class CampaignDefinition:
             if (len(claim) != 4 or claim[1] not in self.designs or claim[2] not in self.designs
                     or claim[3] not in self.indices):
                 raise ValueError(f"a claim is (text, design, design, index) of this campaign, got {claim!r}")
-        if self.synthesize is not None and not callable(self.synthesize):
-            raise TypeError(f"synthesize must be callable or None, got {type(self.synthesize).__name__}")
+        for attr in ("synthesize", "design_spec", "check_design"):
+            value = getattr(self, attr)
+            if value is not None and not callable(value):
+                raise TypeError(f"{attr} must be callable or None, got {type(value).__name__}")
         if not (math.isfinite(self.smoke_duration) and self.smoke_duration > 0):
             raise ValueError(f"smoke_duration must be > 0, got {self.smoke_duration!r}")

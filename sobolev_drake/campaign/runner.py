@@ -18,18 +18,33 @@ the rate and the projected finish.
 
 from __future__ import annotations
 
+import datetime
 import functools
+import importlib
 import json
 import math
 import multiprocessing
 import os
+import signal
+import sys
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from sobolev_drake.campaign.case import Case, DesignFailed
+from sobolev_drake.campaign.errors import (CampaignFolderError, ClusterLostError,
+                                           ClusterUnavailableError)
 from sobolev_drake.campaign.registry import get_campaign
 from sobolev_drake.campaign.store import CampaignStore
+from sobolev_drake.datafile import fingerprint, write_text_atomic
+
+#: most cases one campaign run may hold (seeds × designs): past this, split the seed range
+MAX_CASES = 1_000_000
+#: seconds to wait for a Dask scheduler to answer, and for a cluster to have a worker
+DASK_CONNECT_TIMEOUT = 20.0
+#: seconds a Dask cluster may go without any worker mid-run before the campaign stops
+DASK_WORKERLESS_TIMEOUT = 60.0
 
 __all__ = ["make_cases", "synthesize_design", "run_case", "run_campaign", "write_summary",
            "claim_statistics"]
@@ -65,22 +80,48 @@ def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, pert
     defn = get_campaign(name)
     if not (isinstance(seeds, int) and not isinstance(seeds, bool) and seeds >= 1):
         raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
-    if not (isinstance(first_seed, int) and first_seed >= 0):
+    if not (isinstance(first_seed, int) and not isinstance(first_seed, bool) and first_seed >= 0):
         raise ValueError(f"first_seed must be an integer >= 0, got {first_seed!r}")
-    designs = tuple(defn.designs if designs is None else designs)
+    if isinstance(designs, str):
+        designs = [designs]
+    designs = tuple(dict.fromkeys(defn.designs if designs is None else designs))  # no duplicates
     bad = [d for d in designs if d not in defn.designs]
     if bad or not designs:
         raise ValueError(f"designs must be among {defn.designs}, got {list(designs)!r}")
+    if seeds * len(designs) > MAX_CASES:
+        raise ValueError(f"seeds: {seeds} seeds × {len(designs)} designs is more than the "
+                         f"{MAX_CASES} cases one run may hold; run at most "
+                         f"{MAX_CASES // len(designs)} seeds at a time (--first-seed picks the range)")
     perturb = dict(defn.default_perturb if perturb is None else perturb)
     bad = [p for p in perturb if p not in defn.parameters]
     if bad:
         raise ValueError(f"--perturb: campaign {name!r} cannot perturb {bad}; it can perturb "
                          f"{sorted(defn.parameters) or 'nothing'}")
     items = tuple(sorted((k, float(v)) for k, v in perturb.items()))
-    if duration is not None and not (math.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+    _check_duration(name, duration)
     return [Case(name, d, s, items, None if duration is None else float(duration), bool(smoke))
             for s in range(first_seed, first_seed + seeds) for d in designs]
+
+
+def _check_duration(name, duration):
+    """The rule ``sobolev-drake run`` applies: a finite duration > 0, and within the
+    experiment's own bounds where it has a default duration."""
+    if duration is None:
+        return
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (
+            math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+    exp = getattr(importlib.import_module("sobolev_drake.experiments"), "REGISTRY", {}).get(name)
+    if exp is None:
+        return
+    low, high = exp.min_duration, exp.max_duration
+    if high is not None and duration > high:
+        raise ValueError(f"duration {duration:g} s is longer than experiment {name!r} can use "
+                         f"(at most {high:g} s; its default is {exp.default_duration} s)")
+    if low is not None and duration < low:
+        raise ValueError(f"duration {duration:g} s is too short for experiment {name!r} (at least "
+                         f"{low:g} s; its default is {exp.default_duration} s; smoke=True gives "
+                         "the short cases)")
 
 
 def synthesize_design(name: str, label: str) -> dict:
@@ -167,6 +208,29 @@ def _inline(fn, calls, workers, scheduler, tasks_per_worker):
         yield fn(*args)
 
 
+def _die_with_parent(parent_pid):
+    """Pool-worker initializer: end this worker when the campaign process dies, however it
+    dies (SIGKILL, the OOM killer), instead of sleeping forever as an orphan.  Linux: the
+    kernel's parent-death signal; elsewhere (and as a backstop) a thread watching the parent."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            pr_set_pdeathsig = 1
+            ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:            # the parent died before the signal was armed
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
+
+
 def _processes(fn, calls, workers, scheduler, tasks_per_worker):
     # A fresh pool every `workers × tasks_per_worker` calls bounds what a worker accumulates
     # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
@@ -175,15 +239,17 @@ def _processes(fn, calls, workers, scheduler, tasks_per_worker):
     ctx = multiprocessing.get_context("spawn")
     per_round = workers * tasks_per_worker
     for start in range(0, len(calls), per_round):
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(fn, *args) for args in calls[start:start + per_round]]
+        chunk = calls[start:start + per_round]
+        with ProcessPoolExecutor(max_workers=min(workers, len(chunk)), mp_context=ctx,
+                                 initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
+            futures = [pool.submit(fn, *args) for args in chunk]
             for f in as_completed(futures):
                 yield f.result()
 
 
 def _dask(fn, calls, workers, scheduler, tasks_per_worker):
     try:
-        from distributed import Client, LocalCluster, as_completed as dask_completed
+        from distributed import Client, LocalCluster, wait
     except ImportError:
         raise ImportError("a Dask scheduler needs Dask: pip install 'sobolev_drake[campaign]'") from None
 
@@ -193,27 +259,94 @@ def _dask(fn, calls, workers, scheduler, tasks_per_worker):
                                dashboard_address=None)
         client = Client(cluster)
     else:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout=DASK_CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ClusterUnavailableError(
+                f"scheduler: cannot reach a Dask scheduler at {scheduler!r} within "
+                f"{DASK_CONNECT_TIMEOUT:g} s ({type(exc).__name__}: {_first_line(exc)}); start one "
+                "(`dask scheduler`, then `dask worker ADDRESS`), or use --scheduler dask-local") from None
     try:
-        futures = [client.submit(fn, *args, pure=False) for args in calls]
-        for f in dask_completed(futures):
-            yield f.result()
+        try:
+            client.wait_for_workers(1, timeout=DASK_CONNECT_TIMEOUT)
+        except TimeoutError:
+            raise ClusterUnavailableError(
+                f"scheduler: the Dask scheduler at {scheduler!r} has no worker after "
+                f"{DASK_CONNECT_TIMEOUT:g} s; start workers (`dask worker ADDRESS`)") from None
+        pending = {client.submit(fn, *args, pure=False) for args in calls}
+        workerless_since = None
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                done = set()
+            for f in done:
+                yield f.result()
+            if done:
+                workerless_since = None
+                continue
+            try:
+                alive = len(client.scheduler_info().get("workers", {}))
+            except (OSError, TimeoutError) as exc:
+                raise ClusterLostError(f"the Dask scheduler at {scheduler!r} stopped answering "
+                                       f"({type(exc).__name__})") from None
+            if alive:
+                workerless_since = None
+            elif workerless_since is None:
+                workerless_since = time.monotonic()
+            elif time.monotonic() - workerless_since > DASK_WORKERLESS_TIMEOUT:
+                raise ClusterLostError(
+                    f"the Dask cluster at {scheduler!r} has had no worker for "
+                    f"{DASK_WORKERLESS_TIMEOUT:g} s with {len(pending)} case(s) pending")
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
 
 
-def _pin_designs(name, labels, store, executor, workers, scheduler):
-    """The pinned designs of ``labels``: those already in the store, the others synthesized
-    (in parallel on the executor) and added to it."""
-    pinned = store.load_designs()
+def _worker_count(workers, scheduler, pending):
+    """Processes to start: at most one per CPU and one per pending task (said on stderr)."""
+    if workers == 0:
+        return 1
+    if scheduler is not None and scheduler != "dask-local":
+        return workers                     # a remote cluster has the workers it has
+    cpus = os.cpu_count() or 1
+    n = max(1, min(workers, cpus, pending))
+    if n < workers and workers > cpus:
+        print(f"sobolev-drake: --workers {workers} capped at {n} (this machine has {cpus} CPUs; "
+              "cases are CPU-bound)", file=sys.stderr)
+    return n
+
+
+def _design_specs(defn, labels):
+    """{label: fingerprint of what defines the design} (its label when none is declared)."""
+    return {label: fingerprint(defn.design_spec(label) if defn.design_spec else label)
+            for label in labels}
+
+
+def _pin_designs(name, defn, labels, store, done, executor, workers, scheduler):
+    """The pinned designs of ``labels``: those in the store (validated), the others synthesized
+    (in parallel on the executor) and added to it.  A design with records but no pinned copy
+    is refused: synthesizing it again could fly another controller."""
+    specs = _design_specs(defn, defn.designs)
+    pinned = store.load_designs(name, specs, check=defn.check_design)
     missing = [label for label in labels if label not in pinned]
+    flown = sorted({r["design"] for r in done.values()} & set(missing))
+    if flown:
+        state = "is missing" if not store.designs_path.exists() else f"does not pin {flown}"
+        raise CampaignFolderError(
+            f"{store.designs_path} {state}, but the folder holds records flown with the pinned "
+            f"design(s) {flown}; restore the file (synthesizing again could fly another "
+            "controller), or choose another --out")
     if missing:
-        results = executor(_synthesize_labelled, [(name, label) for label in missing], workers,
-                           scheduler, len(missing))
-        pinned.update(dict(results))
-        store.save_designs(pinned)
+        results = dict(executor(_synthesize_labelled, [(name, label) for label in missing],
+                                workers, scheduler, len(missing)))
+        for label, entry in results.items():
+            if "design" in entry and defn.check_design is not None:
+                defn.check_design(label, entry["design"])   # the declared structure must hold
+        pinned.update(results)
+        store.save_designs(name, pinned, specs)
+        pinned = store.load_designs(name, specs, check=defn.check_design)   # fly what is on disk
     return pinned
 
 
@@ -227,28 +360,36 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
                  tasks_per_worker: int = 20) -> dict:
     """Run (or finish) a campaign and write its records, summary, tables and plots.
 
+    The folder is locked for the run (:meth:`CampaignStore.locked`): a second campaign on it
+    is refused, naming the process that holds it.
+
     Parameters
     ----------
     name : str
         The campaign (experiment) name.
     seeds : int
-        Number of seeds.
+        Number of seeds (seeds × designs ≤ :data:`MAX_CASES`).
     out_dir : str or Path
-        Output folder: ``records.jsonl``, ``campaign.json``, ``summary.json``, tables, plots.
+        Output folder: ``records.jsonl``, ``campaign.json``, ``designs.json``,
+        ``summary.json``, ``runs.jsonl``, tables, plots.
     first_seed : int
         First seed.
     designs : sequence of str, optional
-        Subset of the designs.
+        Subset of the designs (a repeated label counts once).
     workers : int
-        Worker processes (0: run in this process).
+        Worker processes (0: run in this process); a process pool or ``"dask-local"`` starts
+        at most one per CPU and per pending case.
     scheduler : str, optional
-        None (process pool), "dask-local" or a Dask scheduler address.
+        None (process pool), "dask-local" or a Dask scheduler address.  An address that does
+        not answer, or a cluster without workers, stops the run within
+        :data:`DASK_CONNECT_TIMEOUT` s; a cluster that loses every worker mid-run stops it
+        after :data:`DASK_WORKERLESS_TIMEOUT` s.
     perturb : dict, optional
         {parameter: fraction} (None: the campaign's default).
     resume : bool
         Skip cases already recorded in ``out_dir``.
     duration : float, optional
-        Simulated time per case (s).
+        Simulated time per case (s), within the experiment's bounds (as ``sobolev-drake run``).
     smoke : bool
         Short cases.
     progress : bool
@@ -259,14 +400,30 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     Returns
     -------
     dict
-        The summary (:func:`sobolev_drake.campaign.stats.summarize`) with "out_dir", "cases",
-        "ran" (cases run now) and "wall_s".
+        The summary (:func:`sobolev_drake.campaign.stats.summarize`, as written to
+        ``summary.json``) with "out_dir", "ran" (cases run now) and "wall_s" added.
+
+    Raises
+    ------
+    FileExistsError
+        The folder holds another campaign and ``resume`` is False.
+    CampaignFolderError
+        A file of the folder is damaged or describes another campaign (see
+        :mod:`sobolev_drake.campaign.store`).
+    CampaignLockedError
+        Another process runs a campaign in the folder.
+    ClusterUnavailableError, ClusterLostError
+        The Dask cluster cannot be reached, or lost its workers.
     """
-    if not (isinstance(workers, int) and workers >= 0):
+    if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 0):
         raise ValueError(f"workers must be an integer >= 0, got {workers!r}")
+    if scheduler is not None and not (isinstance(scheduler, str) and scheduler.strip()):
+        raise ValueError(f"scheduler must be None, 'dask-local' or a Dask scheduler address, "
+                         f"got {scheduler!r}")
     if workers == 0 and scheduler is not None:
         raise ValueError("workers=0 runs in this process; a scheduler needs workers >= 1")
-    if not (isinstance(tasks_per_worker, int) and tasks_per_worker >= 1):
+    if not (isinstance(tasks_per_worker, int) and not isinstance(tasks_per_worker, bool)
+            and tasks_per_worker >= 1):
         raise ValueError(f"tasks_per_worker must be an integer >= 1, got {tasks_per_worker!r}")
     cases = make_cases(name, seeds, first_seed=first_seed, designs=designs, perturb=perturb,
                        duration=duration, smoke=smoke)
@@ -275,35 +432,42 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
               "perturb": [list(p) for p in first.perturb], "duration": first.duration,
               "smoke": first.smoke}
     store = CampaignStore(out_dir)
-    done = store.start(config, resume=resume)
-    todo = [c for c in cases if c.key not in done]
-    executor = _inline if workers == 0 else (_processes if scheduler is None else _dask)
-    t0 = time.perf_counter()
-    bar = None
-    if progress and todo:
-        from tqdm import tqdm
-        bar = tqdm(total=len(todo), desc=f"campaign {name}", unit="case", smoothing=0.1)
     defn = get_campaign(name)
-    calls = [(c,) for c in todo]
-    if defn.synthesize is not None and todo:
-        pinned = _pin_designs(name, sorted({c.design for c in todo}), store, executor,
-                              max(workers, 1), scheduler)
-        calls = [(c, pinned[c.design]) for c in todo]
-    try:
-        for record in executor(run_case, calls, max(workers, 1), scheduler, tasks_per_worker):
-            store.append(record)
+    with store.locked():
+        done = store.start(config, resume=resume)
+        todo = [c for c in cases if c.key not in done]
+        executor = _inline if workers == 0 else (_processes if scheduler is None else _dask)
+        n_workers = _worker_count(workers, scheduler, len(todo))
+        started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        t0 = time.perf_counter()
+        calls = [(c,) for c in todo]
+        if defn.synthesize is not None and todo:
+            pinned = _pin_designs(name, defn, sorted({c.design for c in todo}), store, done,
+                                  executor, n_workers, scheduler)
+            calls = [(c, pinned[c.design]) for c in todo]
+        bar = None
+        if progress and todo:
+            from tqdm import tqdm
+            bar = tqdm(total=len(todo), desc=f"campaign {name}", unit="case", smoothing=0.1)
+        try:
+            for record in executor(run_case, calls, n_workers, scheduler, tasks_per_worker):
+                store.append(record)
+                if bar is not None:
+                    bar.update(1)
+        finally:
             if bar is not None:
-                bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
-    wall = time.perf_counter() - t0
-    records = [r for r in store.load().values() if r["design"] in config["designs"]]
-    keys = {c.key for c in cases}
-    records = [r for r in records if r["key"] in keys]
-    return write_summary(name, records, [d for d in defn.designs if d in config["designs"]],
-                         Path(out_dir), extra={"cases": len(cases), "ran": len(todo), "wall_s": wall,
-                                               "config": config})
+                bar.close()
+        wall = time.perf_counter() - t0
+        keys = {c.key for c in cases}
+        records = [r for r in store.load().values() if r["key"] in keys]
+        summary = write_summary(name, records, [d for d in defn.designs if d in config["designs"]],
+                                Path(out_dir), extra={"cases": len(cases), "config": config})
+        store.log_run({"started": started, "wall_s": round(wall, 3), "ran": len(todo),
+                       "cases": len(cases), "seeds": [first_seed, first_seed + seeds - 1],
+                       "executor": "inline" if workers == 0 else (scheduler or "processes"),
+                       "workers": n_workers, "pid": os.getpid()})
+    summary.update({"out_dir": str(out_dir), "ran": len(todo), "wall_s": wall})
+    return summary
 
 
 def write_summary(name, records, designs, out_dir, extra=None) -> dict:
@@ -325,14 +489,15 @@ def write_summary(name, records, designs, out_dir, extra=None) -> dict:
     Returns
     -------
     dict
-        The summary, also written to ``summary.json``.
+        The summary, also written to ``summary.json``: a function of the records' content
+        only (sorted by design and seed), so any executor gives the same bytes.
     """
     from sobolev_drake.campaign import stats
 
     defn = get_campaign(name)
     summary = stats.summarize(records, designs=designs, indices=list(defn.indices))
-    summary.update({"campaign": name, "randomizes": defn.randomizes, "out_dir": str(out_dir),
-                    **(extra or {})})
+    records = sorted(records, key=lambda r: (str(r["design"]), r["seed"]))   # not arrival order
+    summary.update({"campaign": name, "randomizes": defn.randomizes, **(extra or {})})
     md, rows = stats.summary_tables(summary)
     summary["claims"] = claim_statistics(defn, summary)
     n_seeds = len({r["seed"] for r in records})
@@ -343,9 +508,8 @@ def write_summary(name, records, designs, out_dir, extra=None) -> dict:
         head += ["Thesis claims over the campaign (share of paired seeds where the claim holds, "
                  f"{100 * summary['confidence']:g} % Wilson interval):", ""]
         head += [f"- {c['text']}: {c['statement']}" for c in summary["claims"]] + [""]
-    (out_dir / "summary.md").write_text("\n".join(head) + md + "\n", encoding="utf-8")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float),
-                                          encoding="utf-8")
+    write_text_atomic(out_dir / "summary.md", "\n".join(head) + md + "\n")
+    write_text_atomic(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     if records:
         stats.plot_distributions(records, summary, out_dir / "distributions.png")
         stats.plot_cdfs(records, summary, out_dir / "cdfs.png")

@@ -148,7 +148,8 @@ def _names(value, what):
 
 
 def _cases(records):
-    """{design: {seed: record}} in first-seen order; checks keys and duplicates."""
+    """{design: {seed: record}}, designs in first-seen order and seeds sorted; checks keys and
+    duplicates."""
     if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Iterable):
         raise ValueError(f"records must be a sequence of dicts, got {type(records).__name__}")
     cases = {}
@@ -160,7 +161,13 @@ def _cases(records):
             raise ValueError(f"records: design {r['design']!r} seed {r['seed']!r} appears twice "
                              f"(keys {seeds[r['seed']].get('key')!r} and {r.get('key')!r})")
         seeds[r["seed"]] = r
-    return cases
+    # every statistic is taken over seeds in seed order, never arrival order: sums (means)
+    # round the same whichever executor finished the cases first
+    return {d: dict(sorted(seeds.items(), key=lambda kv: _seed_order(kv[0]))) for d, seeds in cases.items()}
+
+
+def _seed_order(seed):
+    return (0, seed, "") if isinstance(seed, (int, np.integer)) else (1, 0, repr(seed))
 
 
 def _successful(seeds, name):

@@ -191,7 +191,9 @@ def add_claims(res, metrics, smoke):
 # every Table 7.2 design on every turbulence seed (each synthesized once per campaign, pinned)
 register_campaign("tiltrotor-hover-linear", CampaignDefinition(
     designs=DESIGNS, indices=campaigns.HOVER_INDICES, randomizes=campaigns.HOVER_RANDOMIZES,
-    run=campaigns.hover_linear_case, synthesize=campaigns.hover_design, parameters=campaigns.HOVER_PARAMETERS,
+    run=campaigns.hover_linear_case, synthesize=campaigns.hover_design,
+    design_spec=campaigns.hover_design_spec, check_design=campaigns.check_hover_design,
+    parameters=campaigns.HOVER_PARAMETERS,
     smoke_duration=campaigns.HOVER_SMOKE_DURATION,
     claims=(*((f"{dm} has a smaller {i} than {ref} (Table 7.2)", dm, ref, i) for ref, dm in DM_PAIRS
               for i in ("ISE", "IADU")),

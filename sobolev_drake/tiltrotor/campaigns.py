@@ -103,6 +103,59 @@ def _hover_setup():
 _FLOWN_KEYS = ("kind", "K", "AK", "BK", "CK", "DK", "C", "order", "gamma")
 
 
+def hover_design_spec(label):
+    """What defines Table 7.2 design ``label`` (its :class:`~.linear_design.HoverDesign`); the
+    campaign pins its fingerprint with the design.
+
+    Parameters
+    ----------
+    label : str
+
+    Returns
+    -------
+    HoverDesign
+    """
+    from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS
+
+    return DESIGN_SPECS[label]
+
+
+def check_hover_design(label, ctrl):
+    """Raise ``ValueError`` unless ``ctrl`` is a controller :func:`hover_design` can return: a
+    dict with ``kind`` "sf" and a finite 4 × 20 ``K``, or ``kind`` "dyn" with finite ``AK``
+    (k × k), ``BK`` (k × p), ``CK`` (4 × k), ``DK`` (4 × p) and ``C`` (p × 20).
+
+    Parameters
+    ----------
+    label : str
+        The design (for messages).
+    ctrl : dict
+    """
+    if not isinstance(ctrl, dict) or ctrl.get("kind") not in ("sf", "dyn"):
+        raise ValueError(f"design {label!r} must be a dict with kind 'sf' or 'dyn', got "
+                         f"{type(ctrl).__name__} {ctrl.get('kind') if isinstance(ctrl, dict) else ''!r}")
+    unknown = set(ctrl) - set(_FLOWN_KEYS)
+    if unknown:
+        raise ValueError(f"design {label!r} has unknown entries {sorted(unknown)}")
+    names = ("K",) if ctrl["kind"] == "sf" else ("AK", "BK", "CK", "DK", "C")
+    mats = {}
+    for name in names:
+        m = ctrl.get(name)
+        if not (isinstance(m, np.ndarray) and m.ndim == 2 and m.dtype.kind == "f"
+                and np.all(np.isfinite(m))):
+            raise ValueError(f"design {label!r}: {name} must be a finite float matrix, got "
+                             f"{type(m).__name__} {getattr(m, 'shape', '')}")
+        mats[name] = m.shape
+    if ctrl["kind"] == "sf":
+        expected = {"K": (4, 20)}
+    else:
+        k, p = mats["AK"][0], mats["C"][0]
+        expected = {"AK": (k, k), "BK": (k, p), "CK": (4, k), "DK": (4, p), "C": (p, 20)}
+    wrong = {n: s for n, s in mats.items() if s != expected[n]}
+    if wrong:
+        raise ValueError(f"design {label!r}: shapes {wrong}, expected {expected}")
+
+
 def hover_design(label):
     """A Table 7.2 design, synthesized as the experiment's default run does (transient
     regularization, default backends): seconds to minutes.
