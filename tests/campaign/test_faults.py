@@ -457,3 +457,33 @@ def test_summaries_do_not_depend_on_the_order_records_arrived_in(finished, tmp_p
                              extra={"cases": 8})
         outs.append((out / "summary.json").read_bytes())
     assert outs[0] == outs[1] == outs[2]
+
+
+def test_a_cluster_that_loses_every_worker_stops_the_run_keeping_the_finished_cases(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    import threading
+
+    from sobolev_drake.campaign.errors import ClusterLostError
+
+    monkeypatch.setattr(runner, "DASK_WORKERLESS_TIMEOUT", 3.0)
+    records = tmp_path / "records.jsonl"
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        def lose_the_workers():
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 120:
+                if records.exists() and records.read_bytes().count(b"\n") >= 1:
+                    break
+                time.sleep(0.05)
+            cluster.scale(0)
+
+        killer = threading.Thread(target=lose_the_workers, daemon=True)
+        killer.start()
+        t0 = time.monotonic()
+        with pytest.raises(ClusterLostError, match="has had no worker for 3 s"):
+            run_campaign("manipulator", seeds=20, out_dir=tmp_path, workers=1, smoke=True,
+                         scheduler=cluster.scheduler_address, progress=False)
+        assert time.monotonic() - t0 < 150
+        killer.join()
+    kept = by_key(tmp_path)
+    assert 1 <= len(kept) < 40 and len(kept) == len(lines(tmp_path))
