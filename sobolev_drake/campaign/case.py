@@ -136,7 +136,7 @@ class CampaignDefinition:
     synthesize : callable, optional
         ``synthesize(label) -> design``: the controller of one design, picklable (arrays, not
         Drake systems).  The runner calls it once per campaign and design, in a worker, and
-        pins the result in the output folder (``designs.pkl``); a resume reuses it.  It raises
+        pins the result in the output folder (``designs.json``); a resume reuses it.  It raises
         :class:`DesignFailed` (or any exception) when the synthesis fails; every case of that
         design is then a failed record.  None: ``run(case)`` builds its own controller.
         The design must be data (numbers, strings, lists, dicts with string keys, numpy arrays):

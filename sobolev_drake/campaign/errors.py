@@ -19,7 +19,15 @@ class CampaignFolderError(CampaignError, ValueError):
 
 class CorruptRecordsError(CampaignFolderError):
     """``records.jsonl`` holds a line that is not a record (other than a torn last line) or a
-    case recorded twice.  ``bad`` lists ``(line number, reason)``."""
+    case recorded twice.
+
+    Parameters
+    ----------
+    message : str
+        Names ``file:line`` and the repair command.
+    bad : sequence of (int, str)
+        (line number, reason) of every bad line; kept as the attribute ``bad``.
+    """
 
     def __init__(self, message, bad=()):
         super().__init__(message)

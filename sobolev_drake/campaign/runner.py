@@ -23,28 +23,19 @@ import functools
 import importlib
 import json
 import math
-import multiprocessing
 import os
-import signal
-import sys
-import threading
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
+from sobolev_drake.campaign import executors
 from sobolev_drake.campaign.case import Case, DesignFailed
-from sobolev_drake.campaign.errors import (CampaignFolderError, ClusterLostError,
-                                           ClusterUnavailableError)
+from sobolev_drake.campaign.errors import CampaignFolderError
 from sobolev_drake.campaign.registry import get_campaign
 from sobolev_drake.campaign.store import CampaignStore
 from sobolev_drake.datafile import fingerprint, write_text_atomic
 
 #: most cases one campaign run may hold (seeds × designs): past this, split the seed range
 MAX_CASES = 1_000_000
-#: seconds to wait for a Dask scheduler to answer, and for a cluster to have a worker
-DASK_CONNECT_TIMEOUT = 20.0
-#: seconds a Dask cluster may go without any worker mid-run before the campaign stops
-DASK_WORKERLESS_TIMEOUT = 60.0
 
 __all__ = ["make_cases", "synthesize_design", "run_case", "run_campaign", "write_summary",
            "claim_statistics"]
@@ -201,123 +192,6 @@ def run_case(case: Case, pinned: dict | None = None) -> dict:
             "wall_s": time.perf_counter() - t0, "pid": os.getpid()}
 
 
-# Executors: call fn(*args) for every tuple of `calls`, yielding the results as they finish.
-
-def _inline(fn, calls, workers, scheduler, tasks_per_worker):
-    for args in calls:
-        yield fn(*args)
-
-
-def _die_with_parent(parent_pid):
-    """Pool-worker initializer: end this worker when the campaign process dies, however it
-    dies (SIGKILL, the OOM killer), instead of sleeping forever as an orphan.  Linux: the
-    kernel's parent-death signal; elsewhere (and as a backstop) a thread watching the parent."""
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            pr_set_pdeathsig = 1
-            ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):
-            pass
-    if os.getppid() != parent_pid:            # the parent died before the signal was armed
-        os._exit(1)
-
-    def watch():
-        while os.getppid() == parent_pid:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
-
-
-def _processes(fn, calls, workers, scheduler, tasks_per_worker):
-    # A fresh pool every `workers × tasks_per_worker` calls bounds what a worker accumulates
-    # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
-    # not used: on Python 3.11 the pool stops scheduling once a worker retires (seen here, a
-    # campaign hung after exactly tasks_per_worker cases).
-    ctx = multiprocessing.get_context("spawn")
-    per_round = workers * tasks_per_worker
-    for start in range(0, len(calls), per_round):
-        chunk = calls[start:start + per_round]
-        with ProcessPoolExecutor(max_workers=min(workers, len(chunk)), mp_context=ctx,
-                                 initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
-            futures = [pool.submit(fn, *args) for args in chunk]
-            for f in as_completed(futures):
-                yield f.result()
-
-
-def _dask(fn, calls, workers, scheduler, tasks_per_worker):
-    try:
-        from distributed import Client, LocalCluster, wait
-    except ImportError:
-        raise ImportError("a Dask scheduler needs Dask: pip install 'sobolev_drake[campaign]'") from None
-
-    cluster = None
-    if scheduler == "dask-local":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-    else:
-        try:
-            client = Client(scheduler, timeout=DASK_CONNECT_TIMEOUT)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise ClusterUnavailableError(
-                f"scheduler: cannot reach a Dask scheduler at {scheduler!r} within "
-                f"{DASK_CONNECT_TIMEOUT:g} s ({type(exc).__name__}: {_first_line(exc)}); start one "
-                "(`dask scheduler`, then `dask worker ADDRESS`), or use --scheduler dask-local") from None
-    try:
-        try:
-            client.wait_for_workers(1, timeout=DASK_CONNECT_TIMEOUT)
-        except TimeoutError:
-            raise ClusterUnavailableError(
-                f"scheduler: the Dask scheduler at {scheduler!r} has no worker after "
-                f"{DASK_CONNECT_TIMEOUT:g} s; start workers (`dask worker ADDRESS`)") from None
-        pending = {client.submit(fn, *args, pure=False) for args in calls}
-        workerless_since = None
-        while pending:
-            try:
-                done, pending = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
-            except TimeoutError:
-                done = set()
-            for f in done:
-                yield f.result()
-            if done:
-                workerless_since = None
-                continue
-            try:
-                alive = len(client.scheduler_info().get("workers", {}))
-            except (OSError, TimeoutError) as exc:
-                raise ClusterLostError(f"the Dask scheduler at {scheduler!r} stopped answering "
-                                       f"({type(exc).__name__})") from None
-            if alive:
-                workerless_since = None
-            elif workerless_since is None:
-                workerless_since = time.monotonic()
-            elif time.monotonic() - workerless_since > DASK_WORKERLESS_TIMEOUT:
-                raise ClusterLostError(
-                    f"the Dask cluster at {scheduler!r} has had no worker for "
-                    f"{DASK_WORKERLESS_TIMEOUT:g} s with {len(pending)} case(s) pending")
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def _worker_count(workers, scheduler, pending):
-    """Processes to start: at most one per CPU and one per pending task (said on stderr)."""
-    if workers == 0:
-        return 1
-    if scheduler is not None and scheduler != "dask-local":
-        return workers                     # a remote cluster has the workers it has
-    cpus = os.cpu_count() or 1
-    n = max(1, min(workers, cpus, pending))
-    if n < workers and workers > cpus:
-        print(f"sobolev-drake: --workers {workers} capped at {n} (this machine has {cpus} CPUs; "
-              "cases are CPU-bound)", file=sys.stderr)
-    return n
-
-
 def _design_specs(defn, labels):
     """{label: fingerprint of what defines the design} (its label when none is declared)."""
     return {label: fingerprint(defn.design_spec(label) if defn.design_spec else label)
@@ -382,8 +256,9 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     scheduler : str, optional
         None (process pool), "dask-local" or a Dask scheduler address.  An address that does
         not answer, or a cluster without workers, stops the run within
-        :data:`DASK_CONNECT_TIMEOUT` s; a cluster that loses every worker mid-run stops it
-        after :data:`DASK_WORKERLESS_TIMEOUT` s.
+        :data:`~sobolev_drake.campaign.executors.DASK_CONNECT_TIMEOUT` s; a cluster that loses
+        every worker mid-run stops it after
+        :data:`~sobolev_drake.campaign.executors.DASK_WORKERLESS_TIMEOUT` s.
     perturb : dict, optional
         {parameter: fraction} (None: the campaign's default).
     resume : bool
@@ -436,8 +311,8 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     with store.locked():
         done = store.start(config, resume=resume)
         todo = [c for c in cases if c.key not in done]
-        executor = _inline if workers == 0 else (_processes if scheduler is None else _dask)
-        n_workers = _worker_count(workers, scheduler, len(todo))
+        executor = executors.pick(workers, scheduler)
+        n_workers = executors.worker_count(workers, scheduler, len(todo))
         started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         t0 = time.perf_counter()
         calls = [(c,) for c in todo]

@@ -128,6 +128,11 @@ class CampaignStore:
     def locked(self):
         """Hold the folder for this process (non-blocking ``flock`` on ``.lock``).
 
+        Yields
+        ------
+        CampaignStore
+            This store, which may then start, append, repair and pin designs.
+
         Raises
         ------
         CampaignLockedError
@@ -386,10 +391,6 @@ class CampaignStore:
             os.fsync(f.fileno())
 
     # -- pinned designs --------------------------------------------------------------------
-
-    def has_designs(self) -> bool:
-        """Whether the folder pins designs (in the current or a legacy format)."""
-        return self.designs_path.exists() or self.legacy_designs_path.exists()
 
     def load_designs(self, campaign: str, specs: dict, check=None) -> dict:
         """The pinned designs, validated: {label: {"design": object} or {"failure": str}}.

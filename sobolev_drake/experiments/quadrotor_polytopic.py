@@ -22,7 +22,7 @@ from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.harness import quiet
 from sobolev_drake.models.quadrotor_linear import SPREAD, UNCERTAIN, hinf_input_weight, input_scale, vertices
 from sobolev_drake.rigs.quadrotor_hover import (CAMPAIGN_INDICES, QuadrotorHoverRig, campaign_flight,
-                                                 flight_indices)
+                                                 check_campaign_gain, flight_indices)
 from sobolev_drake.rigs.quadrotor_hover_plots import plot_flights
 from sobolev_drake.synthesis.designs import LinearDesign
 from sobolev_drake.tuning import match_parameter
@@ -175,21 +175,6 @@ def campaign_gain(label):
     return np.asarray(design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0].K)
 
 
-def campaign_design_spec(label):
-    """What defines campaign design ``label``: its :data:`CAMPAIGN_DESIGNS` entry and the
-    polytope it is robust over (pinned as a fingerprint with the gain)."""
-    return {**CAMPAIGN_DESIGNS[label], "uncertain": list(UNCERTAIN), "spread": SPREAD}
-
-
-def check_campaign_gain(label, K):
-    """Raise ``ValueError`` unless ``K`` is a finite 4 × 12 float gain (what
-    :func:`campaign_gain` returns)."""
-    if not (isinstance(K, np.ndarray) and K.shape == (4, 12) and K.dtype.kind == "f"
-            and np.all(np.isfinite(K))):
-        raise ValueError(f"design {label!r} must be a finite 4 × 12 gain, got {type(K).__name__} "
-                         f"{getattr(K, 'shape', '')}")
-
-
 def campaign_case(case, K) -> dict:
     """A design of :data:`CAMPAIGN_DESIGNS` (its gain ``K``) flown on the truth, q(0) and
     disturbances its seed draws; returns "indices", "success" (no divergence) and "failure"."""
@@ -199,7 +184,8 @@ def campaign_case(case, K) -> dict:
 
 register_campaign("quadrotor-polytopic", CampaignDefinition(
     designs=tuple(CAMPAIGN_DESIGNS), indices=tuple(CAMPAIGN_INDICES), run=campaign_case,
-    synthesize=campaign_gain, design_spec=campaign_design_spec, check_design=check_campaign_gain,
+    synthesize=campaign_gain, check_design=check_campaign_gain,
+    design_spec=lambda label: {**CAMPAIGN_DESIGNS[label], "polytope": [list(UNCERTAIN), SPREAD]},
     randomizes="the truth's m, Ixx, Iyy, Izz (inside the designs' ±10 % polytope), q(0) and the disturbances",
     parameters={n: f"quadrotor parameter {n} of the simulated truth" for n in (*UNCERTAIN, "l", "b", "d")},
     default_perturb=dict.fromkeys(UNCERTAIN, 0.1), smoke_duration=CAMPAIGN_SMOKE_DURATION,

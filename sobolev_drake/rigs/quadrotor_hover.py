@@ -25,7 +25,7 @@ from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 from sobolev_drake.systems.reference_catalogue import table_6_3
 
-__all__ = ["Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "disturbance_pulses", "drawn_scenario",
+__all__ = ["check_campaign_gain", "Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "disturbance_pulses", "drawn_scenario",
            "flight_indices", "CAMPAIGN_INDICES", "campaign_flight"]
 
 #: initial configuration [ϕ θ ψ x y z] of every flight
@@ -202,6 +202,22 @@ def flight_indices(d):
 #: the indices of a campaign record (lower is better): {record name: key of :func:`flight_indices`}
 CAMPAIGN_INDICES = {"ISE": "ise", "IADU": "iadu", "saturated [s]": "saturation_s", "ISE position": "ise_position",
                     "final position error [m]": "final_position_error_m", "max tilt [deg]": "max_tilt_deg"}
+
+
+def check_campaign_gain(label, K):
+    """Raise ``ValueError`` unless ``K`` is a finite 4 × 12 float gain, what a campaign's
+    synthesis pins and :func:`campaign_flight` flies.
+
+    Parameters
+    ----------
+    label : str
+        The design (for the message).
+    K : object
+    """
+    if not (isinstance(K, np.ndarray) and K.shape == (4, 12) and K.dtype.kind == "f"
+            and np.all(np.isfinite(K))):
+        raise ValueError(f"design {label!r} must be a finite 4 × 12 gain, got {type(K).__name__} "
+                         f"{getattr(K, 'shape', '')}")
 
 
 def campaign_flight(K, duration, case):

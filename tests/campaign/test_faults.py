@@ -25,7 +25,7 @@ import pytest
 
 import fault_campaign
 from sobolev_drake.campaign import run_campaign
-from sobolev_drake.campaign import runner
+from sobolev_drake.campaign import executors, runner
 from sobolev_drake.campaign.errors import (CampaignFolderError, CampaignLockedError,
                                            ClusterUnavailableError, CorruptRecordsError)
 from sobolev_drake.campaign.store import CampaignStore
@@ -410,10 +410,10 @@ def test_campaign_durations_follow_the_rule_of_run(tmp_path, duration, message):
 
 def test_workers_are_capped_at_the_cpus_and_the_pending_cases(capsys):
     cpus = os.cpu_count()
-    assert runner._worker_count(1000, None, 10_000) == cpus
+    assert executors.worker_count(1000, None, 10_000) == cpus
     assert f"--workers 1000 capped at {cpus}" in capsys.readouterr().err
-    assert runner._worker_count(8, None, 3) == min(3, cpus)
-    assert runner._worker_count(1000, "tcp://somewhere:8786", 10) == 1000   # a remote cluster's own
+    assert executors.worker_count(8, None, 3) == min(3, cpus)
+    assert executors.worker_count(1000, "tcp://somewhere:8786", 10) == 1000   # a remote cluster's own
 
 
 def test_a_file_in_place_of_the_folder_is_refused(tmp_path, capsys):
@@ -428,7 +428,7 @@ def test_a_file_in_place_of_the_folder_is_refused(tmp_path, capsys):
 
 def test_an_unreachable_scheduler_is_a_clear_error_in_bounded_time(tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    monkeypatch.setattr(runner, "DASK_CONNECT_TIMEOUT", 3.0)
+    monkeypatch.setattr(executors, "DASK_CONNECT_TIMEOUT", 3.0)
     t0 = time.monotonic()
     with pytest.raises(ClusterUnavailableError, match=r"cannot reach a Dask scheduler at 'tcp://127\.0\.0\.1:9' within 3 s"):
         campaign(tmp_path, workers=1, scheduler="tcp://127.0.0.1:9", progress=False)
@@ -437,7 +437,7 @@ def test_an_unreachable_scheduler_is_a_clear_error_in_bounded_time(tmp_path, mon
 
 def test_a_scheduler_without_workers_is_a_clear_error(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
-    monkeypatch.setattr(runner, "DASK_CONNECT_TIMEOUT", 2.0)
+    monkeypatch.setattr(executors, "DASK_CONNECT_TIMEOUT", 2.0)
     with distributed.LocalCluster(n_workers=0, processes=True, dashboard_address=None) as cluster:
         with pytest.raises(ClusterUnavailableError, match="has no worker after 2 s"):
             run_campaign("manipulator", seeds=1, out_dir=tmp_path, workers=1, smoke=True,
@@ -465,7 +465,7 @@ def test_a_cluster_that_loses_every_worker_stops_the_run_keeping_the_finished_ca
 
     from sobolev_drake.campaign.errors import ClusterLostError
 
-    monkeypatch.setattr(runner, "DASK_WORKERLESS_TIMEOUT", 3.0)
+    monkeypatch.setattr(executors, "DASK_WORKERLESS_TIMEOUT", 3.0)
     records = tmp_path / "records.jsonl"
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
@@ -487,3 +487,15 @@ def test_a_cluster_that_loses_every_worker_stops_the_run_keeping_the_finished_ca
         killer.join()
     kept = by_key(tmp_path)
     assert 1 <= len(kept) < 40 and len(kept) == len(lines(tmp_path))
+
+
+def test_the_fault_table_names_existing_tests():
+    import re
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "docs" / "reliability.md").read_text(encoding="utf-8")
+    named = re.findall(r"`(tests/[\w/]+\.py)::(\w+)`", text)
+    assert len(named) >= 20
+    for path, name in named:
+        source = (root / path).read_text(encoding="utf-8")
+        assert re.search(rf"^def {name}\(", source, re.M), f"docs/reliability.md names {path}::{name}"
