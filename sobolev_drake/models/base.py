@@ -16,8 +16,9 @@ so the thesis' quantities are ``M_th = Tᵀ M T``, ``h_th = Tᵀ h`` and general
 from __future__ import annotations
 
 import numpy as np
-from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import ForceElementIndex, ModelInstanceIndex
+from pydrake.multibody.plant import MultibodyPlant, MultibodyPlant_
+from pydrake.multibody.tree import ForceElementIndex
+from pydrake.systems.framework import Context
 
 __all__ = ["check_vector", "MechanicalModel", "PlantModel"]
 
@@ -287,16 +288,28 @@ class MechanicalModel:
         ----------
         plant : MultibodyPlant
             Finalized, double-valued plant whose q̇ = v (revolute, prismatic, planar, weld,
-            universal joints; a quaternion or roll-pitch-yaw floating base is refused by name).
+            universal joints; a quaternion or roll-pitch-yaw floating base is refused by name),
+            with joint actuators and no constraints; parsed or built in code.
         context : Context, optional
             A context of ``plant`` whose parameters (masses, damping, reflected inertias) the
-            model uses; the plant's defaults when omitted.  Copied, never modified.
+            model uses, the plant's defaults when omitted: ``plant.CreateDefaultContext()`` or,
+            in a diagram, ``plant.GetMyContextFromRoot(diagram_context)``.  Copied, never
+            modified.
         name : str, optional
-            Model name for messages (default: the plant's first model instance name).
+            Model name for messages (default: the name(s) of the model instance(s) holding the
+            actuated joints, joined by " + ").
 
         Returns
         -------
         PlantModel
+
+        Raises
+        ------
+        TypeError
+            ``plant`` is not a double ``MultibodyPlant``, ``context`` not a double ``Context``.
+        ValueError
+            ``plant`` is not finalized, has no joint actuators, constraints or an element the
+            model cannot represent (see :class:`PlantModel`); ``context`` is another system's.
         """
         return PlantModel(plant, context=context, name=name)
 
@@ -322,9 +335,12 @@ class PlantModel(MechanicalModel):
     (springs, bushings, custom ones: subclass :class:`MechanicalModel` and put them in
     ``g``/``friction``), joints whose q̇ ≠ v (quaternion or roll-pitch-yaw floating bases,
     ball joints: model a floating body with a chain of prismatic and revolute joints, as the
-    library's quadrotor does) and actuators with Drake's implicit PD control.  Contact, joint
-    limits and effort limits are not part of M q̈ + C q̇ + g = B u; the effort limits are
-    available as ``input_lower``/``input_upper`` for a controller's ``lower``/``upper``.
+    library's quadrotor does), constraints (couplers, e.g. from a URDF ``<mimic>``, and
+    distance, ball and weld constraints: their forces are not in M q̈ + C q̇ + g = B u), a plant
+    without joint actuators (B would have no columns) and actuators with Drake's implicit PD
+    control.  Contact, joint limits and effort limits are not part of M q̈ + C q̇ + g = B u;
+    the effort limits are available as ``input_lower``/``input_upper`` for a controller's
+    ``lower``/``upper``.
 
     Parameters
     ----------
@@ -333,22 +349,18 @@ class PlantModel(MechanicalModel):
     """
 
     def __init__(self, plant: MultibodyPlant, *, context=None, name=None):
-        if not isinstance(plant, MultibodyPlant):
-            raise TypeError("plant must be a finalized pydrake MultibodyPlant (double), got "
-                            f"{type(plant).__name__}")
-        if not plant.is_finalized():
-            raise ValueError("plant must be finalized (plant.Finalize()) before from_plant")
+        _check_plant(plant)
         _refuse_unsupported(plant)
-        if name is None:
-            # instances 0 and 1 are the world and the default one; 2 is the first model added
-            first = (ModelInstanceIndex(2) if plant.num_model_instances() > 2
-                     else plant.default_model_instance())
-            name = plant.GetModelInstanceName(first)
+        if context is not None:
+            _check_context(plant, context)
+        if name is None:   # the model instance(s) holding the actuated joints
+            instances = sorted({plant.get_joint_actuator(a).joint().model_instance()
+                                for a in plant.GetJointActuatorIndices()}, key=int)
+            name = " + ".join(plant.GetModelInstanceName(i) for i in instances)
         names = plant.GetPositionNames(add_model_instance_prefix=False, always_add_suffix=False)
         super().__init__(plant, dof_names=names, name=name)
-        if context is not None:
-            plant.ValidateContext(context)
-            self.context = context.Clone()
+        if context is not None:     # copied: Clone() refuses a plant's context in a diagram
+            self.context.SetTimeStateAndParametersFrom(context)
         damping = np.zeros(self.n)
         for index in plant.GetJointIndices():
             joint = plant.get_joint(index)
@@ -400,8 +412,42 @@ class PlantModel(MechanicalModel):
         return self.damping * check_vector("qdot", qdot, self.n)
 
 
+def _check_plant(plant) -> None:
+    """TypeError unless ``plant`` is a double MultibodyPlant; ValueError unless finalized."""
+    if not isinstance(plant, MultibodyPlant):
+        scalars = [s.__name__ for (s,) in MultibodyPlant_.param_list
+                   if isinstance(plant, MultibodyPlant_[s])]
+        got = f"MultibodyPlant_[{scalars[0]}]" if scalars else type(plant).__name__
+        raise TypeError(
+            f"plant must be a finalized MultibodyPlant of scalar type float, got {got}: pass "
+            "the double plant (the one ToAutoDiffXd/ToSymbolic converted; for a Diagram, the "
+            "plant inside it, e.g. diagram.GetSubsystemByName('plant'))")
+    if not plant.is_finalized():
+        raise ValueError(f"plant {plant.get_name()!r} must be finalized before from_plant: call "
+                         "plant.Finalize() after adding its bodies, joints and actuators")
+
+
+def _check_context(plant: MultibodyPlant, context) -> None:
+    """TypeError/ValueError naming ``context`` unless it is a double context of ``plant``."""
+    fix = ("pass plant.CreateDefaultContext() or plant.GetMyContextFromRoot(diagram_context) "
+           "of the diagram holding the plant, or omit it for the plant's defaults")
+    if not isinstance(context, Context):
+        raise TypeError(f"context must be a double Context of plant {plant.get_name()!r}, got "
+                        f"{type(context).__name__}: {fix}")
+    try:
+        plant.ValidateContext(context)
+    except RuntimeError as err:
+        try:
+            plant.GetMyContextFromRoot(context)
+            fix = "it is the diagram's, holding the plant's: pass plant.GetMyContextFromRoot(context)"
+        except RuntimeError:
+            pass
+        raise ValueError(f"context is not a context of plant {plant.GetSystemPathname()!r} "
+                         f"(Drake: {str(err).splitlines()[0]}); {fix}") from err
+
+
 def _refuse_unsupported(plant: MultibodyPlant) -> None:
-    """ValueError naming the first joint, force element or actuator the model cannot represent."""
+    """ValueError naming the first joint, force element, constraint, actuator (or none) refused."""
     for index in plant.GetJointIndices():
         joint = plant.get_joint(index)
         if joint.num_positions() != joint.num_velocities():
@@ -434,9 +480,41 @@ def _refuse_unsupported(plant: MultibodyPlant) -> None:
                 f"force element {i} ({kind}) is not represented by from_plant (supported: "
                 f"{', '.join(_SUPPORTED_FORCE_ELEMENTS)} and joint damping); subclass "
                 "MechanicalModel and add its generalized force to g(q) or friction(q̇)")
+    if plant.num_constraints():
+        raise ValueError(
+            f"plant has {plant.num_constraints()} constraint(s) ({_constraint_kinds(plant)}); "
+            "from_plant models M q̈ + C q̇ + g = B u without constraint forces: build the plant "
+            "without them (remove the URDF <mimic> tags and the plant.Add*Constraint calls; a "
+            "weld constraint can become plant.WeldFrames), or write the constrained mechanism "
+            "in independent coordinates as a MechanicalModel subclass")
+    if plant.num_actuators() == 0:
+        raise ValueError(
+            "plant has no joint actuators (num_actuators() = 0), so the model would have no "
+            "inputs (B is n × 0): add actuators before plant.Finalize(), with "
+            "plant.AddJointActuator(name, joint) in code or a <transmission> per actuated joint "
+            "in a URDF (SDFormat gives a joint one unless its <axis><limit><effort> is 0); "
+            "thrusters pushing bodies from outside the plant (e.g. pydrake's Propeller) are not "
+            "joint actuators and are not supported yet by from_plant")
     for index in plant.GetJointActuatorIndices():
         actuator = plant.get_joint_actuator(index)
         if actuator.has_controller():
             raise ValueError(
                 f"actuator {actuator.name()!r} has Drake's implicit PD controller, so the "
                 "actuation port does not carry torques; build the plant without PD gains")
+
+
+def _constraint_kinds(plant: MultibodyPlant) -> str:
+    """The plant's constraints by kind, as far as pydrake tells them apart (only distance
+    constraints have a query of their own)."""
+    context, distance = plant.CreateDefaultContext(), 0
+    for constraint_id in plant.GetConstraintIds():
+        try:
+            plant.GetDistanceConstraintParams(context, constraint_id)
+            distance += 1
+        except RuntimeError:
+            pass
+    kinds = [f"{distance} distance"] if distance else []
+    if plant.num_constraints() > distance:
+        kinds.append(f"{plant.num_constraints() - distance} coupler (e.g. from a URDF <mimic>), "
+                     "ball or weld")
+    return ", ".join(kinds)
