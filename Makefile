@@ -13,7 +13,7 @@ export OMP_NUM_THREADS ?= 1
 # for library users); `make lock` refreshes it.
 LOCK := constraints.txt
 
-.PHONY: demo test bench reproduce docs install lock clean
+.PHONY: demo test bench reproduce report docs install lock clean
 
 $(STAMP): pyproject.toml setup.py $(LOCK) $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -47,8 +47,14 @@ docs: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -q -b html docs/api build/docs
 	@echo "API reference: build/docs/index.html"
 
+# $(OUT)/REPRODUCTION.md and the repository's ./REPRODUCTION.md (links relative to each); a
+# REPRODUCTION.md that sobolev-drake did not write is never replaced
 reproduce: $(STAMP)
-	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT)
+	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT) --copy-to REPRODUCTION.md
+
+# the same two files rebuilt from $(OUT)/*/result.json and $(OUT)/campaigns/ without rerunning
+report: $(STAMP)
+	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake report --out $(OUT) --copy-to REPRODUCTION.md
 
 clean:
 	rm -rf $(VENV) .venv-lock $(OUT) build *.egg-info sobolev_drake/native/*.so

@@ -1,8 +1,12 @@
-"""Command line: ``sobolev-drake list | run NAME | demo | reproduce | report | campaign NAME``.
+"""Command line: ``sobolev-drake list | run NAME | demo | reproduce | report | campaign NAME |
+campaign-repair DIR``.
 
 Every experiment writes into ``<out>/<experiment-name>/`` (default ``out/``): PNG figures,
 markdown + JSON tables, Meshcat recordings as standalone HTML, and ``result.json`` (claims,
-metrics, file list) from which ``report`` rebuilds REPRODUCTION.md without rerunning.
+metrics, file list) from which ``report`` rebuilds ``<out>/REPRODUCTION.md`` without rerunning.
+``reproduce`` and ``report`` write a second copy only where ``--copy-to FILE`` says (``make
+reproduce`` / ``make report`` keep the repository's own REPRODUCTION.md so), and no command
+replaces a report it did not write (:func:`sobolev_drake.report.check_replaceable`).
 ``campaign NAME`` runs an experiment's designs over many seeds into ``--out``
 (:mod:`sobolev_drake.campaign`).
 
@@ -47,6 +51,26 @@ def _duration(text: str) -> float:
     return value
 
 
+def _out_dir(text: str) -> str:
+    """``--out`` value: a folder name (an empty one would silently mean the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a folder, got {text!r} (use --out . for the "
+                                         "current folder)")
+    return text
+
+
+def _copy_file(text: str) -> str:
+    """``--copy-to`` value: a file name."""
+    if not text.strip() or text.endswith(("/", "\\")):
+        raise argparse.ArgumentTypeError(f"expected a file name such as REPRODUCTION.md, got {text!r}")
+    return text
+
+
+_COPY_HELP = ("also write the report to FILE, its links relative to FILE's folder (`make "
+              "reproduce` passes REPRODUCTION.md); a FILE sobolev-drake did not write is never "
+              "replaced")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="sobolev-drake", description="Robust W2/W∞ control experiments on Drake.")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -55,17 +79,22 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("name", help="experiment name (see `sobolev-drake list`)")
     r.add_argument("--duration", type=_duration, default=None,
                    help="simulated seconds (default: the experiment's; at most 10x that)")
-    r.add_argument("--out", default="out", help="output root; files go to OUT/NAME/ (default: out)")
+    r.add_argument("--out", type=_out_dir, default="out",
+                   help="output root; files go to OUT/NAME/ (default: out)")
     r.add_argument("--no-record", action="store_true", help="skip Meshcat recordings")
     r.add_argument("--smoke", action="store_true", help="short version (seconds of wall time)")
     d = sub.add_parser("demo", help="run the flagship experiment")
-    d.add_argument("--out", default="out")
+    d.add_argument("--out", type=_out_dir, default="out",
+                   help="output root; files go to OUT/NAME/ (default: out)")
     d.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)
-    rp = sub.add_parser("reproduce", help="run every experiment and write REPRODUCTION.md")
-    rp.add_argument("--out", default="out")
+    rp = sub.add_parser("reproduce", help="run every experiment and write OUT/REPRODUCTION.md")
+    rp.add_argument("--out", type=_out_dir, default="out", help="output root (default: out)")
+    rp.add_argument("--copy-to", type=_copy_file, default=None, metavar="FILE", help=_COPY_HELP)
     rp.add_argument("--smoke", action="store_true", help="short versions (for testing the pipeline)")
-    rep = sub.add_parser("report", help="rebuild REPRODUCTION.md from OUT/*/result.json (no rerun)")
-    rep.add_argument("--out", default="out")
+    rep = sub.add_parser("report", help="rebuild OUT/REPRODUCTION.md from OUT/*/result.json (no rerun)")
+    rep.add_argument("--out", type=_out_dir, default="out",
+                     help="output root holding the results (default: out)")
+    rep.add_argument("--copy-to", type=_copy_file, default=None, metavar="FILE", help=_COPY_HELP)
     c = sub.add_parser("campaign", help="run an experiment's designs over many seeds (Monte Carlo)")
     c.add_argument("name", help="experiment name with a campaign (see `sobolev-drake list`)")
     c.add_argument("--seeds", type=_count, required=True, help="number of seeds")
@@ -87,6 +116,10 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--smoke", action="store_true", help="short cases (for testing the pipeline)")
     c.add_argument("--no-progress", action="store_true", help="no progress bar")
     c.add_argument("--out", required=True, help="output folder of the campaign")
+    cr = sub.add_parser("campaign-repair",
+                        help="move the lines of a campaign's records.jsonl that are not records "
+                             "(or repeat a case) to records.rejected.jsonl, keeping the others")
+    cr.add_argument("out", help="the campaign's output folder")
     return p
 
 
@@ -125,8 +158,12 @@ def _perturbations(items):
 
 def _cmd_campaign(args) -> int:
     from sobolev_drake.campaign import run_campaign
+    from sobolev_drake.campaign.errors import CampaignError, ClusterLostError
     from sobolev_drake.campaign.registry import UnknownCampaignError
 
+    if not args.out.strip():
+        raise UsageError("--out must name a folder, got '' (use --out . for the current folder)")
+    _writable_dir(Path(args.out))
     try:
         summary = run_campaign(args.name, seeds=args.seeds, first_seed=args.first_seed,
                                designs=args.designs, workers=args.workers, scheduler=args.scheduler,
@@ -134,9 +171,20 @@ def _cmd_campaign(args) -> int:
                                duration=args.duration, smoke=args.smoke,
                                progress=not args.no_progress, out_dir=args.out,
                                tasks_per_worker=args.tasks_per_worker)
-    except (UnknownCampaignError, ValueError, FileExistsError) as err:
+    except ClusterLostError as err:
+        print(f"sobolev-drake: campaign {args.name!r} stopped: {err}; the finished cases are in "
+              f"{Path(args.out) / 'records.jsonl'}; give the cluster workers and rerun with --resume",
+              file=sys.stderr)
+        return 1
+    except (UnknownCampaignError, ValueError, FileExistsError, CampaignError) as err:
+        # nothing to resume: the folder or the options must change first
         print(f"sobolev-drake: {err}", file=sys.stderr)
         return 2
+    except OSError as err:    # e.g. a full disk while appending: every whole line is kept
+        print(f"sobolev-drake: campaign {args.name!r} stopped: cannot write "
+              f"{err.filename or args.out} ({err.strerror or err}); the finished cases are in "
+              f"{Path(args.out) / 'records.jsonl'}; make room and rerun with --resume", file=sys.stderr)
+        return 1
     except Exception as err:  # a worker or the cluster died: what finished is on disk
         print(f"sobolev-drake: campaign {args.name!r} interrupted ({type(err).__name__}: {err}); "
               f"the finished cases are in {Path(args.out) / 'records.jsonl'}; rerun with --resume",
@@ -145,6 +193,28 @@ def _cmd_campaign(args) -> int:
     out = Path(args.out)
     print(f"campaign {args.name}: {summary['cases']} cases ({summary['ran']} run now, "
           f"{summary['wall_s']:.1f} s); summary in {out / 'summary.json'} and {out / 'summary.md'}")
+    return 0
+
+
+def _cmd_campaign_repair(args) -> int:
+    from sobolev_drake.campaign.errors import CampaignError
+    from sobolev_drake.campaign.store import CampaignStore
+
+    folder = Path(args.out)
+    if not args.out.strip() or not (folder / "records.jsonl").is_file():
+        raise UsageError(f"campaign-repair: {str(folder)!r} holds no records.jsonl (give the "
+                         "campaign's --out folder)")
+    try:
+        store = CampaignStore(folder)
+        with store.locked():
+            done = store.repair()
+    except CampaignError as err:
+        raise UsageError(str(err)) from None
+    if done["rejected"]:
+        print(f"{folder / 'records.jsonl'}: kept {done['kept']} records, moved {done['rejected']} "
+              f"line(s) to {done['side_file']}; resume the campaign to rerun those cases")
+    else:
+        print(f"{folder / 'records.jsonl'}: all {done['kept']} lines are records; nothing moved")
     return 0
 
 
@@ -248,6 +318,7 @@ def _cmd_demo(args) -> int:
 
     out_root = Path(args.out)
     out_dir = _writable_dir(out_root / exp.name)
+    _replaceable(out_dir / "REPORT.md", "--out")
     try:
         result = _run(exp, out_root, smoke=args.smoke)
     except Exception as err:
@@ -267,9 +338,8 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_reproduce(args) -> int:
-    from sobolev_drake.report import write_reproduction
-
     out_root = _writable_dir(Path(args.out))
+    targets = _report_targets(out_root, args.copy_to)   # checked before hours of running
     results, crashed = [], []
     for name, exp in sorted(exps.discover().items()):
         try:
@@ -277,11 +347,8 @@ def _cmd_reproduce(args) -> int:
         except Exception as err:  # one broken experiment must not hide the others' results
             crashed.append(name)
             results.append(_crash_result(name, err, None))
-    campaigns, why = _campaign_sections(out_root), exps.thesis_differences()
-    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns, differences=why)
-    # same content with links relative to the current directory
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns, differences=why)
-    print(f"wrote {path} and {local.name}")
+    written = _write_reports(results, targets, out_root)
+    print("wrote " + " and ".join(str(p) for p in written))
     if crashed:
         print(f"sobolev-drake: {len(crashed)} experiment(s) crashed: {', '.join(crashed)}", file=sys.stderr)
         return 1
@@ -289,23 +356,66 @@ def _cmd_reproduce(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from sobolev_drake.report import load_result, write_reproduction
+    from sobolev_drake.report import load_result
 
     out_root = Path(args.out)
     files = sorted(out_root.glob("*/result.json"))
     if not files:
         print(f"sobolev-drake: no */result.json under {out_root}; run experiments first", file=sys.stderr)
         return 2
-    try:
-        results = [load_result(f) for f in files]
-    except (OSError, ValueError, KeyError) as err:
-        raise UsageError(f"cannot read the results under {str(out_root)!r}: {err}") from None
+    results = []
+    for f in files:
+        try:
+            results.append(load_result(f))
+        except OSError as err:
+            raise UsageError(f"cannot read {f} ({err.strerror or err})") from None
+        except ValueError as err:   # the message names the file (and line/column for bad JSON)
+            raise UsageError(f"{err}; fix or delete it, or rerun its experiment "
+                             f"(sobolev-drake run {f.parent.name})") from None
     _writable_dir(out_root)
-    campaigns, why = _campaign_sections(out_root), exps.thesis_differences()
-    path = write_reproduction(results, out_root / "REPRODUCTION.md", campaigns=campaigns, differences=why)
-    local = write_reproduction(results, Path.cwd() / "REPRODUCTION.md", campaigns=campaigns, differences=why)
-    print(f"wrote {path} and {local.name} from {len(results)} result(s)")
+    targets = _report_targets(out_root, args.copy_to)
+    written = _write_reports(results, targets, out_root)
+    print("wrote " + " and ".join(str(p) for p in written) + f" from {len(results)} result(s)")
     return 0
+
+
+def _replaceable(path: Path, option: str) -> Path:
+    """``path`` if a report may be written there (absent or ours), else a UsageError."""
+    from sobolev_drake.report import check_replaceable
+
+    try:
+        return check_replaceable(path)
+    except FileExistsError as err:
+        raise UsageError(f"{err} (choose another {option})") from None
+
+
+def _report_targets(out_root: Path, copy_to) -> list:
+    """OUT/REPRODUCTION.md and the ``--copy-to`` file, each checked to be replaceable."""
+    targets = [_replaceable(out_root / "REPRODUCTION.md", "--out")]
+    if copy_to is not None:
+        copy = Path(copy_to)
+        if copy.resolve() == targets[0].resolve():
+            return targets
+        try:
+            copy.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise UsageError(f"--copy-to: cannot write to {str(copy)!r} ({err.strerror or err})") from None
+        targets.append(_replaceable(copy, "--copy-to"))
+    return targets
+
+
+def _write_reports(results, targets, out_root: Path) -> list:
+    """Write the report to every target; an unwritable one is a UsageError naming it."""
+    from sobolev_drake.report import write_reproduction
+
+    campaigns, why = _campaign_sections(out_root), exps.thesis_differences()
+    written = []
+    for t in targets:
+        try:
+            written.append(write_reproduction(results, t, campaigns=campaigns, differences=why))
+        except OSError as err:   # FileExistsError included: replaced by a foreign file meanwhile
+            raise UsageError(f"cannot write {t} ({err.strerror or err})") from None
+    return written
 
 
 def _campaign_sections(out_root: Path) -> list:
@@ -315,7 +425,7 @@ def _campaign_sections(out_root: Path) -> list:
 
 _COMMANDS = {"list": lambda args: _cmd_list(), "run": _cmd_run, "demo": _cmd_demo,
              "reproduce": _cmd_reproduce, "report": _cmd_report,
-             "campaign": _cmd_campaign}
+             "campaign": _cmd_campaign, "campaign-repair": _cmd_campaign_repair}
 
 
 def main(argv=None) -> int:

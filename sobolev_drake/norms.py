@@ -29,11 +29,14 @@ Indices
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Sequence
 
 import numpy as np
 
-from sobolev_drake.validation import one_of, positive_scalar, real_array, real_scalar, real_vector
+from sobolev_drake.validation import (bounds_pair, describe, one_of, positive_scalar, real_array,
+                                      real_scalar, real_vector, sequence)
 
 __all__ = [
     "check_time",
@@ -70,7 +73,7 @@ def check_time(t) -> np.ndarray:
         If ``t`` is not 1-D, has fewer than 2 samples, is not finite or not strictly
         increasing.
     """
-    t = np.asarray(t, dtype=float)
+    t = real_array("t", t)
     if t.ndim != 1:
         raise ValueError(f"t must be a 1-D array of sample times, got shape {t.shape}")
     if t.size < 2:
@@ -146,7 +149,11 @@ def finite_difference(t, z, order: int = 1) -> np.ndarray:
         The derivative, shaped like ``z``.
     """
     t = check_time(t)
-    if isinstance(order, (bool, np.bool_)) or int(order) != order or order < 0:
+    if not isinstance(order, numbers.Real):
+        raise TypeError(f"order must be a non-negative integer, got {describe(order)} "
+                        f"({type(order).__name__})")
+    if isinstance(order, (bool, np.bool_)) or not math.isfinite(order) or int(order) != order \
+            or order < 0:
         raise ValueError(f"order must be a non-negative integer, got {order!r}")
     z2, was_1d = _signal("z", z, t.size)
     if order > 0 and t.size < 3:
@@ -159,7 +166,7 @@ def finite_difference(t, z, order: int = 1) -> np.ndarray:
 
 def _weight(name: str, sigma, p: int) -> np.ndarray:
     """σ as a (p, p) symmetric PSD matrix from a scalar, a length-p diagonal, or a matrix."""
-    s = np.asarray(sigma, dtype=float)
+    s = real_array(name, sigma)
     if s.ndim == 0:
         W = float(s) * np.eye(p)
     elif s.ndim == 1:
@@ -171,11 +178,11 @@ def _weight(name: str, sigma, p: int) -> np.ndarray:
     else:
         raise ValueError(f"{name} must be a scalar, a length-{p} vector or a {p}x{p} matrix, got shape {s.shape}")
     if not np.all(np.isfinite(W)):
-        raise ValueError(f"{name} must be finite")
+        raise ValueError(f"{name} must be finite, got {describe(sigma)}")
     if not np.allclose(W, W.T, atol=1e-12 * max(1.0, np.abs(W).max())):
-        raise ValueError(f"{name} must be symmetric")
+        raise ValueError(f"{name} must be symmetric, got {describe(sigma)}")
     if np.linalg.eigvalsh(W).min() < -1e-12 * max(1.0, np.abs(W).max()):
-        raise ValueError(f"{name} must be positive semidefinite")
+        raise ValueError(f"{name} must be positive semidefinite, got {describe(sigma)}")
     return W
 
 
@@ -201,21 +208,29 @@ def sobolev_norm_terms(t, z, sigmas: Sequence, derivatives: Sequence | None = No
     ndarray, shape (m + 1,)
         The terms, α = 0..m; their sum is ‖z‖²_{W^{m,2,σ}}.
     """
+    return _norm_terms(t, z, sigmas, derivatives)
+
+
+def _norm_terms(t, z, sigmas, derivatives, *, z_name="z", sigma_names=None):
+    """:func:`sobolev_norm_terms` with the argument names of the caller (for the messages)."""
     t = check_time(t)
-    z2, _ = _signal("z", z, t.size)
+    z2, _ = _signal(z_name, z, t.size)
     p = z2.shape[1]
     if isinstance(sigmas, (int, float, np.ndarray)) and np.ndim(sigmas) == 0:
-        raise ValueError("sigmas must be a sequence (σ_0, ..., σ_m), e.g. [1.0] for the L2 norm")
-    sigmas = list(sigmas)
+        raise ValueError("sigmas must be a sequence (σ_0, ..., σ_m), e.g. [1.0] for the L2 norm, "
+                         f"got {describe(sigmas)}")
+    sigmas = sequence("sigmas", sigmas, "weights (σ_0, ..., σ_m), e.g. [1.0] for the L2 norm")
     if not sigmas:
         raise ValueError("sigmas must contain at least σ_0")
     m = len(sigmas) - 1
-    derivs = [None] * m if derivatives is None else list(derivatives)
+    derivs = [None] * m if derivatives is None else sequence(
+        "derivatives", derivatives, f"the {m} derivatives of orders 1..{m} (or None)")
     if len(derivs) != m:
         raise ValueError(f"derivatives must list the {m} derivatives of orders 1..{m}, got {len(derivs)}")
     terms = np.empty(m + 1)
     for alpha in range(m + 1):
-        W = _weight(f"sigmas[{alpha}]", sigmas[alpha], p)
+        W = _weight(f"sigmas[{alpha}]" if sigma_names is None else sigma_names[alpha],
+                    sigmas[alpha], p)
         if alpha == 0:
             d = z2
         elif derivs[alpha - 1] is not None:
@@ -335,7 +350,12 @@ def l2_norm(t, w, sigma=1.0) -> float:
     float
         The weighted L2 norm.
     """
-    return sobolev_norm(t, w, [sigma])
+    return _l2_norm(t, w, sigma, "sigma")
+
+
+def _l2_norm(t, w, sigma, sigma_name):
+    s = float(np.sum(_norm_terms(t, w, [sigma], None, z_name="w", sigma_names=[sigma_name])))
+    return float(np.sqrt(max(s, 0.0)))
 
 
 def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | None = None,
@@ -371,7 +391,7 @@ def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | N
     t = check_time(t)
     initial_term = real_scalar("initial_term", initial_term, low=0.0)
     nz2 = sobolev_norm(t, z, sigmas, derivatives, squared=True) - initial_term
-    nw = l2_norm(t, w, w_sigma)
+    nw = _l2_norm(t, w, w_sigma, "w_sigma")
     if nw <= 0.0:
         raise ValueError("w has zero L2 norm: the empirical gain is undefined")
     return float(np.sqrt(max(nz2, 0.0)) / nw)
@@ -446,9 +466,11 @@ def fraction_at_bounds(u, lo, hi, *, rtol: float = 1e-6) -> float:
     float
         In [0, 1].
     """
-    u = np.asarray(u, dtype=float)
+    u = real_array("u", u)
     u = u[:, None] if u.ndim == 1 else u
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), u.shape[1:])
-    hi = np.broadcast_to(np.asarray(hi, dtype=float), u.shape[1:])
+    if u.ndim != 2 or u.shape[0] == 0:
+        raise ValueError(f"u must have shape (N,) or (N, m) with N >= 1 samples, got {u.shape}")
+    lo, hi = bounds_pair("lo", lo, "hi", hi, u.shape[1])
+    rtol = real_scalar("rtol", rtol, low=0.0)
     tol = rtol * np.maximum(np.abs(lo), np.abs(hi))
     return float(np.mean(np.any((u <= lo + tol) | (u >= hi - tol), axis=1)))

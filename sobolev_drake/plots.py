@@ -10,6 +10,7 @@ Meshcat recordings are in :mod:`sobolev_drake.viz`.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib
@@ -18,6 +19,9 @@ if os.environ.get("MPLBACKEND") is None:  # headless default; users may still ch
     matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from sobolev_drake.validation import (describe, mapping, path_like, real_array,  # noqa: E402
+                                      sequence)
 
 __all__ = ["save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d"]
 
@@ -41,12 +45,20 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
     Path
         ``path``.
     """
-    path = Path(path)
-    if path.suffix.lower() not in (".png", ".svg", ".pdf"):
-        raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
+    path = _figure_path(path)
+    if not hasattr(fig, "savefig"):
+        raise TypeError(f"fig must be a matplotlib Figure, got {type(fig).__name__}")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
     plt.close(fig)
+    return path
+
+
+def _figure_path(path) -> Path:
+    """``path`` as a Path ending in .png, .svg or .pdf (checked before a figure is drawn)."""
+    path = path_like("path", path)
+    if path.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise ValueError(f"path must end in .png, .svg or .pdf, got {path.name!r}")
     return path
 
 
@@ -71,6 +83,20 @@ def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Pat
     -------
     Path
     """
+    _figure_path(path)
+    mapping("runs", runs, "{name: run}")
+    panels = sequence("panels", panels, "(y label, fn(run), component labels) triples")
+    if not panels:
+        raise ValueError("panels must contain at least one (y label, fn(run), labels) triple")
+    for k, panel in enumerate(panels):
+        if isinstance(panel, (str, bytes)) or len(sequence(f"panels[{k}]", panel)) != 3:
+            raise ValueError(f"panels[{k}] must be a (y label, fn(run), component labels) "
+                             f"triple, got {panel!r}")
+    for name, run in runs.items():
+        if not hasattr(run, "__getitem__") or isinstance(run, (str, bytes)) \
+                or (isinstance(run, Mapping) and "t" not in run):
+            raise ValueError(f"runs[{name!r}] must be a run with sample times 't' (e.g. a dict "
+                             f"with keys 't' and the logged signals), got {describe(run)}")
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8),
                              squeeze=False)
     styles = ["-", "--", ":", "-."]
@@ -112,6 +138,11 @@ def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
     -------
     Path
     """
+    _figure_path(path)
+    mapping("curves", curves, "{label: (x, y)}")
+    for name, xy in curves.items():
+        if isinstance(xy, (str, bytes)) or not hasattr(xy, "__len__") or len(xy) != 2:
+            raise ValueError(f"curves[{name!r}] must be an (x, y) pair of arrays, got {describe(xy)}")
     fig, ax = plt.subplots(figsize=(8, 2.8))
     for k, (name, (x, y)) in enumerate(curves.items()):
         ax.semilogy(x, np.maximum(y, floor), ["-", "--"][k % 2], lw=1.0, label=name)
@@ -121,6 +152,14 @@ def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
     ax.legend(fontsize=7)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _positions(name, value) -> np.ndarray:
+    """``value`` as an (N, 3) float array (NaN gaps allowed: matplotlib breaks the line)."""
+    arr = real_array(name, value)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3) (one x, y, z row per sample), got {arr.shape}")
+    return arr
 
 
 def plot_paths_3d(path, reference, flown: dict) -> Path:
@@ -139,9 +178,12 @@ def plot_paths_3d(path, reference, flown: dict) -> Path:
     -------
     Path
     """
+    _figure_path(path)
+    ref = _positions("reference", reference)
+    flown = {name: _positions(f"flown[{name!r}]", xyz)
+             for name, xyz in mapping("flown", flown, "{label: (N, 3) positions}").items()}
     fig = plt.figure(figsize=(6, 5))
     ax = fig.add_subplot(projection="3d")
-    ref = np.asarray(reference, dtype=float)
     ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.0, label="reference")
     for k, (name, xyz) in enumerate(flown.items()):
         ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], ["-", "--"][k % 2], lw=1.0, label=name)
@@ -185,18 +227,24 @@ def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t
     Path
         The saved figure's path.
     """
+    _figure_path(path)
     t = np.asarray(t, dtype=float)
     if t.ndim != 1:
         raise ValueError(f"t must be 1-D, got shape {t.shape}")
-    if not series:
+    if not mapping("series", series, "{panel name: (N,) or (N, k) array}"):
         raise ValueError("series is empty")
     ylabels, labels, references = ylabels or {}, labels or {}, references or {}
-    fig, axes = plt.subplots(len(series), 1, sharex=True, figsize=(8, 2.2 * len(series) + 0.6), squeeze=False)
-    for ax, (name, y) in zip(axes[:, 0], series.items()):
-        y = np.asarray(y, dtype=float)
+    checked = {}
+    for name, y in series.items():   # before the figure exists (nothing left open on an error)
+        y = real_array(f"series[{name!r}]", y)
         y = y[:, None] if y.ndim == 1 else y
+        if y.ndim != 2:
+            raise ValueError(f"series[{name!r}] must have shape (N,) or (N, k), got {y.shape}")
         if y.shape[0] != t.size:
             raise ValueError(f"series[{name!r}] has {y.shape[0]} samples, t has {t.size}")
+        checked[name] = y
+    fig, axes = plt.subplots(len(series), 1, sharex=True, figsize=(8, 2.2 * len(series) + 0.6), squeeze=False)
+    for ax, (name, y) in zip(axes[:, 0], checked.items()):
         names = labels.get(name) or ([name] if y.shape[1] == 1 else [f"{name}[{i}]" for i in range(y.shape[1])])
         lines = ax.plot(t, y)
         for line, lab in zip(lines, names):

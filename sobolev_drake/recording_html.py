@@ -12,8 +12,19 @@ from __future__ import annotations
 import base64
 import re
 import struct
+from pathlib import Path
 
 __all__ = ["external_script_sources", "meshcat_commands", "animation_keyframes", "animates_path"]
+
+
+def _text(name: str, value) -> str:
+    """``value`` if it is a ``str``, else a TypeError naming ``name`` (the page's text, not a
+    path or bytes)."""
+    if not isinstance(value, str):
+        hint = " (pass the page's text, e.g. Path(file).read_text())" if isinstance(
+            value, (bytes, Path)) else ""
+        raise TypeError(f"{name} must be a str, got {type(value).__name__}{hint}")
+    return value
 
 
 _SCRIPT_SRC = re.compile(r"<script[^>]*\bsrc\s*=\s*[\"']?(https?:)?//", re.IGNORECASE)
@@ -33,6 +44,7 @@ def external_script_sources(html: str) -> list[str]:
     list of str
         The offending tags (empty for a self-contained page).
     """
+    html = _text("html", html)
     tags = []
     for pattern in (_SCRIPT_SRC, _LINK_HREF):
         for m in pattern.finditer(html):
@@ -103,6 +115,7 @@ def meshcat_commands(html: str) -> list[dict]:
         The commands (dicts with ``type``, ``path``, …); assets that are not commands are
         skipped.
     """
+    html = _text("html", html)
     out = []
     for m in _BLOB.finditer(html):
         raw = base64.b64decode(m.group(1))
@@ -153,6 +166,6 @@ def animates_path(html: str, path: str) -> bool:
     -------
     bool
     """
-    key = path.encode()
+    html, key = _text("html", html), _text("path", path).encode()
     return any(b"set_animation" in raw and key in raw
                for raw in (base64.b64decode(m.group(1)) for m in _BLOB.finditer(html)))

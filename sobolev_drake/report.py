@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,9 +19,16 @@ from typing import Sequence
 import numpy as np
 
 __all__ = ["Claim", "ExperimentResult", "fmt", "percent_of", "percent_rows", "reading_claim", "markdown_table", "write_table", "write_reproduction",
-           "save_result", "load_result"]
+           "save_result", "load_result", "GENERATED_MARKER", "check_replaceable"]
 
 DASH = "—"
+
+#: First line of every report :func:`write_reproduction` writes; a file without it (or the
+#: "Generated ... by `sobolev-drake`." line of reports written before the marker existed) is
+#: never replaced.
+GENERATED_MARKER = ("<!-- written by sobolev-drake (rerun it to update this file; "
+                    "it replaces a file only while this line is at its top) -->")
+_LEGACY_STAMP = re.compile(r"Generated \d{4}-\d{2}-\d{2} \d{2}:\d{2} UTC by `sobolev-drake`\. ")
 
 
 @dataclass
@@ -294,6 +302,9 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
     claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs.
 
+    The file starts with :data:`GENERATED_MARKER`; an existing file without it is not
+    replaced (:func:`check_replaceable`).
+
     Parameters
     ----------
     results : sequence of ExperimentResult
@@ -313,15 +324,20 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and was not written by this function.
     """
     for i, r in enumerate(results):
         _require_result(f"results[{i}]", r)
-    path = Path(path)
+    path = check_replaceable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     base = path.parent
     n_claims = sum(len(r.claims) for r in results)
     n_held = sum(c.held for r in results for c in r.claims)
-    lines = [f"# {title}", "",
+    lines = [GENERATED_MARKER, f"# {title}", "",
              f"Generated {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by `sobolev-drake`. "
              f"{len(results)} experiment(s); claims held: {n_held}/{n_claims}.", "",
              "| experiment | claims held |", "|---|---|"]
@@ -354,6 +370,45 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
         lines += ["", "# Why the thesis' numbers differ", "", differences.strip(), ""]
     path.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
     return path
+
+
+def check_replaceable(path) -> Path:
+    """``path`` as a Path if a report may be written there: absent, or a file that
+    :func:`write_reproduction` wrote (its first line is :data:`GENERATED_MARKER`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The report file about to be written.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and is not a file written by sobolev-drake (someone's own
+        REPRODUCTION.md, a folder); the message names it and says how to proceed.
+    """
+    path = Path(path)
+    if not path.exists():
+        return path
+    if not path.is_file():
+        raise FileExistsError(f"{path} exists and is not a file; remove it or write the report "
+                              "elsewhere")
+    try:
+        with path.open(encoding="utf-8", errors="replace") as f:
+            head = [f.readline().rstrip("\n") for _ in range(3)]
+    except OSError as err:
+        raise FileExistsError(f"{path} exists and cannot be read ({err.strerror or err}); "
+                              "refusing to replace it") from None
+    if head[0] == GENERATED_MARKER or (head[0].startswith("# ") and _LEGACY_STAMP.match(head[2])):
+        return path
+    raise FileExistsError(f"refusing to replace {path}: it was not written by sobolev-drake "
+                          f"(its first line is not the marker '{GENERATED_MARKER[:29]}...'); move "
+                          "or delete it, or write the report elsewhere")
 
 
 def _require_result(name, value):
@@ -409,17 +464,49 @@ def load_result(path):
     -------
     ExperimentResult
         The saved result; its output paths are joined to ``path``'s folder.
+
+    Raises
+    ------
+    ValueError
+        If the file is not valid JSON (the message gives its line and column) or not the
+        object :func:`save_result` writes (the message names the offending key).
+    OSError
+        If the file cannot be read.
     """
 
     path = Path(path)
-    data = json.loads(path.read_text(encoding="utf-8"))
     try:
-        return ExperimentResult(
-            name=data["name"],
-            outputs={k: path.parent / v for k, v in data.get("outputs", {}).items()},
-            metrics=data.get("metrics", {}),
-            claims=[Claim(c["text"], _json_bool(c["held"], path, i), c.get("detail", ""))
-                    for i, c in enumerate(data.get("claims", []))],
-            table_markdown=data.get("table_markdown", ""))
-    except (KeyError, TypeError) as err:
-        raise ValueError(f"{path} is not a result.json written by save_result: {err}") from None
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not valid JSON at line {err.lineno}, column {err.colno} "
+                         f"({err.msg})") from None
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: not UTF-8 text (byte {err.start}: {err.reason})") from None
+    what = f"{path} is not a result.json written by save_result"
+    if not isinstance(data, dict):
+        raise ValueError(f"{what}: expected a JSON object, got a JSON {_JSON_KIND.get(type(data))}")
+    if "name" not in data:
+        raise ValueError(f"{what}: the key 'name' is missing")
+    data = {"outputs": {}, "metrics": {}, "claims": [], "table_markdown": "", **data}
+    for key, kind in (("name", str), ("outputs", dict), ("metrics", dict), ("claims", list),
+                      ("table_markdown", str)):
+        if not isinstance(data[key], kind):
+            raise ValueError(f"{what}: {key!r} must be a JSON {_JSON_KIND[kind]}, got "
+                             f"{_JSON_KIND.get(type(data[key]))} {data[key]!r:.60}")
+    for i, c in enumerate(data["claims"]):
+        if not isinstance(c, dict) or "text" not in c or "held" not in c:
+            raise ValueError(f"{what}: claims[{i}] must be an object with 'text' and 'held', "
+                             f"got {c!r:.60}")
+    try:
+        outputs = {k: path.parent / v for k, v in data["outputs"].items()}
+    except TypeError:
+        raise ValueError(f"{what}: every outputs value must be a file name (a JSON string), got "
+                         f"{data['outputs']!r:.60}") from None
+    return ExperimentResult(name=data["name"], outputs=outputs, metrics=data["metrics"],
+                            claims=[Claim(c["text"], _json_bool(c["held"], path, i), c.get("detail", ""))
+                                    for i, c in enumerate(data["claims"])],
+                            table_markdown=data["table_markdown"])
+
+
+_JSON_KIND = {dict: "object", list: "array", str: "string", int: "number", float: "number",
+              bool: "boolean", type(None): "null"}

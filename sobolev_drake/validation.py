@@ -12,18 +12,22 @@ from __future__ import annotations
 import math
 import numbers
 import operator
+import os
+import re
+from collections.abc import Hashable, Iterable, Mapping
+from pathlib import Path
 
 import numpy as np
 
 __all__ = ["check_parameter_fields", "real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
-           "bounds_pair", "one_of", "describe"]
+           "bounds_pair", "one_of", "describe", "sequence", "mapping", "path_like"]
 
 
 def describe(value, limit: int = 60) -> str:
     """Short ``repr`` of ``value`` for an error message (long arrays are abbreviated)."""
     if isinstance(value, np.ndarray) and value.size > 6:
         return f"array of shape {value.shape} and dtype {value.dtype}"
-    text = repr(value)
+    text = re.sub(r"\n\s*", " ", repr(value))   # one line (a matrix's repr spans several)
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
@@ -32,6 +36,8 @@ def real_array(name, value):
     complex values (whose imaginary part would otherwise be dropped silently)."""
     if isinstance(value, (str, bytes)):
         raise TypeError(f"{name} must be a real number or array, got the string {describe(value)}")
+    if value is None:   # np.asarray(None, dtype=complex) is nan+nanj: not a "complex entry"
+        raise TypeError(f"{name} must be a real number or array, got None")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as e:
@@ -182,9 +188,78 @@ def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
 
 def one_of(name: str, value, options):
     """``value`` if it is one of ``options``, else a ValueError listing them."""
-    if value not in tuple(options):
+    # an array compared with a string is an array, whose truth value is ambiguous
+    if not isinstance(value, Hashable) or value not in tuple(options):
         raise ValueError(f"{name} must be one of {tuple(options)}, got {describe(value)}")
     return value
+
+
+def sequence(name: str, value, what: str = "items") -> list:
+    """``value`` as a list; a TypeError naming ``name`` if it is not a sequence (strings,
+    bytes, dicts and non-iterables are refused: their items are rarely what was meant).
+
+    Parameters
+    ----------
+    name : str
+        Argument name for the message.
+    value : object
+        The argument.
+    what : str, default "items"
+        What the items should be, e.g. "coordinate-name strings" (for the message).
+
+    Returns
+    -------
+    list
+    """
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+        raise TypeError(f"{name} must be a sequence of {what}, got {describe(value)} "
+                        f"({type(value).__name__})")
+    return list(value)
+
+
+def mapping(name: str, value, what: str = "{label: value}") -> Mapping:
+    """``value`` if it is a mapping (dict), else a TypeError naming ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Argument name for the message.
+    value : object
+        The argument.
+    what : str, default "{label: value}"
+        The expected content (for the message).
+
+    Returns
+    -------
+    Mapping
+    """
+    if not isinstance(value, Mapping):
+        raise TypeError(f"{name} must be a dict {what}, got {describe(value)} "
+                        f"({type(value).__name__})")
+    return value
+
+
+def path_like(name: str, value):
+    """``value`` as a :class:`pathlib.Path`: a TypeError naming ``name`` unless it is a ``str``
+    or ``os.PathLike``, a ValueError for an empty string (it would mean the current folder).
+
+    Parameters
+    ----------
+    name : str
+        Argument name for the message.
+    value : object
+        The argument.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    if not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a file path (str or pathlib.Path), got "
+                        f"{describe(value)} ({type(value).__name__})")
+    if isinstance(value, str) and not value.strip():
+        raise ValueError(f"{name} must be a file path, got the empty string {value!r}")
+    return Path(value)
 
 
 def check_parameter_fields(params, positive=(), nonnegative=()) -> None:

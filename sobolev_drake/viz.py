@@ -43,12 +43,13 @@ Tilt-rotor missions (thesis state q = [αR αL φ θ ψ x y z], z up, Drake worl
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
 from sobolev_drake.recording_html import animates_path, external_script_sources  # noqa: E402
-from sobolev_drake.validation import index_tuple, real_scalar, real_vector  # noqa: E402
+from sobolev_drake.validation import describe, index_tuple, real_array, real_scalar, real_vector  # noqa: E402
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Rgba  # noqa: E402
 from pydrake.math import RigidTransform  # noqa: E402
 
@@ -60,6 +61,11 @@ __all__ = [
 ]
 
 
+# what MeshcatParams.host accepts: "" (Drake's default) or "*" (every interface), a host name,
+# an IPv4 or a bracket-free IPv6 address
+_HOST = re.compile(r"|\*|[A-Za-z0-9_](?:[A-Za-z0-9_.-]*[A-Za-z0-9_])?|[0-9A-Fa-f:.]*:[0-9A-Fa-f:.]*")
+
+
 def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
     """A Drake Meshcat server.  ``port=0`` asks the OS for a free ephemeral port, so parallel
     runs (CI with pytest-xdist, several experiments) never collide; ``host='localhost'`` keeps it
@@ -68,7 +74,8 @@ def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
     Parameters
     ----------
     host : str, default "localhost"
-        Interface the server listens on.
+        Interface the server listens on: a host name or IP address of this machine, or "*"
+        for every interface.
     port : int, default 0
         0 (any free port) or a port in [1024, 65535].
 
@@ -76,10 +83,27 @@ def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
     -------
     pydrake.geometry.Meshcat
         The server (stats plot hidden).
+
+    Raises
+    ------
+    RuntimeError
+        If the server cannot listen there (a host that is not this machine, a port in use);
+        the message names the host and port.
     """
     if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not (port == 0 or 1024 <= port <= 65535):
         raise ValueError(f"port must be 0 (any free port) or an integer in [1024, 65535], got {port!r}")
-    return Meshcat(MeshcatParams(host=host, port=int(port), show_stats_plot=False))
+    if not isinstance(host, str):
+        raise TypeError(f"host must be a host name or IP address string, got {host!r}")
+    if not _HOST.fullmatch(host):
+        raise ValueError(f"host must be a host name or IP address (e.g. 'localhost', "
+                         f"'127.0.0.1', or '*' for every interface), got {host!r}")
+    try:
+        return Meshcat(MeshcatParams(host=host, port=int(port), show_stats_plot=False))
+    except RuntimeError as err:   # e.g. a name that does not resolve, or a port in use
+        where = "any free port" if port == 0 else f"port {int(port)}"
+        raise RuntimeError(f"Meshcat could not listen on host {host!r}, {where} ({err}); check "
+                           "that the host is an address of this machine and the port is free"
+                           ) from None
 
 
 def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_period: float = 1 / 32,
@@ -168,7 +192,7 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
     line_width : float, default 2.0
         Positive line width.
     """
-    P = np.asarray(points, dtype=float)
+    P = real_array("points", points)
     if P.ndim != 2 or 3 not in P.shape:
         raise ValueError(f"points must be (N, 3) or (3, N), got shape {P.shape}")
     if P.shape[1] == 3 and P.shape[0] != 3:
@@ -181,6 +205,9 @@ def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *,
     if np.any((color < 0) | (color > 1)):
         raise ValueError(f"rgba entries must be in [0, 1], got {tuple(rgba)}")
     line_width = real_scalar("line_width", line_width, low=0.0, low_open=True)
+    if not isinstance(meshcat, Meshcat):
+        raise TypeError(f"meshcat must be a pydrake Meshcat (e.g. from start_meshcat()), got "
+                        f"{type(meshcat).__name__}")
     meshcat.SetLine(f"/paths/{name}", P, line_width, Rgba(*color.tolist()))
 
 
@@ -217,9 +244,10 @@ FOLLOW_CAMERA_JS = """<script>
 
 
 def _point(name: str, v) -> np.ndarray:
-    a = np.asarray(v, dtype=float).reshape(-1)
+    a = real_array(name, v).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be a finite 3-vector (x, y, z) in Drake's world frame, got {v!r}")
+        raise ValueError(f"{name} must be a finite 3-vector (x, y, z) in Drake's world frame, "
+                         f"got {describe(v)}")
     return a
 
 
@@ -248,13 +276,12 @@ def camera_position(target, *, distance: float | None = None, radius: float = 1.
     """
     target = _point("target", target)
     if distance is None:
-        if not (np.isfinite(radius) and radius > 0):
-            raise ValueError(f"radius must be positive and finite, got {radius}")
+        radius = real_scalar("radius", radius, low=0.0, low_open=True)
         distance = 1.2 * radius / np.sin(np.radians(_MESHCAT_FOV_DEG / 2))
-    if not (np.isfinite(distance) and distance > 0):
-        raise ValueError(f"distance must be positive and finite, got {distance}")
-    if not (np.isfinite(elevation_deg) and abs(elevation_deg) < 90):
-        raise ValueError(f"elevation_deg must be in (−90, 90), got {elevation_deg}")
+    distance = real_scalar("distance", distance, low=0.0, low_open=True)
+    elevation_deg = real_scalar("elevation_deg", elevation_deg, low=-90.0, high=90.0,
+                                low_open=True, high_open=True)
+    azimuth_deg = real_scalar("azimuth_deg", azimuth_deg)
     el, az = np.radians(elevation_deg), np.radians(azimuth_deg)
     return target + float(distance) * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validation import real_matrix, real_scalar, real_vector
+from ..validation import describe, real_matrix, real_scalar, real_vector
 from .lmi import SynthesisError
 
 __all__ = [
@@ -42,7 +42,7 @@ def check_weight(name, W, n, definite=True):
         W = np.diag(real_vector(name, W, n))
     W = as_matrix(name, W, (n, n))
     if not np.allclose(W, W.T, atol=1e-12 * max(1.0, np.abs(W).max())):
-        raise ValueError(f"{name} must be symmetric")
+        raise ValueError(f"{name} must be symmetric, got {describe(W)}")
     ev = np.linalg.eigvalsh(W)
     tol = 1e-12 * max(1.0, np.abs(ev).max())
     if (definite and ev.min() <= tol) or ev.min() < -tol:
@@ -140,7 +140,10 @@ def hinf_norm(A, B, C, D, rtol=1e-7):
     if dn > lb:
         lb, wpk = dn, np.inf
     for _ in range(60):
-        g = (1 + 2 * rtol) * max(lb, 1e-300)
+        # a floor whose square is still a normal float: a zero transfer function (e.g. a
+        # performance output that only weighs an input the controller leaves at zero) has
+        # lb = 0, and g² must not underflow to 0 (singular R)
+        g = (1 + 2 * rtol) * max(lb, 1e-150)
         R = g * g * np.eye(D.shape[1]) - D.T @ D
         S = g * g * np.eye(D.shape[0]) - D @ D.T
         Ri = np.linalg.inv(R)

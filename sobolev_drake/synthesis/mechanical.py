@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from ..validation import real_array, real_scalar
+from ..validation import one_of, real_array, real_scalar
 
 __all__ = [
     "SobolevGains", "controlled_gains", "regulated_gains", "stabilized_gains", "sobolev_gains",
@@ -57,6 +57,8 @@ def _weight(name: str, value, n: int | None, *, definite: bool) -> np.ndarray:
     if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
         raise ValueError(f"{name} must be a scalar, a vector of diagonal entries or a square "
                          f"matrix, got shape {np.shape(value)}")
+    if arr.size == 0:
+        raise ValueError(f"{name} must not be empty (one weight per DOF), got shape {np.shape(value)}")
     if n is not None and arr.shape[0] != n:
         raise ValueError(f"{name} must be {n}x{n} (same size as the other weights), "
                          f"got {arr.shape[0]}x{arr.shape[1]}")
@@ -182,9 +184,7 @@ def _solve(A, B, D, W, group):
 
 
 def _norm(norm: str) -> str:
-    if norm not in _NORMS:
-        raise ValueError(f"norm must be one of {_NORMS}, got {norm!r}")
-    return norm
+    return one_of("norm", norm, _NORMS)
 
 
 def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:

@@ -41,7 +41,14 @@ def _abd(A, B, D):
     A = as_matrix("A", A)
     n = A.shape[0]
     as_matrix("A", A, (n, n))
-    return A, as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
+    if n == 0:   # before the weights, whose checks would fail on empty matrices
+        raise ValueError(f"A must be a non-empty square matrix (the plant has no state), got "
+                         f"shape {A.shape}")
+    B, D = as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
+    for name, M, what in (("B", B, "control input"), ("D", D, "disturbance")):
+        if M.shape[1] == 0:
+            raise ValueError(f"{name} must have at least one {what} column, got shape {M.shape}")
+    return A, B, D
 
 
 def _plant(A, B, D, C, *, measured):

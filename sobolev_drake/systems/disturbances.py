@@ -24,8 +24,17 @@ from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
+from sobolev_drake.validation import sequence
 
 __all__ = ["TimeProfiledForce", "CartesianForceAtBody", "pulses_from_mission", "normalize_pulse"]
+
+
+def _pulse_number(k, key, value, what) -> float:
+    """``pulses[k][key]`` as a float; a TypeError naming it if it is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"pulses[{k}][{key!r}] must be {what}, got {value!r}") from None
 
 
 def normalize_pulse(pulse, n: int, k: int = 0) -> dict:
@@ -42,11 +51,11 @@ def normalize_pulse(pulse, n: int, k: int = 0) -> dict:
         raise ValueError(f"pulses[{k}]['index'] must be an integer in [0, {n}), got {idx!r}")
     value = pulse["value"]
     if not callable(value):
-        value = float(value)
+        value = _pulse_number(k, "value", value, "a number or a callable of t")
         if not math.isfinite(value):
             raise ValueError(f"pulses[{k}]['value'] must be finite, got {value}")
-    t_from = float(pulse.get("from", -math.inf))
-    t_to = float(pulse.get("to", math.inf))
+    t_from = _pulse_number(k, "from", pulse.get("from", -math.inf), "a time in seconds")
+    t_to = _pulse_number(k, "to", pulse.get("to", math.inf), "a time in seconds")
     if not t_from < t_to:
         raise ValueError(f"pulses[{k}] needs from < to, got from={t_from}, to={t_to}")
     return {"index": int(idx), "value": value, "from": t_from, "to": t_to}
@@ -74,7 +83,8 @@ class TimeProfiledForce(LeafSystem):
         if not isinstance(n, (int, np.integer)) or n <= 0:
             raise ValueError(f"n must be a positive integer, got {n!r}")
         self.n = int(n)
-        self.pulses = [normalize_pulse(p, self.n, k) for k, p in enumerate(pulses)]
+        self.pulses = [normalize_pulse(p, self.n, k)
+                       for k, p in enumerate(sequence("pulses", pulses, "pulse dicts"))]
         if function is not None and not callable(function):
             raise TypeError("function must be callable t -> (n,) vector")
         self.function = function

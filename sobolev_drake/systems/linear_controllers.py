@@ -139,8 +139,9 @@ class LinearStateFeedback(_ClippedOutput, LeafSystem):
         return self.u_r + self.gains(context) @ (x - xr)
 
 
-def _controller_matrices(controller):
-    """(AK, BK, CK, DK) of a DynamicController, an output-feedback SynthesisResult or a tuple."""
+def _controller_matrices(controller, name="controller", accepted=""):
+    """(AK, BK, CK, DK) of a DynamicController, an output-feedback SynthesisResult or a tuple
+    (``name`` and ``accepted``, further accepted kinds, for the message)."""
     kind = getattr(controller, "kind", None)
     if kind == "state_feedback":
         raise TypeError("from_controller got a state-feedback SynthesisResult (u = K x); "
@@ -150,8 +151,8 @@ def _controller_matrices(controller):
     try:
         AK, BK, CK, DK = controller
     except (TypeError, ValueError):
-        raise TypeError("controller must be a DynamicController, an output-feedback "
-                        f"SynthesisResult or an (AK, BK, CK, DK) tuple, got "
+        raise TypeError(f"{name} must be a DynamicController, an output-feedback "
+                        f"SynthesisResult{accepted} or an (AK, BK, CK, DK) tuple, got "
                         f"{type(controller).__name__}") from None
     return AK, BK, CK, DK
 
@@ -347,11 +348,14 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
     kind = getattr(result, "kind", None)
     if kind == "state_feedback" or (kind is None and not hasattr(result, "AK")
                                     and np.ndim(result) == 2):
-        K = result.K if kind else result
+        K = real_matrix("K" if kind else "result", result.K if kind else result)
         if y_op is not None:
             raise TypeError("y_op is for output feedback; a state-feedback controller takes x_op")
+        nu, nx = K.shape   # checked here to name x_op / u_op (LinearStateFeedback says x_r / u_r)
+        x_op = None if x_op is None else _mat("x_op", x_op, (1, nx)).ravel()
+        u_op = None if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
         return LinearStateFeedback(K, u_r=u_op, x_r=x_op, S=S, u_min=u_min, u_max=u_max)
-    AK, BK, CK, DK = _controller_matrices(result)
+    AK, BK, CK, DK = _controller_matrices(result, "result", ", a state-feedback gain matrix K")
     if y_op is None and x_op is not None:
         x_op = real_matrix("x_op", np.atleast_2d(x_op)).ravel()
         if S is None:

@@ -82,6 +82,9 @@ class MechanicalController(LeafSystem):
                 raise ValueError("give either law= or (model, partition, inner)")
             law = MechanicalLaw(model, partition, inner, allocation=allocation, lower=lower,
                                 upper=upper, operating_points=operating_points)
+        elif not isinstance(law, MechanicalLaw):
+            raise TypeError(f"law must be a MechanicalLaw (or pass model, partition, inner), got "
+                            f"{type(law).__name__}")
         self.law = law
         n, nc = law.n, law.nc
         self._x = self.DeclareVectorInputPort("x", 2 * n)

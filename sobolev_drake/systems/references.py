@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from sobolev_drake.validation import real_scalar, real_vector
+from sobolev_drake.validation import real_scalar, real_vector, sequence
 
 __all__ = [
     "Coordinate", "const", "sine", "poly", "PiecewiseTrajectory", "TrajectoryReference",
@@ -189,15 +189,17 @@ class PiecewiseTrajectory:
 
     def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
                  breakpoints: Sequence[float] = (), description: str = ""):
-        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+        names = sequence("names", names, "coordinate-name strings")
+        if not all(isinstance(n, str) for n in names):
             raise TypeError(f"names must be a sequence of coordinate-name strings, got {names!r}")
-        self.names = list(names)
+        self.names = names
         self.m = len(self.names)
         if self.m == 0:
             raise ValueError("names must list at least one coordinate")
         if len(set(self.names)) != self.m:
             raise ValueError(f"names must be distinct, got {self.names}")
-        self.pieces = [list(p) for p in pieces]
+        self.pieces = [sequence(f"pieces[{k}]", p, "Coordinate")
+                       for k, p in enumerate(sequence("pieces", pieces, "sequences of Coordinate"))]
         if not self.pieces:
             raise ValueError("pieces must contain at least one piece")
         for k, p in enumerate(self.pieces):
@@ -212,6 +214,8 @@ class PiecewiseTrajectory:
                              f"got {self.breakpoints.size}")
         if np.any(np.diff(self.breakpoints) <= 0):
             raise ValueError("breakpoints must be strictly increasing")
+        if not isinstance(description, str):
+            raise TypeError(f"description must be a string, got {type(description).__name__}")
         self.description = description
         self._bp = self.breakpoints.tolist()
 
@@ -362,7 +366,7 @@ class TrajectoryReference(LeafSystem):
     def __init__(self, trajectory: PiecewiseTrajectory):
         super().__init__()
         if not isinstance(trajectory, PiecewiseTrajectory):
-            raise TypeError("trajectory must be a PiecewiseTrajectory")
+            raise TypeError(f"trajectory must be a PiecewiseTrajectory, got {type(trajectory).__name__}")
         self.trajectory = trajectory
         self.names = list(trajectory.names)
         self.m = trajectory.m

@@ -105,7 +105,7 @@ def test_demo_and_reproduce(tmp_path, monkeypatch, capsys):
     fake = exps.Experiment("zz-broken", "always fails", broken)
     monkeypatch.setattr(exps, "discover", lambda: {"models-tour": tour, "zz-broken": fake})
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["reproduce", "--smoke", "--out", "o2"]) == 1  # one experiment crashed
+    assert cli.main(["reproduce", "--smoke", "--out", "o2", "--copy-to", "REPRODUCTION.md"]) == 1  # one crashed
     rep = (tmp_path / "o2" / "REPRODUCTION.md").read_text()
     assert "zz-broken" in rep and "RuntimeError: boom" in rep and "NOT held" in rep
     assert "models-tour/arm.html" in rep
