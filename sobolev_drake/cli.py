@@ -134,7 +134,13 @@ def _count(text: str) -> int:
 
 
 def _count0(text: str) -> int:
-    return 0 if text.strip() == "0" else _count(text)
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
 
 
 def _perturbations(items):
@@ -231,6 +237,8 @@ def _print_outputs(result: ExperimentResult, stream=sys.stdout) -> None:
 
 def _writable_dir(path: Path) -> Path:
     """Create ``path`` (and parents) and check a file can be written there; UsageError if not."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"--out: {str(path)!r} exists and is not a folder")
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = path / ".sobolev-drake-write-test"
