@@ -21,7 +21,7 @@ __version__ = "0.1.0"
 from sobolev_drake import norms, plots, recording_html, viz
 from sobolev_drake.models import MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
-from sobolev_drake.simulation import SimulationTimeout, simulate
+from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
 from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
                                      SynthesisResult, controlled_gains, generalized_plant,
                                      hinf_mechanical_gains, hinf_output_feedback,
@@ -43,7 +43,7 @@ __all__ = [
     "controlled_gains", "regulated_gains", "stabilized_gains", "hinf_mechanical_gains",
     # references, disturbances, simulation
     "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "TimeProfiledForce",
-    "simulate", "SimulationTimeout",
+    "simulate", "SimulationTimeout", "SimulationDiverged", "SimulationStalled",
     # linear synthesis
     "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",

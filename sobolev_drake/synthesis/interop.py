@@ -29,6 +29,7 @@ from .hinf_common import NORM_BRACKET
 from .lmi import SynthesisError
 from .problem import DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning
 from .output_feedback import output_feedback
+from ..validation import describe
 
 __all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_statespace",
            "hinf_state_feedback", "hinf_output_feedback", "hinfsyn", "HinfsynOutput",
@@ -147,7 +148,7 @@ def generalized_plant(system, nmeas=None, ncon=None):
         The plant with D22 = 0 and the D22 block (zeros for state feedback), which
         :func:`hinfsyn` removes by a loop shift.
     """
-    A, B, C, D = state_space_matrices(system, "P")
+    A, B, C, D = state_space_matrices(system, "system")
     if ncon is None:
         raise TypeError("ncon (the number of control inputs, the last inputs of P) is required")
     nu = _count("ncon", ncon, B.shape[1])
@@ -161,6 +162,9 @@ def generalized_plant(system, nmeas=None, ncon=None):
 
 
 def _as_plant(plant, nmeas, ncon, kind):
+    if plant is None:
+        raise TypeError(f"{kind}: plant must be a GeneralizedPlant or a linear system (python-control "
+                        "StateSpace, Drake LinearSystem or (A, B, C, D)), got None")
     if isinstance(plant, GeneralizedPlant):
         if nmeas is not None or ncon is not None:
             raise TypeError("nmeas/ncon partition a linear system; a GeneralizedPlant is "
@@ -211,6 +215,8 @@ def hinf_output_feedback(plant, *, nmeas=None, ncon=None, **options):
     -------
     SynthesisResult
     """
+    if plant is None:
+        _as_plant(plant, nmeas, ncon, "hinf_output_feedback")
     if not isinstance(plant, GeneralizedPlant) and nmeas is None:
         raise TypeError("nmeas (the number of measurements, the last outputs of the plant) is "
                         "required for a linear system")
@@ -333,7 +339,10 @@ def to_statespace(result_or_controller):
         obj = obj.K if obj.kind == "state_feedback" else obj.controller
     if isinstance(obj, DynamicController):
         return control.ss(obj.AK, obj.BK, obj.CK, obj.DK)
-    K = as_matrix("K", obj)
+    if obj is None or np.ndim(obj) != 2 or np.size(obj) == 0:
+        raise TypeError("result_or_controller must be a SynthesisResult, a DynamicController or a "
+                        f"non-empty gain matrix K (2-D), got {describe(obj)}")
+    K = as_matrix("result_or_controller", obj)
     return control.ss(np.zeros((0, 0)), np.zeros((0, K.shape[1])), np.zeros((K.shape[0], 0)), K)
 
 
