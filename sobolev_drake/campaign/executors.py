@@ -47,13 +47,7 @@ def pick(workers: int, scheduler):
     return inline if workers == 0 else (processes if scheduler is None else dask)
 
 
-def _first_line(exc):
-    return str(exc).splitlines()[0][:300] if str(exc) else ""
-
-
-def inline(fn, calls, workers, scheduler, tasks_per_worker):
-    """Every call in this process, in order.
-
+_ARGUMENTS = """
     Parameters
     ----------
     fn : callable
@@ -71,7 +65,14 @@ def inline(fn, calls, workers, scheduler, tasks_per_worker):
     ------
     object
         ``fn(*args)`` of each call, in the order they finish.
-    """
+"""
+
+
+def _first_line(exc):
+    return str(exc).splitlines()[0][:300] if str(exc) else ""
+
+
+def inline(fn, calls, workers, scheduler, tasks_per_worker):
     for args in calls:
         yield fn(*args)
 
@@ -100,26 +101,6 @@ def _die_with_parent(parent_pid):
 
 
 def processes(fn, calls, workers, scheduler, tasks_per_worker):
-    """The calls on a pool of spawned worker processes that die with this one.
-
-    Parameters
-    ----------
-    fn : callable
-        Picklable (top-level) function, except for :func:`inline`.
-    calls : list of tuple
-        Arguments of each call.
-    workers : int
-        Processes (ignored by :func:`inline`; a remote Dask cluster has its own).
-    scheduler : str or None
-        "dask-local" or a Dask scheduler address (:func:`dask` only).
-    tasks_per_worker : int
-        Calls per worker process before the pool is renewed (:func:`processes` only).
-
-    Yields
-    ------
-    object
-        ``fn(*args)`` of each call, in the order they finish.
-    """
     # A fresh pool every `workers × tasks_per_worker` calls bounds what a worker accumulates
     # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
     # not used: on Python 3.11 the pool stops scheduling once a worker retires (seen here, a
@@ -136,35 +117,6 @@ def processes(fn, calls, workers, scheduler, tasks_per_worker):
 
 
 def dask(fn, calls, workers, scheduler, tasks_per_worker):
-    """The calls on a Dask cluster: a ``LocalCluster`` of ``workers`` processes, or the
-    scheduler at address ``scheduler``.
-
-    Raises
-    ------
-    ClusterUnavailableError
-        No answer within :data:`DASK_CONNECT_TIMEOUT` s, or no worker by then.
-    ClusterLostError
-        No worker for :data:`DASK_WORKERLESS_TIMEOUT` s mid-run, or the scheduler stopped
-        answering.
-
-    Parameters
-    ----------
-    fn : callable
-        Picklable (top-level) function, except for :func:`inline`.
-    calls : list of tuple
-        Arguments of each call.
-    workers : int
-        Processes (ignored by :func:`inline`; a remote Dask cluster has its own).
-    scheduler : str or None
-        "dask-local" or a Dask scheduler address (:func:`dask` only).
-    tasks_per_worker : int
-        Calls per worker process before the pool is renewed (:func:`processes` only).
-
-    Yields
-    ------
-    object
-        ``fn(*args)`` of each call, in the order they finish.
-    """
     try:
         from distributed import Client, LocalCluster, wait
     except ImportError:
@@ -248,3 +200,19 @@ def worker_count(workers, scheduler, pending):
         print(f"sobolev-drake: --workers {workers} capped at {n} (this machine has {cpus} CPUs; "
               "cases are CPU-bound)", file=sys.stderr)
     return n
+
+
+inline.__doc__ = "Every call in this process, in order.\n" + _ARGUMENTS
+processes.__doc__ = ("The calls on a pool of spawned worker processes that die with this one.\n"
+                     + _ARGUMENTS)
+dask.__doc__ = ("""The calls on a Dask cluster: a ``LocalCluster`` of ``workers`` processes, or the
+    scheduler at address ``scheduler``.
+""" + _ARGUMENTS + """
+    Raises
+    ------
+    ClusterUnavailableError
+        No answer within :data:`DASK_CONNECT_TIMEOUT` s, or no worker by then.
+    ClusterLostError
+        No worker for :data:`DASK_WORKERLESS_TIMEOUT` s mid-run, or the scheduler stopped
+        answering.
+""")
