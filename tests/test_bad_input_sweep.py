@@ -40,7 +40,7 @@ CASES = [
     ("Gamma0 asymmetric shows it", lambda: sd.winf_plant(A2, B2, B2, [[1.0, 2.0], [0.0, 1.0]], G1), ValueError,
      "Gamma0 must be symmetric", "[[1., 2.], [0., 1.]]"),
     # --- None is not "complex entries"
-    ("to_statespace None", lambda: sd.to_statespace(None), TypeError, "K must be a real number or array", "got None"),
+    ("to_statespace None", lambda: sd.to_statespace(None), TypeError, "result_or_controller must be a SynthesisResult", "got None"),
     ("ise None", lambda: norms.ise(T, None), TypeError, "e must be", "got None"),
     # --- mechanical gains
     ("controlled_gains empty", lambda: sd.controlled_gains([], 1.0, 1.0, 1.0), ValueError, "Y0", "(0,)"),
