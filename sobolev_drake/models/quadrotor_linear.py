@@ -3,7 +3,9 @@
 
 State x̂ = [ϕ θ ψ x y z ϕ̇ θ̇ ψ̇ ẋ ẏ ż], input the rotor commands Ω_i² (B in Ω² units),
 disturbance the generalized force w (D = [0; M⁻¹]).  :func:`linearize` differentiates the
-Drake model, :func:`closed_form_linearization` is the hand Jacobian of (5.123);
+Drake model (Drake's ``FirstOrderTaylorApproximation`` of its MultibodyPlant with the rotor
+wrenches applied by Drake's ``Propeller``, so the thrust turning with the body, ẍ = g θ, is
+Drake's), :func:`closed_form_linearization` is the hand Jacobian of (5.123);
 :func:`vertices` evaluates the latter at the corners of an interval box of m and the inertias.
 """
 
@@ -30,7 +32,8 @@ def _params():
 
 
 def linearize(params=None, *, tilt=None):
-    """(A, B, D) at hover of the Drake quadrotor by central differences.
+    """(A, B, D) at hover of the Drake quadrotor, by Drake's AutoDiff linearization of its
+    plant; the rotor inputs act as the body-fixed wrench ``model.body_wrench_matrix()``.
 
     Parameters
     ----------
@@ -48,9 +51,8 @@ def linearize(params=None, *, tilt=None):
     """
     model = make_quadrotor_model(params or _params(), tilt=tilt)
     u0 = np.full(4, model.params.hover_input())
-    # B and D exact with large steps: the dynamics are affine in u and w
-    A, B, D = linearize_mechanical(model, np.zeros(6), np.zeros(6), u0, h=1e-6, h_u=1.0, h_w=1e-3)
-    return A, B, D
+    return linearize_mechanical(model, np.zeros(6), np.zeros(6), u0,
+                                body_wrench=("body", model.body_wrench_matrix()))
 
 
 def closed_form_linearization(m, Ixx, Iyy, Izz, params=None, **_):

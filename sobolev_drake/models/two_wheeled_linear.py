@@ -2,8 +2,10 @@
 
 The wheel angle ϕ is cyclic and dropped: the linear state is x = [θ, ϕ̇, θ̇], the input the motor
 torque u, the disturbance w = [wϕ, wθ] (generalized forces, D = [0; M⁻¹]).
-:func:`linearize` differentiates the Drake model, :func:`closed_form_linearization` is the hand
-Jacobian; :data:`STATE_REDUCTION` maps the plant state to the linear one.
+:func:`linearize` differentiates the Drake model (Drake's ``FirstOrderTaylorApproximation`` of its
+MultibodyPlant, :func:`~sobolev_drake.models.linearization.linearize_mechanical`),
+:func:`closed_form_linearization` is the hand Jacobian; :data:`STATE_REDUCTION` maps the plant
+state to the linear one.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ __all__ = ["STATE_REDUCTION", "linearize", "closed_form_linearization"]
 STATE_REDUCTION = np.array([[0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
 
 
-def linearize(model=None, h=1e-6):
-    """(A, B, D) at the upright by central differences of the Drake model's M, Cq̇, g, K.
+def linearize(model=None, h=None):
+    """(A, B, D) at the upright: Drake's AutoDiff linearization of the model's plant (the
+    friction K(q̇) = k ϕ̇ [1, −1] enters as its matrix).
 
     The full [ϕ θ ϕ̇ θ̇] linearization is reduced to x = [θ, ϕ̇, θ̇].
 
@@ -28,8 +31,9 @@ def linearize(model=None, h=1e-6):
     ----------
     model : TwoWheeledModel, optional
         ``make_two_wheeled_model()`` (Table 4.1) by default.
-    h : float
-        Finite-difference step.
+    h : float, optional
+        Given: central differences with this step instead (the former method, kept as the
+        accuracy reference).
 
     Returns
     -------

@@ -16,14 +16,40 @@ retunes a context, ``gains(context)`` reads it back.  The optional selection mat
 maps the connected signal (e.g. a plant's full state) to the linear model's state / output,
 so no extra MatrixGain is needed.  The matrix sizes (and the controller order) are fixed at
 construction.
+
+Drake-native (issue #31).  Both are ``TemplateSystem`` s: ``ToAutoDiffXd()``, ``ToSymbolic()``
+and therefore Drake's ``Linearize`` work on them and on diagrams holding them (a converted
+system starts from the construction gains; ``Linearize(diagram, context)`` copies the gains of
+``context``).  Drake's C++ ``LinearSystem``/``AffineSystem`` would convert too, but they hold
+their matrices in the system, not in the context, and neither clip nor sample with a first
+output at initialization, so they cannot keep the per-context gains above.
+
+``period`` (None: continuous) samples the controller: at t = k·period the command is computed
+from the inputs at that instant and held until the next sample (a state-space controller
+advances by its zero-order-hold discretization, exact for the held measurement).  The first
+command is computed by an initialization event (``Simulator.Initialize()`` or
+``system.ExecuteInitializationEvents(context)``) from the initial inputs, not held at zero as by
+a ZeroOrderHold in front of a controller; before it, the held command is the operating-point
+input.  ``computation_delay=True`` applies each sample's command one period later (at [0, T)
+and [T, 2T) the command computed at t = 0).
+
+Drake's controller port names are accepted as aliases (``GetInputPort("estimated_state")`` is
+``x`` / ``y``, ``"desired_state"`` is ``x_r``, ``GetOutputPort("control")`` is ``u``), and
+``get_input_port_estimated_state()``, ``get_input_port_desired_state()``,
+``get_output_port_control()`` exist as on Drake's ``PidController``: swapping one for the other
+is one line.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+import scipy.linalg
+from pydrake.systems.framework import BasicVector_, LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
 
-from sobolev_drake.validation import bounds_pair, real_matrix
+from sobolev_drake.systems.control_output import (ControlOutput, template_signature,
+                                                  value_of, vector_of)
+from sobolev_drake.validation import bounds_pair, positive_scalar, real_matrix
 
 __all__ = ["LinearStateFeedback", "LinearDynamicOutputFeedback", "controller_system"]
 
@@ -49,94 +75,113 @@ def _selection(S, n):
     return S, S.shape[1]
 
 
-class _ClippedOutput:
-    """Outputs ``u`` (clipped to ``self._bounds`` when set) and ``u_raw`` from ``self._raw``."""
+@TemplateSystem.define("LinearStateFeedback_")
+def LinearStateFeedback_(T):  # noqa: N802  (Drake's template naming)
+    """LinearStateFeedback for scalar type T (``LinearStateFeedback`` is the float one)."""
 
-    def _calc_u(self, context, output):
-        u = self._raw(context)
-        if self._bounds is not None:
-            u = np.clip(u, *self._bounds)
-        output.SetFromVector(u)
+    class Impl(ControlOutput, LeafSystem_[T]):
+        """u = u_r + K (S x - x_r) with constant u_r (operating point) and x_r (port or constant).
 
-    def _calc_raw(self, context, output):
-        output.SetFromVector(self._raw(context))
+        .. pydrake_system::
 
+            name: LinearStateFeedback
+            input_ports:
+            - x (alias estimated_state)
+            - x_r (alias desired_state; with reference_port)
+            output_ports:
+            - u (alias control)
+            - u_raw (with u_min or u_max)
 
-class LinearStateFeedback(_ClippedOutput, LeafSystem):
-    """u = u_r + K (S x - x_r) with constant u_r (operating point) and x_r (port or constant).
-
-    K is stored in a numeric parameter (default: the ``K`` given here), so one diagram can serve
-    a gain sweep: :meth:`set_gains` writes new gains into a context.  ``S`` (nx x m, default the
-    identity) selects the linear-model state from the m-vector on port ``x``.  With ``u_min`` /
-    ``u_max`` the output ``u`` is clipped elementwise and a second output ``u_raw`` gives the
-    unclipped command (e.g. to measure saturation).
-
-    Parameters
-    ----------
-    K : array_like, shape (nu, nx)
-        Gain, sign convention u = +K x.
-    u_r : array_like, shape (nu,), optional
-        Constant input offset (operating point), zero by default.
-    x_r : array_like, shape (nx,), optional
-        Constant state reference, zero by default (ignored with ``reference_port``).
-    reference_port : bool, default False
-        Declare an input port ``x_r`` (size nx) for the reference instead of the constant.
-    u_min, u_max : float or array_like (nu,), optional
-        Elementwise clipping bounds of ``u``.
-    S : array_like, shape (nx, m), optional
-        Selection of the linear-model state from the m-vector on port ``x`` (identity by
-        default).
-    """
-
-    def __init__(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None, u_max=None,
-                 S=None):
-        super().__init__()
-        self.K = real_matrix("K", K)
-        nu, nx = self.K.shape
-        self.S, nin = _selection(S, nx)
-        self.u_r = np.zeros(nu) if u_r is None else _mat("u_r", u_r, (1, nu)).ravel()
-        self.x_r = np.zeros(nx) if x_r is None else _mat("x_r", x_r, (1, nx)).ravel()
-        self._bounds = _bounds(nu, u_min, u_max)
-        self._K_index = self.DeclareNumericParameter(BasicVector(self.K.ravel()))
-        self._x = self.DeclareVectorInputPort("x", nin)
-        self._xr = self.DeclareVectorInputPort("x_r", nx) if reference_port else None
-        self.DeclareVectorOutputPort("u", nu, self._calc_u)
-        if self._bounds is not None:
-            self.DeclareVectorOutputPort("u_raw", nu, self._calc_raw)
-
-    def set_gains(self, context, K):
-        """Write K (shape nu x nx) into this system's parameter in ``context`` (its own context).
+        K is stored in a numeric parameter (default: the ``K`` given here), so one diagram can
+        serve a gain sweep: :meth:`set_gains` writes new gains into a context.  ``S`` (nx x m,
+        default the identity) selects the linear-model state from the m-vector on port ``x``.
+        With ``u_min`` / ``u_max`` the output ``u`` is clipped elementwise and a second output
+        ``u_raw`` gives the unclipped command (e.g. to measure saturation).  Converts to
+        AutoDiffXd and Expression; ``period`` samples it (module docstring).
 
         Parameters
         ----------
-        context : Context
-            This system's context.
         K : array_like, shape (nu, nx)
-            The new gain.
+            Gain, sign convention u = +K x.
+        u_r : array_like, shape (nu,), optional
+            Constant input offset (operating point), zero by default.
+        x_r : array_like, shape (nx,), optional
+            Constant state reference, zero by default (ignored with ``reference_port``).
+        reference_port : bool, default False
+            Declare an input port ``x_r`` (size nx) for the reference instead of the constant.
+        u_min, u_max : float or array_like (nu,), optional
+            Elementwise clipping bounds of ``u``.
+        S : array_like, shape (nx, m), optional
+            Selection of the linear-model state from the m-vector on port ``x`` (identity by
+            default).
+        period : float, optional
+            Sample period (s) of a sampled controller; None (default) for a continuous one.
+        computation_delay : bool, default False
+            With ``period``: apply each sample's command one period later.
         """
-        K = _mat("K", K, self.K.shape)
-        context.get_mutable_numeric_parameter(self._K_index).SetFromVector(K.ravel())
 
-    def gains(self, context):
-        """The gain matrix K currently held by ``context``.
+        def _construct(self, K, *, u_r=None, x_r=None, reference_port=False, u_min=None,
+                       u_max=None, S=None, period=None, computation_delay=False, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self._kw = dict(u_r=u_r, x_r=x_r, reference_port=reference_port, u_min=u_min,
+                            u_max=u_max, S=S, period=period, computation_delay=computation_delay)
+            self.K = real_matrix("K", K)
+            nu, nx = self.K.shape
+            self.S, nin = _selection(S, nx)
+            self.u_r = np.zeros(nu) if u_r is None else _mat("u_r", u_r, (1, nu)).ravel()
+            self.x_r = np.zeros(nx) if x_r is None else _mat("x_r", x_r, (1, nx)).ravel()
+            self._K_index = self.DeclareNumericParameter(BasicVector_[T](vector_of(T, self.K)))
+            self._x = self.DeclareVectorInputPort("x", nin)
+            self._xr = self.DeclareVectorInputPort("x_r", nx) if reference_port else None
+            # exact prerequisites: Drake then needs no symbolic sparsity analysis at Build()
+            prereq = {self.input_port_ticket(p.get_index()) for p in (self._x, self._xr) if p is not None}
+            self._control_output(T, nu, bounds=_bounds(nu, u_min, u_max), period=period,
+                                 computation_delay=computation_delay, hold0=self.u_r,
+                                 prerequisites=prereq | {self.all_parameters_ticket()})
 
-        Parameters
-        ----------
-        context : Context
-            This system's context.
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.K, converter=converter, **other._kw)
 
-        Returns
-        -------
-        ndarray, shape (nu, nx)
-        """
-        return context.get_numeric_parameter(self._K_index).get_value().reshape(self.K.shape)
+        def set_gains(self, context, K):
+            """Write K (shape nu x nx) into this system's parameter in ``context`` (its own
+            context).
 
-    def _raw(self, context):
-        x = self._x.Eval(context)
-        if self.S is not None:
-            x = self.S @ x
-        xr = self._xr.Eval(context) if self._xr is not None else self.x_r
-        return self.u_r + self.gains(context) @ (x - xr)
+            Parameters
+            ----------
+            context : Context
+                This system's context.
+            K : array_like, shape (nu, nx)
+                The new gain.
+            """
+            K = _mat("K", K, self.K.shape)
+            context.get_mutable_numeric_parameter(self._K_index).SetFromVector(vector_of(T, K))
+
+        def gains(self, context):
+            """The gain matrix K currently held by ``context``.
+
+            Parameters
+            ----------
+            context : Context
+                This system's context.
+
+            Returns
+            -------
+            ndarray, shape (nu, nx)
+            """
+            return value_of(context.get_numeric_parameter(self._K_index), T).reshape(self.K.shape)
+
+        def _command(self, context):
+            x = self._x.Eval(context)
+            if self.S is not None:
+                x = self.S @ x
+            xr = self._xr.Eval(context) if self._xr is not None else self.x_r
+            return self.u_r + self.gains(context) @ (x - xr)
+
+    Impl.__signature__ = template_signature(Impl._construct)
+    return Impl
+
+
+LinearStateFeedback = LinearStateFeedback_[None]
 
 
 def _controller_matrices(controller, name="controller", accepted=""):
@@ -157,163 +202,228 @@ def _controller_matrices(controller, name="controller", accepted=""):
     return AK, BK, CK, DK
 
 
-class LinearDynamicOutputFeedback(_ClippedOutput, LeafSystem):
-    """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op).
+@TemplateSystem.define("LinearDynamicOutputFeedback_")
+def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
+    """LinearDynamicOutputFeedback for scalar type T (the float one is the default)."""
 
-    The four matrices are stored in one numeric parameter (defaults: the matrices given here);
-    :meth:`set_gains` writes a new controller of the same order and sizes into a context.
-    ``feedthrough`` (default: DK given here is nonzero) fixes at construction whether ``u``
-    may depend directly on ``y``; a system built without it rejects gains with DK != 0, so the
-    declared dependency (no algebraic loop) stays true.  ``S`` (ny x m, default identity) maps
-    the m-vector on port ``y`` to the controller's measurement.  ``u_min`` / ``u_max`` clip
-    ``u`` (then ``u_raw`` is the unclipped command).  ``x0`` is the default controller state.
+    class Impl(ControlOutput, LeafSystem_[T]):
+        """Full-order dynamic controller (AK, BK, CK, DK) around operating points (y_op, u_op).
 
-    Parameters
-    ----------
-    AK, BK, CK : array_like
-        Controller matrices, shapes (nk, nk), (nk, ny), (nu, nk): x_K' = AK x_K + BK ỹ,
-        u = u_op + CK x_K + DK ỹ with ỹ = S y − y_op.
-    DK : array_like, shape (nu, ny), optional
-        Feedthrough, zero by default.
-    y_op : array_like, shape (ny,), optional
-        Measurement operating point, zero by default.
-    u_op : array_like, shape (nu,), optional
-        Input operating point, zero by default.
-    x0 : array_like, shape (nk,), optional
-        Default controller state, zero by default.
-    S : array_like, shape (ny, m), optional
-        Selection applied to the m-vector on port ``y`` (identity by default).
-    feedthrough : bool, optional
-        Whether ``u`` may depend directly on ``y`` (default: ``DK`` is nonzero).
-    u_min, u_max : float or array_like (nu,), optional
-        Elementwise clipping bounds of ``u``.
-    """
+        .. pydrake_system::
 
-    def __init__(self, AK, BK, CK, DK=None, *, y_op=None, u_op=None, x0=None, S=None,
-                 feedthrough=None, u_min=None, u_max=None):
-        super().__init__()
-        self.AK = _mat("AK", AK)
-        nk = self.AK.shape[0]
-        _mat("AK", AK, (nk, nk))
-        self.BK = _mat("BK", BK, (nk, None))
-        ny = self.BK.shape[1]
-        self.CK = _mat("CK", CK, (None, nk))
-        nu = self.CK.shape[0]
-        self.DK = np.zeros((nu, ny)) if DK is None else _mat("DK", DK, (nu, ny))
-        self.nk, self.ny, self.nu = nk, ny, nu
-        self._shapes = ((nk, nk), (nk, ny), (nu, nk), (nu, ny))
-        self.S, nin = _selection(S, ny)
-        self.y_op = np.zeros(ny) if y_op is None else _mat("y_op", y_op, (1, ny)).ravel()
-        self.u_op = np.zeros(nu) if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
-        x0 = np.zeros(nk) if x0 is None else _mat("x0", x0, (1, nk)).ravel()
-        self._bounds = _bounds(nu, u_min, u_max)
-        if feedthrough is not None and not isinstance(feedthrough, (bool, np.bool_)):
-            raise TypeError(f"feedthrough must be None, True or False, got {feedthrough!r}")
-        self.feedthrough = bool(np.any(self.DK != 0)) if feedthrough is None else bool(feedthrough)
-        if not self.feedthrough and np.any(self.DK != 0):
-            raise ValueError("DK must be zero when feedthrough=False (u would depend on y directly)")
-        self._p_index = self.DeclareNumericParameter(BasicVector(self._pack(
-            (self.AK, self.BK, self.CK, self.DK))))
-        self._y = self.DeclareVectorInputPort("y", nin)
-        self.DeclareContinuousState(BasicVector(x0))
-        # without feedthrough u depends on the controller state (and parameters) only
-        prereq = ({self.all_sources_ticket()} if self.feedthrough
-                  else {self.xc_ticket(), self.all_parameters_ticket()})
-        self.DeclareVectorOutputPort("u", nu, self._calc_u, prerequisites_of_calc=prereq)
-        if self._bounds is not None:
-            self.DeclareVectorOutputPort("u_raw", nu, self._calc_raw, prerequisites_of_calc=prereq)
+            name: LinearDynamicOutputFeedback
+            input_ports:
+            - y (alias estimated_state)
+            output_ports:
+            - u (alias control)
+            - u_raw (with u_min or u_max)
 
-    @classmethod
-    def from_controller(cls, controller, **kw):
-        """From a synthesis ``DynamicController``, an output-feedback ``SynthesisResult`` or any
-        (AK, BK, CK, DK) iterable.
+        The four matrices are stored in one numeric parameter (defaults: the matrices given
+        here); :meth:`set_gains` writes a new controller of the same order and sizes into a
+        context.  ``feedthrough`` (default: DK given here is nonzero) fixes at construction
+        whether ``u`` may depend directly on ``y``; a system built without it rejects gains
+        with DK != 0, so the declared dependency (no algebraic loop) stays true.  ``S`` (ny x m,
+        default identity) maps the m-vector on port ``y`` to the controller's measurement.
+        ``u_min`` / ``u_max`` clip ``u`` (then ``u_raw`` is the unclipped command).  ``x0`` is
+        the default controller state.  With ``period`` the controller state is discrete and
+        advances by the zero-order-hold discretization of (AK, BK), kept in the parameter
+        beside the continuous matrices (``set_gains`` recomputes it).  Converts to AutoDiffXd
+        and Expression.
 
         Parameters
         ----------
-        controller : DynamicController, SynthesisResult or tuple
-            The controller (a state-feedback result raises ``TypeError``).
-        **kw
-            Keyword arguments of the constructor (``y_op``, ``u_op``, ``x0``, ``S``,
-            ``feedthrough``, ``u_min``, ``u_max``).
-
-        Returns
-        -------
-        LinearDynamicOutputFeedback
+        AK, BK, CK : array_like
+            Controller matrices, shapes (nk, nk), (nk, ny), (nu, nk): x_K' = AK x_K + BK ỹ,
+            u = u_op + CK x_K + DK ỹ with ỹ = S y − y_op.
+        DK : array_like, shape (nu, ny), optional
+            Feedthrough, zero by default.
+        y_op : array_like, shape (ny,), optional
+            Measurement operating point, zero by default.
+        u_op : array_like, shape (nu,), optional
+            Input operating point, zero by default.
+        x0 : array_like, shape (nk,), optional
+            Default controller state, zero by default.
+        S : array_like, shape (ny, m), optional
+            Selection applied to the m-vector on port ``y`` (identity by default).
+        feedthrough : bool, optional
+            Whether ``u`` may depend directly on ``y`` (default: ``DK`` is nonzero).
+        u_min, u_max : float or array_like (nu,), optional
+            Elementwise clipping bounds of ``u``.
+        period : float, optional
+            Sample period (s) of a sampled controller; None (default) for a continuous one.
+        computation_delay : bool, default False
+            With ``period``: apply each sample's command one period later.
         """
-        return cls(*_controller_matrices(controller), **kw)
 
-    @staticmethod
-    def _pack(mats):
-        return np.concatenate([np.asarray(m, dtype=float).ravel() for m in mats])
+        _drake_names = {"estimated_state": "y", "control": "u"}
 
-    def set_gains(self, context, controller):
-        """Write ``controller`` = (AK, BK, CK, DK) (a ``DynamicController`` or any iterable; DK
-        may be None for 0) into this system's parameter in ``context`` (its own context).
+        def _construct(self, AK, BK, CK, DK=None, *, y_op=None, u_op=None, x0=None, S=None,
+                       feedthrough=None, u_min=None, u_max=None, period=None,
+                       computation_delay=False, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self._args = (AK, BK, CK, DK)
+            self._kw = dict(y_op=y_op, u_op=u_op, x0=x0, S=S, feedthrough=feedthrough,
+                            u_min=u_min, u_max=u_max, period=period,
+                            computation_delay=computation_delay)
+            self.AK = _mat("AK", AK)
+            nk = self.AK.shape[0]
+            _mat("AK", AK, (nk, nk))
+            self.BK = _mat("BK", BK, (nk, None))
+            ny = self.BK.shape[1]
+            self.CK = _mat("CK", CK, (None, nk))
+            nu = self.CK.shape[0]
+            self.DK = np.zeros((nu, ny)) if DK is None else _mat("DK", DK, (nu, ny))
+            self.nk, self.ny, self.nu = nk, ny, nu
+            self._shapes = ((nk, nk), (nk, ny), (nu, nk), (nu, ny))
+            self.S, nin = _selection(S, ny)
+            self.y_op = np.zeros(ny) if y_op is None else _mat("y_op", y_op, (1, ny)).ravel()
+            self.u_op = np.zeros(nu) if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
+            x0 = np.zeros(nk) if x0 is None else _mat("x0", x0, (1, nk)).ravel()
+            if feedthrough is not None and not isinstance(feedthrough, (bool, np.bool_)):
+                raise TypeError(f"feedthrough must be None, True or False, got {feedthrough!r}")
+            self.feedthrough = (bool(np.any(self.DK != 0)) if feedthrough is None
+                                else bool(feedthrough))
+            if not self.feedthrough and np.any(self.DK != 0):
+                raise ValueError("DK must be zero when feedthrough=False (u would depend on y "
+                                 "directly)")
+            self.period = None if period is None else positive_scalar("period", period)
+            self._p_index = self.DeclareNumericParameter(BasicVector_[T](vector_of(T, self._pack(
+                (self.AK, self.BK, self.CK, self.DK)))))
+            self._y = self.DeclareVectorInputPort("y", nin)
+            if self.period is None:
+                self.DeclareContinuousState(BasicVector_[T](vector_of(T, x0)))
+            else:
+                self._xk_index = self.DeclareDiscreteState(BasicVector_[T](vector_of(T, x0)))
+            # without feedthrough u depends on the controller state (and parameters) only
+            prereq = {self.xc_ticket(), self.all_parameters_ticket()}
+            if self.feedthrough:
+                prereq.add(self.input_port_ticket(self._y.get_index()))
+            self._control_output(T, nu, bounds=_bounds(nu, u_min, u_max), period=period,
+                                 computation_delay=computation_delay, prerequisites=prereq,
+                                 hold0=self.u_op)
 
-        The shapes must equal the construction ones (the controller order is fixed).
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, *other._args, converter=converter, **other._kw)
 
-        Parameters
-        ----------
-        context : Context
-            This system's context.
-        controller : DynamicController or tuple
-            (AK, BK, CK, DK); DK must be zero (or None) unless built with feedthrough.
-        """
-        try:
-            AK, BK, CK, DK = controller
-        except (TypeError, ValueError):
-            raise ValueError("controller must be an (AK, BK, CK, DK) tuple or DynamicController") from None
-        if DK is None:
-            DK = np.zeros(self._shapes[3])
-        mats = [_mat(n, M, s) for n, M, s in zip(("AK", "BK", "CK", "DK"), (AK, BK, CK, DK), self._shapes)]
-        if not self.feedthrough and np.any(mats[3] != 0):
-            raise ValueError("DK must be zero: this controller was built with feedthrough=False "
-                             "(pass feedthrough=True at construction to allow DK != 0)")
-        context.get_mutable_numeric_parameter(self._p_index).SetFromVector(self._pack(mats))
+        @classmethod
+        def from_controller(cls, controller, **kw):
+            """From a synthesis ``DynamicController``, an output-feedback ``SynthesisResult`` or
+            any (AK, BK, CK, DK) iterable.
 
-    def gains(self, context):
-        """(AK, BK, CK, DK) currently held by ``context``.
+            Parameters
+            ----------
+            controller : DynamicController, SynthesisResult or tuple
+                The controller (a state-feedback result raises ``TypeError``).
+            **kw
+                Keyword arguments of the constructor (``y_op``, ``u_op``, ``x0``, ``S``,
+                ``feedthrough``, ``u_min``, ``u_max``, ``period``, ``computation_delay``).
 
-        Parameters
-        ----------
-        context : Context
-            This system's context.
+            Returns
+            -------
+            LinearDynamicOutputFeedback
+            """
+            return cls(*_controller_matrices(controller), **kw)
 
-        Returns
-        -------
-        tuple of ndarray
-            (AK, BK, CK, DK).
-        """
-        p, out, k = context.get_numeric_parameter(self._p_index).get_value(), [], 0
-        for a, b in self._shapes:
-            out.append(p[k:k + a * b].reshape(a, b))
-            k += a * b
-        return tuple(out)
+        def _pack(self, mats):
+            """The parameter vector: AK, BK, CK, DK (and, sampled, the ZOH Ad, Bd of AK, BK)."""
+            mats = tuple(np.asarray(m, dtype=float) for m in mats)
+            if self.period is not None:
+                nk, ny = self._shapes[1]
+                E = scipy.linalg.expm(np.block([[mats[0], mats[1]], [np.zeros((ny, nk + ny))]])
+                                      * self.period)
+                mats += (E[:nk, :nk], E[:nk, nk:])
+            return np.concatenate([m.ravel() for m in mats])
 
-    def _xk(self, context):
-        return context.get_continuous_state_vector().CopyToVector()
+        def set_gains(self, context, controller):
+            """Write ``controller`` = (AK, BK, CK, DK) (a ``DynamicController`` or any iterable;
+            DK may be None for 0) into this system's parameter in ``context`` (its own context).
 
-    def _dy(self, context):
-        y = self._y.Eval(context)
-        if self.S is not None:
-            y = self.S @ y
-        return y - self.y_op
+            The shapes must equal the construction ones (the controller order is fixed).
 
-    def DoCalcTimeDerivatives(self, context, derivatives):
-        AK, BK, _, _ = self.gains(context)
-        derivatives.get_mutable_vector().SetFromVector(AK @ self._xk(context) + BK @ self._dy(context))
+            Parameters
+            ----------
+            context : Context
+                This system's context.
+            controller : DynamicController or tuple
+                (AK, BK, CK, DK); DK must be zero (or None) unless built with feedthrough.
+            """
+            try:
+                AK, BK, CK, DK = controller
+            except (TypeError, ValueError):
+                raise ValueError("controller must be an (AK, BK, CK, DK) tuple or "
+                                 f"DynamicController, got {type(controller).__name__}") from None
+            if DK is None:
+                DK = np.zeros(self._shapes[3])
+            mats = [_mat(n, M, s) for n, M, s in zip(("AK", "BK", "CK", "DK"), (AK, BK, CK, DK),
+                                                      self._shapes)]
+            if not self.feedthrough and np.any(mats[3] != 0):
+                raise ValueError("DK must be zero: this controller was built with "
+                                 "feedthrough=False (pass feedthrough=True at construction to "
+                                 "allow DK != 0)")
+            context.get_mutable_numeric_parameter(self._p_index).SetFromVector(
+                vector_of(T, self._pack(mats)))
 
-    def _raw(self, context):
-        _, _, CK, DK = self.gains(context)
-        u = self.u_op + CK @ self._xk(context)
-        if self.feedthrough:
-            u = u + DK @ self._dy(context)
-        return u
+        def _blocks(self, context):
+            p, out, k = value_of(context.get_numeric_parameter(self._p_index), T), [], 0
+            shapes = self._shapes + ((self._shapes[0], self._shapes[1]) if self.period else ())
+            for a, b in shapes:
+                out.append(p[k:k + a * b].reshape(a, b))
+                k += a * b
+            return out
 
+        def gains(self, context):
+            """(AK, BK, CK, DK) currently held by ``context``.
+
+            Parameters
+            ----------
+            context : Context
+                This system's context.
+
+            Returns
+            -------
+            tuple of ndarray
+                (AK, BK, CK, DK).
+            """
+            return tuple(self._blocks(context)[:4])
+
+        def _xk(self, context):
+            if self.period is None:
+                return context.get_continuous_state_vector().CopyToVector()
+            return context.get_discrete_state(self._xk_index).CopyToVector()
+
+        def _dy(self, context):
+            y = self._y.Eval(context)
+            if self.S is not None:
+                y = self.S @ y
+            return y - self.y_op
+
+        def DoCalcTimeDerivatives(self, context, derivatives):  # noqa: N802
+            if self.period is None:
+                AK, BK, _, _ = self.gains(context)
+                derivatives.get_mutable_vector().SetFromVector(self._scalar_math(
+                    lambda: AK @ self._xk(context) + BK @ self._dy(context)))
+
+        def _advance(self, context, discrete_state):
+            Ad, Bd = self._blocks(context)[4:]
+            discrete_state.get_mutable_vector(self._xk_index).SetFromVector(
+                Ad @ self._xk(context) + Bd @ self._dy(context))
+
+        def _command(self, context):
+            _, _, CK, DK = self.gains(context)
+            u = self.u_op + CK @ self._xk(context)
+            if self.feedthrough:
+                u = u + DK @ self._dy(context)
+            return u
+
+    Impl.__signature__ = template_signature(Impl._construct)
+    return Impl
+
+
+LinearDynamicOutputFeedback = LinearDynamicOutputFeedback_[None]
 
 
 def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=None,
-                      u_max=None):
+                      u_max=None, period=None, computation_delay=False):
     """A ready-to-connect Drake system for a synthesized linear controller around an
     operating point.
 
@@ -326,6 +436,9 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
       ỹ = S y − y_op): a :class:`LinearDynamicOutputFeedback` with input port ``y`` and output
       ``u``.  ``y_op`` defaults to ``S @ x_op`` when the connected signal is the plant's state
       and ``S`` selects the measurement (e.g. ``S = C``).
+
+    Both convert to AutoDiffXd and Expression (Drake's ``Linearize`` of a closed loop works)
+    and answer to Drake's port names ``estimated_state`` and ``control``.
 
     Parameters
     ----------
@@ -340,21 +453,31 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
         matrix C when the plant's full state is connected to an output-feedback controller.
     u_min, u_max : array_like, optional
         Elementwise clipping of u (then an extra output ``u_raw`` is the unclipped command).
+    period : float, optional
+        Sample period (s): a sampled controller whose first command is computed at
+        initialization (see the module docstring); None (default) for a continuous one.
+    computation_delay : bool, default False
+        With ``period``: apply each sample's command one period later.
 
     Returns
     -------
     LinearStateFeedback or LinearDynamicOutputFeedback
     """
+    sampling = dict(period=period, computation_delay=computation_delay)
     kind = getattr(result, "kind", None)
-    if kind == "state_feedback" or (kind is None and not hasattr(result, "AK")
-                                    and np.ndim(result) == 2):
+    try:
+        matrix = kind is None and not hasattr(result, "AK") and np.ndim(result) == 2
+    except ValueError:   # a ragged (AK, BK, CK, DK) tuple
+        matrix = False
+    if kind == "state_feedback" or matrix:
         K = real_matrix("K" if kind else "result", result.K if kind else result)
         if y_op is not None:
             raise TypeError("y_op is for output feedback; a state-feedback controller takes x_op")
         nu, nx = K.shape   # checked here to name x_op / u_op (LinearStateFeedback says x_r / u_r)
         x_op = None if x_op is None else _mat("x_op", x_op, (1, nx)).ravel()
         u_op = None if u_op is None else _mat("u_op", u_op, (1, nu)).ravel()
-        return LinearStateFeedback(K, u_r=u_op, x_r=x_op, S=S, u_min=u_min, u_max=u_max)
+        return LinearStateFeedback(K, u_r=u_op, x_r=x_op, S=S, u_min=u_min, u_max=u_max,
+                                   **sampling)
     AK, BK, CK, DK = _controller_matrices(result, "result", ", a state-feedback gain matrix K")
     if y_op is None and x_op is not None:
         x_op = real_matrix("x_op", np.atleast_2d(x_op)).ravel()
@@ -367,4 +490,4 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
         else:
             y_op = real_matrix("S", S) @ x_op
     return LinearDynamicOutputFeedback(AK, BK, CK, DK, y_op=y_op, u_op=u_op, S=S, u_min=u_min,
-                                       u_max=u_max)
+                                       u_max=u_max, **sampling)
