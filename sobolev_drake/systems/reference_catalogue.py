@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sobolev_drake.systems.references import (
-    Coordinate, PiecewiseTrajectory, TrajectoryReference, const, poly, sine,
-)
+from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const, poly, sine
 
 __all__ = [
     "TRAJECTORIES", "trajectory", "table_5_2", "table_5_5", "table_5_8", "table_6_3", "table_7_1",
@@ -280,9 +278,8 @@ def tiltrotor_mission_reference(scenario):
     if all(n in traj.names for n in names):
         return TrajectoryReference(traj.subset(names))
     if scenario == 1 and all(n in traj.names for n in names[:3]):  # ψ_r = 0 in scenario 1
-        zero = Coordinate(lambda t: (0.0 * np.asarray(t),) * 3, "0")
         sub = traj.subset(names[:3])
-        pieces = [list(p) + [zero] for p in sub.pieces]
+        pieces = [list(p) + [const(0.0)] for p in sub.pieces]
         return TrajectoryReference(PiecewiseTrajectory(names, pieces, sub.breakpoints,
                                                        sub.description))
     raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")

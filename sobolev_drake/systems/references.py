@@ -3,15 +3,16 @@
 A trajectory is a list of *pieces* separated by breakpoints b_0 < b_1 < …; piece k applies on
 (b_{k−1}, b_k] (the thesis writes its tables as "t ≤ 8", "8 < t ≤ 30"), the last piece for
 every t beyond the last breakpoint.  Each piece gives, for every coordinate, a
-:class:`Coordinate`: a callable of *absolute* time t returning (f, ḟ, f̈) — numpy-vectorized.
+:class:`Coordinate`: a callable of *absolute* time t returning (f, ḟ, f̈) — numpy-vectorized,
+with a float fast path and a form for any Drake scalar type (float, AutoDiffXd, Expression).
 
 :class:`PiecewiseTrajectory` is pure numpy (``evaluate(t) -> (q, qd, qdd)``);
-:class:`TrajectoryReference` wraps one as a LeafSystem with output ports ``q_r``, ``qdot_r``,
-``qddot_r`` and ``reference`` = [q_r; q̇_r; q̈_r] (size 3m), depending on time only.
+:class:`TrajectoryReference` wraps one, or a Drake ``Trajectory`` such as a
+``PiecewisePolynomial``, as a scalar-convertible LeafSystem with output ports ``q_r``,
+``qdot_r``, ``qddot_r`` and ``reference`` = [q_r; q̇_r; q̈_r] (size 3m), depending on time only.
 
-The thesis catalogue (see each function's docstring for the reconstruction of garbled tables
-and the smoothness at the breakpoints) lives in :mod:`sobolev_drake.systems.reference_catalogue` (``table_5_2``, ``table_5_5``,
-``table_5_8``, ``table_6_3``, ``table_7_1``, ``envelope_mission``), which builds on this module.
+The thesis catalogue (``table_5_2`` … ``envelope_mission``, with the reconstruction of garbled
+tables and the smoothness at the breakpoints) is :mod:`sobolev_drake.systems.reference_catalogue`.
 """
 
 from __future__ import annotations
@@ -21,12 +22,19 @@ from bisect import bisect_left
 from typing import Callable, Sequence
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+import pydrake.math as dm
+from pydrake.autodiffutils import AutoDiffXd
+from pydrake.systems.framework import BasicVector, LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
+from pydrake.trajectories import Trajectory
 
+from sobolev_drake.systems.scalar_time import (is_symbolic, piecewise, probe_scalar_type,
+                                               scalar_value, template_signature)
 from sobolev_drake.validation import real_scalar, real_vector, sequence
 
 __all__ = [
     "Coordinate", "const", "sine", "poly", "PiecewiseTrajectory", "TrajectoryReference",
+    "TrajectoryReference_",
 ]
 
 
@@ -47,12 +55,19 @@ class Coordinate:
         The same function for one Python float t returning three floats; the per-sample
         evaluation of a simulation uses it (numpy's per-call overhead dominates there).
         Default: ``fn`` converted to floats.
+    generic : callable, optional
+        The same function for one scalar t of any Drake type (float, AutoDiffXd, Expression),
+        written with ``pydrake.math`` functions; used by the AutoDiffXd and symbolic versions
+        of :class:`TrajectoryReference`.  Default: ``fn`` called with that scalar (fine for
+        arithmetic-only functions).
     """
 
-    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None):
+    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None,
+                 generic: Callable | None = None):
         self._fn = fn
         self.description = description
         self._scalar = scalar
+        self._generic = generic
 
     def scalar(self, t: float):
         """(f, ḟ, f̈) as floats at one time t.
@@ -70,6 +85,20 @@ class Coordinate:
             return self._scalar(t)
         f, df, ddf = self(t)
         return float(f), float(df), float(ddf)
+
+    def at(self, t):
+        """(f, ḟ, f̈) at one time t of any Drake scalar type (float: :meth:`scalar`).
+
+        Parameters
+        ----------
+        t : float, AutoDiffXd or Expression
+            Absolute time.
+
+        Returns
+        -------
+        f, fdot, fddot : scalars of t's type (or floats where constant)
+        """
+        return self.scalar(t) if isinstance(t, float) else tuple((self._generic or self._fn)(t))
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -96,7 +125,8 @@ def const(c: float) -> Coordinate:
         Value c, zero derivatives.
     """
     c = real_scalar("c", c)
-    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0))
+    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0),
+                      generic=lambda t: (c, 0.0, 0.0))
 
 
 def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
@@ -127,12 +157,18 @@ def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 
         arg = w * (t - s) + ph
         return c + A * np.sin(arg), A * w * np.cos(arg), -A * w * w * np.sin(arg)
 
-    def fn_scalar(t):
+    def fn_scalar(t):   # float fast path of fn_generic (math.sin on a float)
         arg = w * (t - s) + ph
         sn = math.sin(arg)
         return c + A * sn, A * w * math.cos(arg), -A * w * w * sn
 
-    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})", scalar=fn_scalar)
+    def fn_generic(t):
+        arg = w * (t - s) + ph
+        sn = dm.sin(arg)
+        return c + A * sn, A * w * dm.cos(arg), -A * w * w * sn
+
+    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})", scalar=fn_scalar,
+                      generic=fn_generic)
 
 
 def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
@@ -154,10 +190,9 @@ def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
     P = np.polynomial.Polynomial(c)
     dP, ddP = P.deriv(1), P.deriv(2)
     s = real_scalar("t0", t0)
-    # Horner on plain floats, highest power first, as numpy's polyval
-    cs = [P.coef.tolist()[::-1], dP.coef.tolist()[::-1], ddP.coef.tolist()[::-1]]
+    cs = [P.coef.tolist()[::-1], dP.coef.tolist()[::-1], ddP.coef.tolist()[::-1]]  # highest first
 
-    def fn_scalar(t):
+    def fn_scalar(t):   # any scalar type: Horner uses + and * only
         x = t - s
         out = []
         for cc in cs:
@@ -168,7 +203,7 @@ def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
         return out[0], out[1], out[2]
 
     return Coordinate(lambda t: (P(t - s), dP(t - s), ddP(t - s)), f"poly{tuple(c)} in (t-{s:g})",
-                      scalar=fn_scalar)
+                      scalar=fn_scalar, generic=fn_scalar)
 
 
 class PiecewiseTrajectory:
@@ -234,6 +269,29 @@ class PiecewiseTrajectory:
         """
         piece = self.pieces[bisect_left(self._bp, t)]   # (b_{k-1}, b_k] → piece k
         vals = [c.scalar(t) for c in piece]
+        return [v[0] for v in vals], [v[1] for v in vals], [v[2] for v in vals]
+
+    def evaluate_any(self, t):
+        """(q_r, q̇_r, q̈_r) at one time t of any Drake scalar type: float as
+        :meth:`evaluate_scalar`, AutoDiffXd on the piece of t's value (:meth:`Coordinate.at`),
+        Expression as an ``if_then_else`` over the pieces (one piece for a constant time).
+
+        Parameters
+        ----------
+        t : float, AutoDiffXd or Expression
+            Time.
+
+        Returns
+        -------
+        q_r, qdot_r, qddot_r : list, length m
+        """
+        if isinstance(t, float):
+            return self.evaluate_scalar(t)
+        if is_symbolic(t):
+            vals = piecewise(t, self._bp, [lambda p=p: np.array([c.at(t) for c in p], dtype=object)
+                                           for p in self.pieces])
+        else:
+            vals = [c.at(t) for c in self.pieces[bisect_left(self._bp, scalar_value(t))]]
         return [v[0] for v in vals], [v[1] for v in vals], [v[2] for v in vals]
 
     def index(self, name: str) -> int:
@@ -316,10 +374,9 @@ class PiecewiseTrajectory:
         """
         out = []
         for k, b in enumerate(self.breakpoints):
-            left = [np.array([c(b)[i] for c in self.pieces[k]]) for i in range(3)]
-            right = [np.array([c(b)[i] for c in self.pieces[k + 1]]) for i in range(3)]
-            out.append({"t": float(b), "q": right[0] - left[0], "qd": right[1] - left[1],
-                        "qdd": right[2] - left[2]})
+            d = [np.array([c(b)[i] for c in self.pieces[k + 1]]) - np.array([c(b)[i] for c in self.pieces[k]])
+                 for i in range(3)]
+            out.append({"t": float(b), "q": d[0], "qd": d[1], "qdd": d[2]})
         return out
 
     def smoothness(self, tol: float = 1e-6) -> list[dict]:
@@ -338,68 +395,126 @@ class PiecewiseTrajectory:
         rows = []
         for j in self.jumps():
             for i, name in enumerate(self.names):
-                if abs(j["q"][i]) > tol:
-                    cls = "jump"
-                elif abs(j["qd"][i]) > tol:
-                    cls = "C0"
-                elif abs(j["qdd"][i]) > tol:
-                    cls = "C1"
-                else:
-                    cls = "C2+"
+                cls = ("jump" if abs(j["q"][i]) > tol else "C0" if abs(j["qd"][i]) > tol
+                       else "C1" if abs(j["qdd"][i]) > tol else "C2+")
                 rows.append({"t": j["t"], "name": name, "class": cls})
         return rows
 
 
-class TrajectoryReference(LeafSystem):
-    """LeafSystem emitting a :class:`PiecewiseTrajectory` (time-only outputs, no inputs).
+@TemplateSystem.define("TrajectoryReference_")
+def TrajectoryReference_(T):   # the class for scalar type T (float, AutoDiffXd, Expression)
 
-    Output ports: ``q_r`` (m), ``qdot_r`` (m), ``qddot_r`` (m), ``reference`` (3m, stacked
-    [q_r; q̇_r; q̈_r]).  ``evaluate(t)`` is the pure-numpy equivalent; ``names`` lists the
-    coordinates in output order.
+    class Impl(LeafSystem_[T]):
+        """Reference (q_r, q̇_r, q̈_r) of a trajectory as a time-only source (no inputs).
 
-    Parameters
-    ----------
-    trajectory : PiecewiseTrajectory
-        The trajectory emitted.
-    """
+        ``trajectory``: a :class:`PiecewiseTrajectory` or a one-column Drake ``Trajectory`` (e.g.
+        ``PiecewisePolynomial``; value and ``MakeDerivative`` derivatives, the end values held
+        with zero rates outside its span, as ``TrajectorySource``).  Scalar-convertible: a
+        PiecewiseTrajectory is evaluated in the scalar type (symbolic time too), a Drake
+        Trajectory<double> at the time's value (chain rule for AutoDiffXd; constant symbolic
+        time only).  ``evaluate(t)`` is the numpy equivalent; ``names`` the coordinates.
 
-    def __init__(self, trajectory: PiecewiseTrajectory):
-        super().__init__()
-        if not isinstance(trajectory, PiecewiseTrajectory):
-            raise TypeError(f"trajectory must be a PiecewiseTrajectory, got {type(trajectory).__name__}")
-        self.trajectory = trajectory
-        self.names = list(trajectory.names)
-        self.m = trajectory.m
-        self.description = trajectory.description
-        time_only = {self.time_ticket()}
-        self.DeclareVectorOutputPort("q_r", self.m, self._calc_q, prerequisites_of_calc=time_only)
-        self.DeclareVectorOutputPort("qdot_r", self.m, self._calc_qd, prerequisites_of_calc=time_only)
-        self.DeclareVectorOutputPort("qddot_r", self.m, self._calc_qdd, prerequisites_of_calc=time_only)
-        self.DeclareVectorOutputPort("reference", 3 * self.m, self._calc_all, prerequisites_of_calc=time_only)
+        .. pydrake_system::
 
-    def evaluate(self, t):
-        """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`).
+            name: TrajectoryReference
+            output_ports:
+            - q_r
+            - qdot_r
+            - qddot_r
+            - reference
 
         Parameters
         ----------
-        t : float or array_like, shape (N,)
-            Finite time(s).
-
-        Returns
-        -------
-        q_r, qdot_r, qddot_r : ndarray, shape (m,) or (N, m)
+        trajectory : PiecewiseTrajectory or pydrake.trajectories.Trajectory
+            The trajectory emitted (a Drake one with ``cols() == 1``).
+        names : sequence of str, optional
+            Coordinate names of a Drake trajectory (default q0, q1, …); not for a
+            PiecewiseTrajectory, which names its own.
         """
-        return self.trajectory.evaluate(t)
 
-    def _calc_q(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[0])
+        def _construct(self, trajectory, names=None, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self._derivs = None
+            if isinstance(trajectory, PiecewiseTrajectory):
+                if names is not None:
+                    raise ValueError(f"names must be None for a PiecewiseTrajectory (named "
+                                     f"{trajectory.names}; see subset()), got {names!r}")
+                names, self.description = list(trajectory.names), trajectory.description
+            elif isinstance(trajectory, Trajectory):
+                if trajectory.cols() != 1 or trajectory.rows() < 1:
+                    raise ValueError(f"trajectory must have one column and at least one row, got "
+                                     f"{trajectory.rows()}x{trajectory.cols()}")
+                names = sequence("names", [f"q{i}" for i in range(trajectory.rows())] if names is None
+                                 else names, "coordinate-name strings")
+                if len(names) != trajectory.rows() or not all(isinstance(n, str) for n in names):
+                    raise ValueError(f"names must be {trajectory.rows()} strings, got {names!r}")
+                self._derivs = [trajectory]
+                for _ in range(3):   # q̇, q̈ and q⃛ (the AutoDiffXd chain rule of q̈)
+                    self._derivs.append(self._derivs[-1].MakeDerivative())
+                self.description = f"{type(trajectory).__name__} from {trajectory.start_time()} s"
+            else:
+                raise TypeError(f"trajectory must be a PiecewiseTrajectory or a pydrake Trajectory "
+                                f"(e.g. PiecewisePolynomial), got {type(trajectory).__name__}")
+            if T is not float and self._derivs is None:   # refuse float-only Coordinates up front
+                bp = trajectory.breakpoints
+                for k, (piece, tk) in enumerate(zip(trajectory.pieces, list(bp) + [bp[-1] + 1 if bp.size else 0])):
+                    for name, c in zip(trajectory.names, piece):
+                        probe_scalar_type(T, "TrajectoryReference", f"coordinate {name!r} of piece {k} ({c!r})",
+                                          c.at, tk, "give it a generic= function (pydrake.math), or use const/sine/poly")
+            self.trajectory, self.names, m = trajectory, list(names), len(names)
+            self.m, time_only = m, {self.time_ticket()}
+            for k, name in enumerate(("q_r", "qdot_r", "qddot_r")):   # slices of ``reference``
+                self.DeclareVectorOutputPort(name, m, lambda c, out, k=k: out.SetFromVector(
+                    self._ref.Eval(c)[k * m:(k + 1) * m]), prerequisites_of_calc=time_only)
+            self._ref = self.DeclareVectorOutputPort("reference", 3 * m, self._calc_all,
+                                                     prerequisites_of_calc=time_only)
 
-    def _calc_qd(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[1])
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.trajectory, None if other._derivs is None else other.names,
+                            converter=converter)
 
-    def _calc_qdd(self, context, output: BasicVector):
-        output.SetFromVector(self.trajectory.evaluate_scalar(context.get_time())[2])
+        __signature__ = template_signature(_construct)
 
-    def _calc_all(self, context, output: BasicVector):
-        q, qd, qdd = self.trajectory.evaluate_scalar(context.get_time())
-        output.SetFromVector(q + qd + qdd)
+        def evaluate(self, t):
+            """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`).
+
+            Parameters
+            ----------
+            t : float or array_like, shape (N,)
+                Finite time(s).
+
+            Returns
+            -------
+            q_r, qdot_r, qddot_r : ndarray, shape (m,) or (N, m)
+            """
+            if self._derivs is None:
+                return self.trajectory.evaluate(t)
+            tt = real_vector("t", np.atleast_1d(t))
+            out = np.array([self._eval_drake(float(ti))[:3] for ti in tt])   # (N, 3, m)
+            return tuple(out[0, k] if np.ndim(t) == 0 else out[:, k] for k in range(3))
+
+        def _eval_drake(self, t):   # [q, q̇, q̈, q⃛] at float t (zero rates outside the span)
+            traj = self.trajectory
+            inside = traj.start_time() <= t <= traj.end_time()
+            return [d.value(t)[:, 0] if (k == 0 or inside) else np.zeros(self.m)
+                    for k, d in enumerate(self._derivs)]
+
+        def _calc_all(self, context, output: BasicVector):
+            t = context.get_time()
+            if self._derivs is None:
+                return output.SetFromVector(sum(self.trajectory.evaluate_any(t), []))
+            if is_symbolic(t) and not t.GetVariables().empty():
+                raise ValueError(f"TrajectoryReference {self.GetSystemPathname()} holds a Drake Trajectory "
+                                 f"evaluated in double: the time must be a constant, got {t}; use a "
+                                 "PiecewiseTrajectory (const/sine/poly pieces) for a symbolic time")
+            vals = self._eval_drake(scalar_value(t))
+            if isinstance(t, AutoDiffXd):   # d/dθ f(t(θ)) = ḟ(t) ∂t/∂θ
+                dt = t.derivatives()
+                vals = [[AutoDiffXd(v, dv * dt) for v, dv in zip(vals[k], vals[k + 1])]
+                        for k in range(3)]
+            output.SetFromVector(np.concatenate(vals[:3]))
+
+    return Impl
+
+
+TrajectoryReference = TrajectoryReference_[None]

@@ -34,24 +34,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import linalg, signal
-from pydrake.common import RandomDistribution, RandomGenerator
-from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import RandomSource
+from pydrake.systems.framework import BasicVector_, Diagram, DiagramBuilder, LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.models.base import check_vector
+from sobolev_drake.systems.disturbances import HeldGaussianNoise
+from sobolev_drake.systems.scalar_time import interval_indicator, smooth_window, template_signature
 
 __all__ = [
     "VonKarmanParameters", "von_karman_transfer_functions", "von_karman_state_space",
     "von_karman_psd", "von_karman_psd_hz", "discrete_filter", "simulate_discrete",
     "VonKarmanTurbulence", "ConstantWind", "GustProfile", "WindSum", "add_wind",
     "hover_linear_turbulence", "mission_wind_sources",
+    "VonKarmanFilter_", "ConstantWind_", "GustProfile_", "WindSum_",
 ]
 
 AXES = {"x": 0, "y": 1, "z": 2}
-
-
-def _vec3(name, value) -> np.ndarray:
-    return check_vector(name, value, 3)
 
 
 @dataclass
@@ -79,7 +77,7 @@ class VonKarmanParameters:
             raise ValueError(f"sample_time must be positive, got {self.sample_time}")
         if not self.t_on < self.t_off:
             raise ValueError(f"need t_on < t_off, got [{self.t_on}, {self.t_off}]")
-        _vec3("offset", self.offset)
+        check_vector("offset", self.offset, 3)
         return self
 
 
@@ -118,11 +116,8 @@ def von_karman_state_space(params: VonKarmanParameters | None = None):
     for sigma, (num, den) in zip(p.sigma, _unit_sigma_tfs(p)):
         a, b, c, _ = signal.tf2ss(num, den)  # realize the σ = 1 form so σ = 0 stays well defined
         blocks.append((a, b, c * float(sigma)))
-    A = linalg.block_diag(*[b[0] for b in blocks])
-    B = linalg.block_diag(*[b[1] for b in blocks])
-    C = linalg.block_diag(*[b[2] for b in blocks])
-    D = np.zeros((3, 3))
-    return A, B, C, D
+    A, B, C = (linalg.block_diag(*[blk[i] for blk in blocks]) for i in range(3))
+    return A, B, C, np.zeros((3, 3))
 
 
 def von_karman_psd(omega, params: VonKarmanParameters | None = None) -> np.ndarray:
@@ -174,8 +169,7 @@ def simulate_discrete(noise, params: VonKarmanParameters | None = None, x0=None)
     Ad, Bd, C = discrete_filter(p)
     if x0 is None:
         out = np.empty_like(nu)
-        idx = [slice(0, 2), slice(2, 5), slice(5, 8)]
-        for axis, s in enumerate(idx):
+        for axis, s in enumerate([slice(0, 2), slice(2, 5), slice(5, 8)]):
             if not np.any(C[axis, s]):  # σ = 0 on this axis
                 out[:, axis] = 0.0
                 continue
@@ -191,60 +185,95 @@ def simulate_discrete(noise, params: VonKarmanParameters | None = None, x0=None)
     return out
 
 
-class _VonKarmanFilter(LeafSystem):
-    """Continuous state-space filter of (7.58)–(7.60); input ``noise`` = unit-variance samples."""
+@TemplateSystem.define("VonKarmanFilter_")
+def VonKarmanFilter_(T):   # the class for scalar type T (float, AutoDiffXd, Expression)
 
-    def __init__(self, params: VonKarmanParameters):
-        super().__init__()
-        self._p = params
-        self._A, B, self._C, _ = von_karman_state_space(params)
-        self._B = B * math.sqrt(math.pi / params.sample_time)
-        self._offset = np.asarray(params.offset, dtype=float)
-        self._noise = self.DeclareVectorInputPort("noise", 3)
-        self.DeclareContinuousState(self._A.shape[0])
-        # Output depends on time and state only: no direct feedthrough from the noise input.
-        self.DeclareVectorOutputPort("wind", 3, self._calc_wind,
-                                     prerequisites_of_calc={self.time_ticket(), self.xc_ticket()})
+    class Impl(LeafSystem_[T]):
+        """Filter (7.58)–(7.60) of unit-variance samples ν: ẋ = A x + √(π/Δt) B ν, wind =
+        offset + [t_on ≤ t ≤ t_off]·C x (offset: numeric parameter 0; A, B, C, window fixed).
 
-    def DoCalcTimeDerivatives(self, context, derivatives):
-        x = context.get_continuous_state_vector().CopyToVector()
-        nu = self._noise.Eval(context)
-        derivatives.get_mutable_vector().SetFromVector(self._A @ x + self._B @ nu)
+        .. pydrake_system::
 
-    def _calc_wind(self, context, output):
-        t = context.get_time()
-        gust = np.zeros(3)
-        if self._p.t_on <= t <= self._p.t_off:
-            gust = self._C @ context.get_continuous_state_vector().CopyToVector()
-        output.SetFromVector(self._offset + gust)
+            name: VonKarmanFilter
+            input_ports:
+            - noise
+            output_ports:
+            - wind
+
+        Parameters
+        ----------
+        params : VonKarmanParameters
+            Turbulence parameters (validated).
+        """
+
+        def _construct(self, params, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.params = params.validate()
+            self._A, B, self._C, _ = von_karman_state_space(params)
+            self._B = B * math.sqrt(math.pi / params.sample_time)
+            self._noise = self.DeclareVectorInputPort("noise", 3)
+            self.DeclareContinuousState(self._A.shape[0])
+            self.DeclareNumericParameter(BasicVector_[T](np.asarray(params.offset, dtype=float)))
+            # Output depends on time, state and offset only: no direct feedthrough from the noise.
+            self.DeclareVectorOutputPort("wind", 3, self._calc_wind, prerequisites_of_calc={
+                self.time_ticket(), self.xc_ticket(), self.all_parameters_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.params, converter=converter)
+
+        __signature__ = template_signature(_construct)
+
+        def DoCalcTimeDerivatives(self, context, derivatives):
+            x = context.get_continuous_state_vector().CopyToVector()
+            derivatives.get_mutable_vector().SetFromVector(self._A @ x + self._B @ self._noise.Eval(context))
+
+        def _calc_wind(self, context, output):
+            on = interval_indicator(context.get_time(), self.params.t_on, self.params.t_off)
+            x = context.get_continuous_state_vector().CopyToVector()
+            output.SetFromVector(context.get_numeric_parameter(0).CopyToVector() + on * (self._C @ x))
+
+    return Impl
 
 
 class VonKarmanTurbulence(Diagram):
-    """Von Kármán turbulence (7.58)–(7.60) driven by Drake's seeded ``RandomSource``.
+    """Von Kármán turbulence (7.58)–(7.60) driven by seeded held Gaussian noise.
 
-    Internals: ``RandomSource`` (Gaussian, 3 channels, sampling interval Δt, unit variance,
-    samples held over Δt) → 8-state continuous filter with input gain √(π/Δt) (intensity π,
-    module docstring) → output ``wind`` = offset + [t_on ≤ t ≤ t_off]·C x.  The filter runs
-    from t = 0 regardless of the window, so gusts switched on at t_on are already stationary if
-    t_on ≳ 20 s; :meth:`seed` can also start the filter in its stationary distribution.
+    Internals: :class:`~sobolev_drake.systems.disturbances.HeldGaussianNoise` (3 unit-variance
+    channels held over Δt, output ``noise``) → 8-state filter ``VonKarmanFilter_`` with input
+    gain √(π/Δt) (intensity π, module docstring) → ``wind`` = offset + [t_on ≤ t ≤ t_off]·C x.
+    The filter runs from t = 0 regardless of the window (stationary by t_on ≳ 20 s);
+    :meth:`seed` can also start it in its stationary distribution.
 
-    Reproducibility: the default context uses Drake's default seed; call
-    ``turbulence.seed(root_context, seed)`` (or ``SetRandomContext`` on the root diagram) for a
-    chosen realization.  Each sample instant is a discrete event for the simulator (the
-    RandomSource draws at t = 0, Δt, 2Δt, …; the value held on [kΔt, (k+1)Δt) is the one drawn
-    at kΔt, so :func:`simulate_discrete` reproduces the output at the sample instants).
+    .. pydrake_system::
+
+        name: VonKarmanTurbulence
+        output_ports:
+        - wind
+        - noise
+
+    Sample k, held on [kΔt, (k+1)Δt), is a function of (seed, k) (:meth:`seed`), so
+    :func:`simulate_discrete` reproduces the output at the sample instants.  Converts to
+    AutoDiffXd and Expression (a plain Diagram, same noise; ``SetTimeStateAndParametersFrom``).
+
+    Parameters
+    ----------
+    params : VonKarmanParameters, optional
+        Default: the thesis values.
+    seed : int, default 0
+        Default seed of the noise (give distinct seeds to independent sources).
+    **overrides
+        Fields of :class:`VonKarmanParameters` replacing those of ``params``.
     """
 
-    def __init__(self, params: VonKarmanParameters | None = None, **overrides):
+    def __init__(self, params: VonKarmanParameters | None = None, *, seed: int = 0, **overrides):
         super().__init__()
         p = params if params is not None else VonKarmanParameters()
         if overrides:
             p = VonKarmanParameters(**{**p.__dict__, **overrides})
         self.params = p.validate()
         builder = DiagramBuilder()
-        self.noise = builder.AddNamedSystem(
-            "white_noise", RandomSource(RandomDistribution.kGaussian, 3, p.sample_time))
-        self.filter = builder.AddNamedSystem("von_karman_filter", _VonKarmanFilter(p))
+        self.noise = builder.AddNamedSystem("white_noise", HeldGaussianNoise(3, p.sample_time, seed))
+        self.filter = builder.AddNamedSystem("von_karman_filter", VonKarmanFilter_[None](p))
         builder.Connect(self.noise.get_output_port(0), self.filter.GetInputPort("noise"))
         builder.ExportOutput(self.filter.GetOutputPort("wind"), "wind")
         builder.ExportOutput(self.noise.get_output_port(0), "noise")
@@ -252,7 +281,7 @@ class VonKarmanTurbulence(Diagram):
         self.set_name("von_karman_turbulence")
 
     def stationary_covariance(self) -> np.ndarray:
-        """Stationary filter-state covariance P: A P + P Aᵀ + π B Bᵀ = 0."""
+        """Stationary filter-state covariance P (8×8): A P + P Aᵀ + π B Bᵀ = 0."""
         A, B, _, _ = von_karman_state_space(self.params)
         return linalg.solve_continuous_lyapunov(A, -math.pi * B @ B.T)
 
@@ -267,109 +296,183 @@ class VonKarmanTurbulence(Diagram):
         With ``stationary`` the filter state is drawn from its stationary Gaussian distribution
         (numpy generator seeded with ``seed``), otherwise it starts at zero.
         """
-        if not isinstance(seed, (int, np.integer)) or seed < 0:
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-        noise_ctx = self.noise.GetMyMutableContextFromRoot(root_context)
-        self.noise.SetRandomContext(noise_ctx, RandomGenerator(int(seed)))
-        filt_ctx = self.filter.GetMyMutableContextFromRoot(root_context)
+        self.noise.set_seed(self.noise.GetMyMutableContextFromRoot(root_context), int(seed))
         x0 = np.zeros(self.filter.num_continuous_states())
         if stationary:
             P = self.stationary_covariance()
             w, V = np.linalg.eigh(0.5 * (P + P.T))
             x0 = V @ (np.sqrt(np.clip(w, 0.0, None)) * np.random.default_rng(int(seed)).standard_normal(len(w)))
-        filt_ctx.SetContinuousState(x0)
+        self.filter.GetMyMutableContextFromRoot(root_context).SetContinuousState(x0)
 
 
-class ConstantWind(LeafSystem):
-    """Constant inertial wind ζ (output ``wind``); thesis scenario 1 uses ζ = [0, 3, 0]."""
+@TemplateSystem.define("ConstantWind_")
+def ConstantWind_(T):   # the class for scalar type T (float, AutoDiffXd, Expression)
 
-    def __init__(self, wind):
-        super().__init__()
-        self._wind = _vec3("wind", wind).copy()
-        self.DeclareVectorOutputPort("wind", 3, self._calc, prerequisites_of_calc={self.nothing_ticket()})
+    class Impl(LeafSystem_[T]):
+        """Constant inertial wind ζ (numeric parameter 0); thesis scenario 1 uses ζ = [0, 3, 0].
 
-    def _calc(self, context, output):
-        output.SetFromVector(self._wind)
+        .. pydrake_system::
 
+            name: ConstantWind
+            output_ports:
+            - wind
 
-def _smooth_window(t: float, t0: float, t1: float, rise: float) -> float:
-    """1 on [t0, t1]; with rise > 0, cosine ramps of length ``rise`` centred on t0 and t1."""
-    if rise <= 0.0:
-        return 1.0 if t0 <= t <= t1 else 0.0
+        Parameters
+        ----------
+        wind : array_like, shape (3,)
+            Default ζ (m/s, inertial frame).
+        """
 
-    def step(x):  # smooth step 0 → 1 over [−rise/2, rise/2]
-        if x <= -0.5 * rise:
-            return 0.0
-        if x >= 0.5 * rise:
-            return 1.0
-        return 0.5 - 0.5 * math.cos(math.pi * (x / rise + 0.5))
+        def _construct(self, wind, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.wind = check_vector("wind", wind, 3).copy()
+            self.DeclareNumericParameter(BasicVector_[T](self.wind))
+            self.DeclareVectorOutputPort("wind", 3, lambda c, out: out.SetFromVector(
+                c.get_numeric_parameter(0).CopyToVector()), {self.all_parameters_ticket()})
 
-    return step(t - t0) - step(t - t1)
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.wind, converter=converter)
 
+        __signature__ = template_signature(_construct)
 
-class GustProfile(LeafSystem):
-    """Piecewise-constant gusts {axis, value, from, to} (the json ``wind_gusts``) → ``wind``.
-
-    ``rise_time`` > 0 replaces each step by a half-cosine ramp of that length centred on the step
-    (the gust's time integral is unchanged); rise_time must not exceed any gust's duration.
-    Overlapping gusts on the same axis add.
-    """
-
-    def __init__(self, gusts, *, rise_time: float = 0.0):
-        super().__init__()
-        if not (np.isfinite(rise_time) and rise_time >= 0):
-            raise ValueError(f"rise_time must be a finite non-negative number, got {rise_time}")
-        self._gusts = []
-        for i, g in enumerate(gusts):
-            try:
-                axis, value, t0, t1 = g["axis"], float(g["value"]), float(g["from"]), float(g["to"])
-            except (KeyError, TypeError) as exc:
-                raise ValueError(f"gusts[{i}] must be a mapping with keys axis, value, from, to; got {g!r}") from exc
-            if axis not in AXES:
-                raise ValueError(f"gusts[{i}]['axis'] must be one of 'x', 'y', 'z', got {axis!r}")
-            if not np.isfinite(value):
-                raise ValueError(f"gusts[{i}]['value'] must be a finite wind speed (m/s), got {value!r}")
-            if not t0 < t1:
-                raise ValueError(f"gusts[{i}] needs from < to, got [{t0}, {t1}]")
-            if rise_time > t1 - t0:
-                raise ValueError(f"rise_time {rise_time} exceeds the duration of gusts[{i}] ({t1 - t0} s)")
-            self._gusts.append((AXES[axis], value, t0, t1))
-        self._rise = float(rise_time)
-        self.DeclareVectorOutputPort("wind", 3, self._calc, prerequisites_of_calc={self.time_ticket()})
-
-    def value(self, t: float) -> np.ndarray:
-        """Wind at time t (pure numpy, also used by the output port)."""
-        w = np.zeros(3)
-        for axis, value, t0, t1 in self._gusts:
-            w[axis] += value * _smooth_window(t, t0, t1, self._rise)
-        return w
-
-    def _calc(self, context, output):
-        output.SetFromVector(self.value(context.get_time()))
+    return Impl
 
 
-class WindSum(LeafSystem):
-    """Sum of ``num_inputs`` wind inputs ``wind_0`` … ``wind_{N−1}`` → output ``wind``."""
+ConstantWind = ConstantWind_[None]
 
-    def __init__(self, num_inputs: int):
-        super().__init__()
-        if not isinstance(num_inputs, (int, np.integer)) or num_inputs < 1:
-            raise ValueError(f"num_inputs must be a positive integer, got {num_inputs!r}")
-        self._inputs = [self.DeclareVectorInputPort(f"wind_{i}", 3) for i in range(num_inputs)]
-        self.DeclareVectorOutputPort("wind", 3, self._calc)
 
-    def _calc(self, context, output):
-        total = np.zeros(3)
-        for port in self._inputs:
-            total += port.Eval(context)
-        output.SetFromVector(total)
+@TemplateSystem.define("GustProfile_")
+def GustProfile_(T):   # the class for scalar type T (float, AutoDiffXd, Expression)
+
+    class Impl(LeafSystem_[T]):
+        """Piecewise-constant gusts {axis, value, from, to} (the json ``wind_gusts``) → ``wind``.
+
+        ``rise_time`` > 0 replaces each step by a half-cosine ramp of that length centred on the
+        step (same time integral; at most any gust's duration).  Overlapping gusts on one axis
+        add.  The gust values are numeric parameter 0 (one per gust); axes and times are fixed.
+
+        .. pydrake_system::
+
+            name: GustProfile
+            output_ports:
+            - wind
+
+        Parameters
+        ----------
+        gusts : sequence of dict
+            ``{"axis": "x"|"y"|"z", "value": m/s, "from": t0, "to": t1}``.
+        rise_time : float, default 0.0
+            Length of the cosine ramps (s).
+        """
+
+        def _construct(self, gusts, *, rise_time=0.0, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            if not (np.isfinite(rise_time) and rise_time >= 0):
+                raise ValueError(f"rise_time must be a finite non-negative number, got {rise_time}")
+            self._gusts = []
+            for i, g in enumerate(gusts):
+                try:
+                    axis, value, t0, t1 = g["axis"], float(g["value"]), float(g["from"]), float(g["to"])
+                except (KeyError, TypeError) as exc:
+                    raise ValueError(f"gusts[{i}] must be a mapping with keys axis, value, from, to; got {g!r}") from exc
+                if axis not in AXES:
+                    raise ValueError(f"gusts[{i}]['axis'] must be one of 'x', 'y', 'z', got {axis!r}")
+                if not np.isfinite(value):
+                    raise ValueError(f"gusts[{i}]['value'] must be a finite wind speed (m/s), got {value!r}")
+                if not t0 < t1:
+                    raise ValueError(f"gusts[{i}] needs from < to, got [{t0}, {t1}]")
+                if rise_time > t1 - t0:
+                    raise ValueError(f"rise_time {rise_time} exceeds the duration of gusts[{i}] ({t1 - t0} s)")
+                self._gusts.append((AXES[axis], value, t0, t1))
+            self.gusts = [{"axis": "xyz"[a], "value": v, "from": t0, "to": t1} for a, v, t0, t1 in self._gusts]
+            self._rise = float(rise_time)
+            if self._gusts:
+                self.DeclareNumericParameter(BasicVector_[T]([g[1] for g in self._gusts]))
+            self.DeclareVectorOutputPort("wind", 3, self._calc, prerequisites_of_calc={
+                self.time_ticket(), self.all_parameters_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.gusts, rise_time=other._rise, converter=converter)
+
+        __signature__ = template_signature(_construct)
+
+        def _wind(self, t, values):
+            w = [0.0, 0.0, 0.0]
+            for (axis, _, t0, t1), value in zip(self._gusts, values):
+                w[axis] = w[axis] + value * smooth_window(t, t0, t1, self._rise)
+            return w
+
+        def value(self, t: float) -> np.ndarray:
+            """Wind at time t with the default gust values (numpy; the port's float path).
+
+            Parameters
+            ----------
+            t : float
+                Time (s).
+
+            Returns
+            -------
+            ndarray, shape (3,)
+            """
+            return np.array(self._wind(float(t), [g[1] for g in self._gusts]))
+
+        def _calc(self, context, output):
+            values = context.get_numeric_parameter(0).CopyToVector() if self._gusts else ()
+            output.SetFromVector(self._wind(context.get_time(), values))
+
+    return Impl
+
+
+GustProfile = GustProfile_[None]
+
+
+@TemplateSystem.define("WindSum_")
+def WindSum_(T):   # the class for scalar type T (float, AutoDiffXd, Expression)
+
+    class Impl(LeafSystem_[T]):
+        """Sum of ``num_inputs`` wind inputs ``wind_0`` … ``wind_{N−1}`` → output ``wind``.
+
+        .. pydrake_system::
+
+            name: WindSum
+            input_ports:
+            - wind_0
+            - ...
+            - wind_{N-1}
+            output_ports:
+            - wind
+
+        Parameters
+        ----------
+        num_inputs : int
+            N ≥ 1.
+        """
+
+        def _construct(self, num_inputs, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            if isinstance(num_inputs, bool) or not isinstance(num_inputs, (int, np.integer)) or num_inputs < 1:
+                raise ValueError(f"num_inputs must be a positive integer, got {num_inputs!r}")
+            self.num_inputs, self._inputs = int(num_inputs), [
+                self.DeclareVectorInputPort(f"wind_{i}", 3) for i in range(num_inputs)]
+            self.DeclareVectorOutputPort("wind", 3, lambda c, out: out.SetFromVector(   # per entry:
+                [sum(v) for v in zip(*(p.Eval(c) for p in self._inputs))]))    # no numpy object loop
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.num_inputs, converter=converter)
+
+        __signature__ = template_signature(_construct)
+
+    return Impl
+
+
+WindSum = WindSum_[None]
 
 
 def add_wind(builder, *sources):
-    """Add wind ``sources`` (systems with a ``wind`` output) to ``builder``; return the total port.
-
-    One source → its own ``wind`` port; several → a :class:`WindSum` of them.
-    """
+    """Add wind ``sources`` (systems with a ``wind`` output) to ``builder``; return the total
+    port (one source's own, or a :class:`WindSum` of several)."""
     if not sources:
         raise ValueError("add_wind needs at least one wind source")
     for s in sources:
