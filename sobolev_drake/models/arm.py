@@ -20,6 +20,9 @@ The printed matrix is kept as a reading (``inertia="thesis-printed"``,
 (docs/experiments/manipulator.md).  It is not an Euler–Lagrange model (the printed C is not
 built from its Christoffel symbols), so no URDF has it: the plant stays the physical
 MultibodyPlant and its adapter applies the force that makes it follow the printed equations.
+
+The closed forms and B accept arrays of Drake scalars (``AutoDiffXd``, ``Expression``) as well
+as numbers, so scalar-converted controllers and adapters (``Linearize``) can use them.
 """
 
 from __future__ import annotations
@@ -29,10 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
-from sobolev_drake.models.base import MechanicalModel, check_vector
+from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.handles import (PlantHandles, UrdfEditor, attach_adapter, build_plant,
                                           coordinate_map, urdf_text,
                                           verify_against_closed_forms)
+from sobolev_drake.models.scalar_terms import scalar_vector
 from sobolev_drake.validation import check_parameter_fields
 
 __all__ = ["ArmParams", "INERTIA_READINGS", "TwoLinkArmModel", "ThesisPrintedArmModel",
@@ -130,7 +134,7 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2, 2)
             M(q).
         """
-        q = check_vector("q", q, 2)
+        q = scalar_vector("q", q, 2)
         p = self.params
         c2 = np.cos(q[1])
         d11 = p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2 * c2) + p.I1 + p.I2
@@ -152,7 +156,7 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2, 2)
             The printed M(q).
         """
-        q = check_vector("q", q, 2)
+        q = scalar_vector("q", q, 2)
         p = self.params
         c2 = np.cos(q[1])
         d11 = (p.m1 * p.lc1**2 + p.m2 * (p.l1**2 + p.lc2**2 + 2 * p.l1 * p.lc2**2 + 2 * p.l1 * p.lc2 * c2)
@@ -174,8 +178,8 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2, 2)
             C(q, q̇).
         """
-        q = check_vector("q", q, 2)
-        qdot = check_vector("qdot", qdot, 2)
+        q = scalar_vector("q", q, 2)
+        qdot = scalar_vector("qdot", qdot, 2)
         p = self.params
         h = -p.m2 * p.l1 * p.lc2 * np.sin(q[1])
         return np.array([[h * qdot[1], h * (qdot[0] + qdot[1])], [-h * qdot[0], 0.0]])
@@ -193,7 +197,7 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2,)
             C(q, q̇) q̇.
         """
-        return self.C_closed_form(q, qdot) @ check_vector("qdot", qdot, 2)
+        return self.C_closed_form(q, qdot) @ scalar_vector("qdot", qdot, 2)
 
     def g_closed_form(self, q) -> np.ndarray:
         """Gravity vector g(q) of (5.122).
@@ -208,7 +212,7 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2,)
             g(q).
         """
-        q = check_vector("q", q, 2)
+        q = scalar_vector("q", q, 2)
         p = self.params
         g2 = p.m2 * p.lc2 * p.g * np.cos(q[0] + q[1])
         return np.array([(p.m1 * p.lc1 + p.m2 * p.l1) * p.g * np.cos(q[0]) + g2, g2])
@@ -226,7 +230,7 @@ class TwoLinkArmModel(MechanicalModel):
         ndarray, shape (2, 2)
             The identity.
         """
-        check_vector("q", q, 2)
+        scalar_vector("q", q, 2)
         return np.eye(2)
 
 

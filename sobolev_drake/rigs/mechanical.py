@@ -153,8 +153,8 @@ def run_loop(loop: MechanicalLoop, inner, duration, q0, qd0, *, label="", accura
         "x", "u", "ref", "w", "ei" (samples × size), "t", "failed" (empty or the reason),
         "label".
     """
-    loop.controller.set_inner(inner)
     ctx = loop.simulator.get_mutable_context()
+    loop.controller.set_inner(inner, ctx)
     ctx.SetTime(0.0)
     loop.handles.set_state(ctx, loop.diagram, q0, qd0)
     cctx = loop.controller.GetMyMutableContextFromRoot(ctx)

@@ -4,89 +4,32 @@
 inner law (:class:`SobolevLaw` or :class:`HinfLaw`), the desired accelerations, the
 generalized input u* and the actuator command; see :mod:`.mechanical_controller` for the
 equations and the LeafSystem that wraps it.
+
+Its methods take numbers (the double specialization: per-state caches, the permutation fast
+path, the compiled Newton–Euler kernel) or arrays of Drake scalars (``AutoDiffXd``,
+``Expression``), which they hand to the generic law of :mod:`.scalar_law`.
 """
 
 from __future__ import annotations
 
+import copy
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 from scipy.optimize import lsq_linear
 
 from sobolev_drake.models.base import check_vector
-from sobolev_drake.synthesis.mechanical import HinfMechanicalGains, SobolevGains
+from sobolev_drake.models.scalar_terms import ScalarTerms, quiet, scalar_type, scalar_vector
+from sobolev_drake.synthesis.mechanical import HinfMechanicalGains
+from sobolev_drake.systems import scalar_law
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
+from sobolev_drake.systems.inner_laws import HinfLaw, SobolevLaw
 from sobolev_drake.systems.partition import Partition, check_actuation
 from sobolev_drake.systems.plant_dynamics import PlantDynamics
 from sobolev_drake.validation import bounds_pair, real_matrix
 
 __all__ = ["SobolevLaw", "HinfLaw", "MechanicalLaw"]
-
-
-@dataclass
-class SobolevLaw:
-    """W2/W∞ inner law: gains per group (identical for W2 and W∞, Remarks 30/36).
-
-    Parameters
-    ----------
-    controlled : SobolevGains
-        Gains of the controlled DOF, from ``controlled_gains`` (required).
-    regulated : SobolevGains, optional
-        Gains of the regulated DOF, from ``regulated_gains``.
-    stabilized : SobolevGains, optional
-        Gains of the stabilized DOF, from ``stabilized_gains``.
-
-    Notes
-    -----
-    Each group's gains must come from the matching ``*_gains`` function (``TypeError`` /
-    ``ValueError`` otherwise); their sizes are checked against the partition by
-    :class:`MechanicalLaw`.
-    """
-
-    controlled: SobolevGains
-    regulated: SobolevGains | None = None
-    stabilized: SobolevGains | None = None
-
-    def __post_init__(self):
-        if self.controlled is None:
-            raise TypeError("SobolevLaw.controlled is required: SobolevGains from controlled_gains(...)")
-        for name, grp in (("controlled", self.controlled), ("regulated", self.regulated),
-                          ("stabilized", self.stabilized)):
-            if grp is not None and not isinstance(grp, SobolevGains):
-                raise TypeError(f"SobolevLaw.{name} must be SobolevGains ({name}_gains(...)), "
-                                f"got {type(grp).__name__}")
-            if grp is not None and grp.group != name:
-                raise ValueError(f"SobolevLaw.{name} must be {name} gains, got {grp.group!r}")
-
-    @property
-    def name(self) -> str:
-        """Display name of the law, ``"W2/W∞"``."""
-        return "W2/W∞"
-
-
-@dataclass
-class HinfLaw:
-    """Classic nonlinear H∞ inner law (Chen, Lee & Feng 1994 with integral action).
-
-    Parameters
-    ----------
-    gains : HinfMechanicalGains
-        From :func:`~sobolev_drake.synthesis.mechanical.hinf_mechanical_gains`.
-    """
-
-    gains: HinfMechanicalGains
-
-    def __post_init__(self):
-        if not isinstance(self.gains, HinfMechanicalGains):
-            raise TypeError("HinfLaw.gains must be HinfMechanicalGains (hinf_mechanical_gains(...)), "
-                            f"got {type(self.gains).__name__}")
-
-    @property
-    def name(self) -> str:
-        """Display name of the law, ``"H∞"``."""
-        return "H∞"
 
 
 class MechanicalLaw:
@@ -122,8 +65,6 @@ class MechanicalLaw:
         if not isinstance(partition, Partition):
             raise TypeError(f"partition must be a Partition, got {type(partition).__name__}")
         partition.check(model.n)
-        if not isinstance(law, (SobolevLaw, HinfLaw)):
-            raise TypeError(f"law must be a SobolevLaw or an HinfLaw, got {type(law).__name__}")
         if allocation is not None and not callable(allocation):
             raise TypeError("allocation must be None or a callable(u_star, q, qdot) -> tau, "
                             f"got {allocation!r}")
@@ -131,7 +72,7 @@ class MechanicalLaw:
         self.n = model.n
         self.allocation = allocation
         self.dynamics = PlantDynamics(model)
-        self._cache = {}
+        self._cache, self._scalar_terms = {}, {}
         p = partition
         self.ic = np.array(p.controlled, dtype=int)
         self.ir = np.array(p.regulated, dtype=int)
@@ -140,13 +81,7 @@ class MechanicalLaw:
         self.nc, self.nr, self.ns = len(self.ic), len(self.ir), len(self.is_)
         self.n_ref = self.nc + self.nr
         self._tracked = np.array(p.tracked, dtype=int)
-        if isinstance(law, HinfLaw) and self.nr:
-            raise ValueError("the classic H∞ law (Chen, Lee & Feng) has no regulated-DOF form: "
-                             "use controlled or stabilized DOF, or the SobolevLaw")
-        if isinstance(law, SobolevLaw):
-            self._check_group("controlled", law.controlled, self.nc)
-            self._check_group("regulated", law.regulated, self.nr)
-            self._check_group("stabilized", law.stabilized, self.ns)
+        self._check_inner(law)
         q0 = np.zeros(self.n)
         try:
             self.num_inputs = int(np.asarray(model.B(q0)).shape[1])
@@ -166,6 +101,35 @@ class MechanicalLaw:
         self.upper = None if upper is None else check_vector("upper", upper, self.num_inputs)
         if self.lower is not None and self.upper is not None:
             bounds_pair("lower", self.lower, "upper", self.upper, self.num_inputs)
+
+    def _check_inner(self, law):
+        if not isinstance(law, (SobolevLaw, HinfLaw)):
+            raise TypeError(f"law must be a SobolevLaw or an HinfLaw, got {type(law).__name__}")
+        if isinstance(law, HinfLaw) and self.nr:
+            raise ValueError("the classic H∞ law (Chen, Lee & Feng) has no regulated-DOF form: "
+                             "use controlled or stabilized DOF, or the SobolevLaw")
+        if isinstance(law, SobolevLaw):
+            self._check_group("controlled", law.controlled, self.nc)
+            self._check_group("regulated", law.regulated, self.nr)
+            self._check_group("stabilized", law.stabilized, self.ns)
+
+    def with_inner(self, law) -> "MechanicalLaw":
+        """This law with another inner law: same model, partition, allocation, bounds and
+        dynamics (whose per-state caches do not depend on the gains); sizes are checked.
+
+        Parameters
+        ----------
+        law : SobolevLaw or HinfLaw
+            The new inner law.
+
+        Returns
+        -------
+        MechanicalLaw
+        """
+        new = copy.copy(self)
+        new._check_inner(law)
+        new.law, new._cache = law, {}
+        return new
 
     @staticmethod
     def _check_group(name, gains, size):
@@ -205,6 +169,12 @@ class MechanicalLaw:
         ndarray, shape (n_c,)
             Position error of the controlled DOF.
         """
+        T = self._drake_scalar(q, reference)
+        if T is not None:
+            with quiet(T):
+                return scalar_law.integral_derivative(
+                    self, scalar_vector("q", q, self.n),
+                    scalar_vector("reference", reference, 3 * self.n_ref))
         qr, _, _ = self.split_reference(reference)
         return np.asarray(q, dtype=float)[self.ic] - qr[:self.nc]
 
@@ -218,6 +188,39 @@ class MechanicalLaw:
 
     def _parse(self, q, qdot, e_int):
         return check_vector("q", q, self.n), check_vector("qdot", qdot, self.n), check_vector("e_int", e_int, self.nc)
+
+    # --- Drake scalar types (AutoDiffXd, Expression): the generic law of .scalar_law -----------
+    @staticmethod
+    def _drake_scalar(*arrays):
+        """The Drake scalar type of the arguments, None for numbers (the double path)."""
+        arrays = [a for a in arrays if a is not None]
+        if all(getattr(a, "dtype", object) != object for a in arrays):
+            return None
+        T = scalar_type(*arrays)
+        return None if T is float else T
+
+    def _parse_scalar(self, q, qdot, e_int, reference):
+        return (scalar_vector("q", q, self.n), scalar_vector("qdot", qdot, self.n),
+                scalar_vector("e_int", e_int, self.nc),
+                scalar_vector("reference", reference, 3 * self.n_ref))
+
+    def scalar_terms(self, scalar) -> ScalarTerms:
+        """The model's terms for a scalar type (made once per type and shared with the laws of
+        :meth:`with_inner`), as the generic law uses them.
+
+        Parameters
+        ----------
+        scalar : type
+            ``float``, ``AutoDiffXd`` or ``Expression``.
+
+        Returns
+        -------
+        ScalarTerms
+        """
+        terms = self._scalar_terms.get(scalar)
+        if terms is None:
+            terms = self._scalar_terms[scalar] = ScalarTerms(self.model, scalar)
+        return terms
 
     # --- W laws ------------------------------------------------------------------------------
     def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
@@ -242,6 +245,11 @@ class MechanicalLaw:
         """
         if not isinstance(self.law, SobolevLaw):
             raise TypeError("desired_acceleration is defined for the Sobolev law only")
+        T = self._drake_scalar(q, qdot, e_int, reference)
+        if T is not None:
+            with quiet(T):
+                return scalar_law.desired_acceleration(
+                    self, *self._parse_scalar(q, qdot, e_int, reference))
         q, qdot, e_int = self._parse(q, qdot, e_int)
         return self._desired_acceleration_core(q, qdot, e_int, reference)
 
@@ -377,6 +385,12 @@ class MechanicalLaw:
         ndarray, shape (n,) or (n_c,)
             u* (size n_c in the reduced mode).
         """
+        T = self._drake_scalar(q, qdot, e_int, reference, extra)
+        if T is not None:
+            with quiet(T):
+                args = self._parse_scalar(q, qdot, e_int, reference)
+                out = scalar_law.generalized_input(self, self.scalar_terms(T), *args)
+                return out if extra is None else out - scalar_vector("extra", extra, len(out))
         q, qdot, e_int = self._parse(q, qdot, e_int)
         if isinstance(self.law, SobolevLaw):
             acc = self.desired_acceleration(q, qdot, e_int, reference)
@@ -430,6 +444,12 @@ class MechanicalLaw:
         ndarray, shape (n_τ,)
             Actuator command τ.
         """
+        T = self._drake_scalar(u_star, q, qdot)
+        if T is not None:
+            with quiet(T):
+                return scalar_law.allocate(self, self.scalar_terms(T), np.asarray(u_star),
+                                           scalar_vector("q", q, self.n),
+                                           scalar_vector("qdot", qdot, self.n))
         if self.allocation is not None:
             return np.asarray(self.allocation(u_star, q, qdot), dtype=float)
         if self.partition.mode == "reduced":
@@ -464,6 +484,8 @@ class MechanicalLaw:
             Actuator command τ.
         """
         u_star = self.generalized_input(q, qdot, e_int, reference, extra)
+        if self._drake_scalar(q, qdot, e_int, reference, extra) is not None:
+            return self.allocate(u_star, q, qdot)
         return self.allocate(u_star, np.asarray(q, float), np.asarray(qdot, float))
 
     def closed_loop_matrix(self) -> np.ndarray:

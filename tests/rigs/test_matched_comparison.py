@@ -35,7 +35,7 @@ def test_hinf_law_matches_the_w_law_index():
     assert cmp.omega_u == best[0] and cmp.hinf_indices["IADU"] == pytest.approx(best[1], rel=1e-12)
     assert abs(cmp.hinf_indices["IADU"] / cmp.target - 1) < 0.02
     # the loop was left flying the last H∞ law of the search
-    assert isinstance(loop.controller.law.law, HinfLaw)
+    assert isinstance(loop.controller.law_of(loop.simulator.get_context()).law, HinfLaw)
     assert len(cmp.surface) == 3 and cmp.surface[0] == 1.0
 
 
