@@ -75,8 +75,7 @@ class MechanicalModel:
     """
 
     def __init__(self, plant: MultibodyPlant, *, coordinate_map=None, dof_names=None, name="model"):
-        if not plant.is_finalized():
-            raise ValueError("plant must be finalized before wrapping it in a MechanicalModel")
+        _check_plant(plant)
         if plant.num_positions() != plant.num_velocities():
             raise ValueError("MechanicalModel needs q̇ = v (no quaternion floating base); "
                              f"got nq = {plant.num_positions()}, nv = {plant.num_velocities()}")
