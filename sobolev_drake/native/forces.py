@@ -3,7 +3,9 @@
 :func:`force_model` packs what :class:`~sobolev_drake.tiltrotor.propulsion.PropulsionModel` and
 :class:`~sobolev_drake.tiltrotor.aerodynamics.AeroModel` hold (geometry, tables, Ct/Cq terms) into
 the kernel's model capsule, so the parameters, the data files and their validation stay in
-Python; None when the kernel is not available.
+Python; None when the kernel is not available.  The kernel is the double specialization of the
+force systems (``TiltrotorForces_[float]``); their AutoDiffXd and Expression instantiations run
+:mod:`sobolev_drake.tiltrotor.generic_forces` instead.
 """
 
 from __future__ import annotations

@@ -59,13 +59,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.data import load
+from sobolev_drake.tiltrotor.generic_forces import aero_loads_generic
 from sobolev_drake.tiltrotor.params import SURFACES, R_W, TiltrotorParams, cross_rows
 from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
 
-__all__ = ["AeroTables", "AeroModel", "AerodynamicSurfaces"]
+__all__ = ["AeroTables", "AeroModel", "AerodynamicSurfaces", "AerodynamicSurfaces_"]
 
 _COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
 
@@ -146,9 +149,10 @@ class AeroModel:
       :meth:`surface_loads` and :meth:`terms` (``tests/tiltrotor/test_tiltrotor_forces.py``
       checks it against Drake's Jacobians and a hand computation);
     * the scalar tier :meth:`loads_scalar` (and :meth:`generalized_force` on it): the same loads
-      in Python floats, which the plant evaluates at every derivative when the compiled kernel
-      is not built, and the trims and the standalone force systems always (paths the kernel does
-      not cover); ``native/forces.c`` mirrors it operation for operation.
+      in Python floats, which the plant evaluates when the compiled kernel (which mirrors it
+      operation for operation) is not built, and the trims and the force systems always.
+
+    Their scalar-generic form (AutoDiffXd, Expression) is :mod:`~sobolev_drake.tiltrotor.generic_forces`.
 
     Parameters
     ----------
@@ -174,9 +178,8 @@ class AeroModel:
         self._ctrl_pts = self.points[[1, 2, 3, 4, 3, 4]]
         self.independence = p.crossflow == "independence"
         self.mirrored = p.reverse_flow == "mirrored"
-        # the constants as Python floats and tuples: read by loads_scalar at every call and
-        # packed for the compiled kernel by native.forces.force_model
-        t = self.tables
+        # the constants as Python floats and tuples: read by loads_scalar at every call, by
+        # generic_forces, and packed for the compiled kernel by native.forces.force_model
         self._scalar_constants = (
             [tuple(r) for r in self.points.tolist()], self._half_rho_s.tolist(),
             [[tuple(row) for row in t.alpha_tab[k].T.tolist()] for k in range(6)],
@@ -303,12 +306,8 @@ class AeroModel:
         tau = W.T @ cross_rows(self._ctrl_pts, G).T     # (3, 6)
         frc = R @ G.T
         Bd = np.zeros((8, 4))
-        Bd[2:5, 0:2] = tau[:, 0:2]
-        Bd[2:5, 2] = tau[:, 2] + tau[:, 3]
-        Bd[2:5, 3] = tau[:, 4] + tau[:, 5]
-        Bd[5:8, 0:2] = frc[:, 0:2]
-        Bd[5:8, 2] = frc[:, 2] + frc[:, 3]
-        Bd[5:8, 3] = frc[:, 4] + frc[:, 5]
+        for rows, cols in ((slice(2, 5), tau), (slice(5, 8), frc)):   # δTR, δTL act on TR and TL
+            Bd[rows] = np.column_stack([cols[:, 0], cols[:, 1], cols[:, 2] + cols[:, 3], cols[:, 4] + cols[:, 5]])
         return passive, Bd
 
     def generalized_force(self, q, qdot, zeta, delta):
@@ -464,29 +463,57 @@ class AeroModel:
         return out, Vs, cols
 
 
-class AerodynamicSurfaces(LeafSystem):
-    """LeafSystem: thesis-ordered generalized force of fuselage, wings, V-tail and interference.
+@TemplateSystem.define("AerodynamicSurfaces_")
+def AerodynamicSurfaces_(T):                     # noqa: D103 - the template of the class below
+    m = scalar_math(T)
 
-    Inputs: ``x`` (16, thesis order [q; q̇]), ``wind`` (3, inertial m/s; zero if unconnected),
-    ``surface_deflection`` (4, [δWR δWL δTR δTL] rad; zero if unconnected).
-    Output: ``generalized_force`` (8, thesis order), by :meth:`AeroModel.generalized_force`.
+    class Impl(LeafSystem_[T]):
+        """LeafSystem: thesis-ordered generalized force of fuselage, wings, V-tail and interference.
 
-    Parameters
-    ----------
-    params : TiltrotorParams, optional
-        Table B.1 by default.
-    """
+        .. pydrake_system::
 
-    def __init__(self, params: TiltrotorParams | None = None):
-        super().__init__()
-        self.core = AeroModel(params)
-        self._x = self.DeclareVectorInputPort("x", 16)
-        self._wind = self.DeclareVectorInputPort("wind", 3)
-        self._delta = self.DeclareVectorInputPort("surface_deflection", 4)
-        self.DeclareVectorOutputPort("generalized_force", 8, self._calc)
+            name: AerodynamicSurfaces
+            input_ports:
+            - x
+            - wind
+            - surface_deflection
+            output_ports:
+            - generalized_force
 
-    def _calc(self, context, output: BasicVector) -> None:
-        x = self._x.Eval(context)
-        zeta = self._wind.Eval(context) if self._wind.HasValue(context) else np.zeros(3)
-        delta = self._delta.Eval(context) if self._delta.HasValue(context) else np.zeros(4)
-        output.SetFromVector(self.core.generalized_force(x[:8], x[8:], np.asarray(zeta), np.asarray(delta)))
+        ``x`` (16, thesis order [q; q̇]), ``wind`` (3, inertial m/s) and ``surface_deflection``
+        (4, [δWR δWL δTR δTL] rad; the last two zero if unconnected) give ``generalized_force``
+        (8, thesis order): :meth:`AeroModel.generalized_force` in double,
+        :func:`~sobolev_drake.tiltrotor.generic_forces.aero_loads_generic` for AutoDiffXd (slope
+        of the active table segment) and Expression (``ToAutoDiffXd()``, ``ToSymbolic()``).
+
+        Parameters
+        ----------
+        params : TiltrotorParams, optional
+            Table B.1 by default.
+        """
+
+        def _construct(self, params: TiltrotorParams | None = None, converter=None):
+            LeafSystem_[T].__init__(self, converter=converter)
+            self.core = AeroModel(params)
+            self._x, self._wind, self._delta = (self.DeclareVectorInputPort(name, size) for name, size
+                                                in (("x", 16), ("wind", 3), ("surface_deflection", 4)))
+            self.DeclareVectorOutputPort(        # explicit prerequisites: no symbolic inspection
+                "generalized_force", 8, self._calc, prerequisites_of_calc={self.all_input_ports_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.core.params, converter=converter)
+
+        def _calc(self, context, output) -> None:
+            x = self._x.Eval(context)
+            zeta = self._wind.Eval(context) if self._wind.HasValue(context) else np.zeros(3)
+            delta = self._delta.Eval(context) if self._delta.HasValue(context) else np.zeros(4)
+            if T is float:
+                return output.SetFromVector(self.core.generalized_force(
+                    x[:8], x[8:], np.asarray(zeta), np.asarray(delta)))
+            kin = body_kinematics_scalar(x[:8].tolist(), x[8:].tolist(), list(zeta), m)
+            output.SetFromVector(aero_loads_generic(self.core, kin, list(delta), m))
+
+    return Impl
+
+
+AerodynamicSurfaces = default_instantiation(AerodynamicSurfaces_, "AerodynamicSurfaces")

@@ -161,6 +161,14 @@ def _parse_limits(lim):
 # --------------------------------------------------------------------------------------------
 
 
+_NO_CONVERSION = (
+    "ControlAllocator{name} does not convert to {T}: the bounded least-squares allocation "
+    "(7.84) is an active-set solution, piecewise in u*, B and the bounds and not differentiable "
+    "where a bound becomes active; in the diagram to linearize (Linearize, "
+    "LinearQuadraticRegulator), use the unbounded allocation MatrixGain(np.linalg.pinv(B)) "
+    "(equal while no bound is active) or the plant's actuator inputs instead")
+
+
 class ControlAllocator(LeafSystem):
     """Bounded least-squares allocation (7.84) as a LeafSystem.
 
@@ -175,6 +183,25 @@ class ControlAllocator(LeafSystem):
     Outputs: ``tau`` (m) and ``residual`` (1) = ‖u* − Bτ̄‖, both from one cached solve.
     The outputs depend on the inputs (direct feedthrough).  ``regularization`` and ``method``
     are passed to :func:`bounded_least_squares`.
+
+    .. pydrake_system::
+
+        name: ControlAllocator
+        input_ports:
+        - u_star
+        - B
+        - airspeed (with callable bounds)
+        - bounds (with bounds="input")
+        output_ports:
+        - tau
+        - residual
+
+    Double only: ``ToAutoDiffXd()`` and ``ToSymbolic()`` raise (:meth:`ToAutoDiffXd`), and a
+    diagram holding the allocator does not convert either.  The active-set solution is
+    piecewise in (u*, B, bounds) and not differentiable where a bound becomes active or
+    inactive; to linearize or run LQR on a loop, put the unbounded allocation in its place
+    (``MatrixGain(np.linalg.pinv(B))``, which it equals while no bound is active) or
+    differentiate the plant at its actuator inputs.
 
     Parameters
     ----------
@@ -227,6 +254,18 @@ class ControlAllocator(LeafSystem):
                                      prerequisites_of_calc={self._cache.ticket()})
         self.DeclareVectorOutputPort("residual", 1, self._calc_residual,
                                      prerequisites_of_calc={self._cache.ticket()})
+
+    def ToAutoDiffXd(self):
+        """Refused with a ``RuntimeError`` that names the alternative (class docstring): the
+        bounded allocation is not differentiable where its active set changes."""
+        raise RuntimeError(_NO_CONVERSION.format(name=f" {self.get_name()!r}" * bool(self.get_name()),
+                                                 T="AutoDiffXd"))
+
+    def ToSymbolic(self):
+        """Refused with a ``RuntimeError`` that names the alternative (class docstring): the
+        active-set solve has no symbolic form."""
+        raise RuntimeError(_NO_CONVERSION.format(name=f" {self.get_name()!r}" * bool(self.get_name()),
+                                                 T="Expression"))
 
     def bounds(self, context):
         """(lo, hi) used in ``context``.

@@ -15,9 +15,13 @@ See docs/experiments/tiltrotor-hover-linear.md.
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
 
-__all__ = ["VELOCITY_REFERENCES", "check_velocity_reference", "LinearHoverController"]
+from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
+
+__all__ = ["VELOCITY_REFERENCES", "check_velocity_reference", "LinearHoverController",
+           "LinearHoverController_"]
 
 #: Δq̇ against q̇_r = 0 (the thesis' trim) or against the path velocity
 VELOCITY_REFERENCES = ("zero", "path")
@@ -42,96 +46,130 @@ def check_velocity_reference(velocity_reference):
     return velocity_reference
 
 
-class LinearHoverController(LeafSystem):
-    """u = u_trim + K Δx (state feedback) or the dynamic controller on y = C Δx.
+@TemplateSystem.define("LinearHoverController_")
+def LinearHoverController_(T):                   # noqa: D103 - the template of the class below
+    m = scalar_math(T)
+    dtype = float if T is float else object
 
-    Δx = [q − q_r(t); q̇ − q̇_r(t); ∫Δψ ∫Δx ∫Δy ∫Δz] with q_r = trim attitude/tilt + the path
-    [x_r y_r z_r], ψ_r = 0, and q̇_r = 0 (``velocity_reference="zero"``, the thesis' trim) or
-    the path velocity (``"path"``).  Continuous states: the four integrals and the controller state.
-    Inputs ``x`` (16), ``reference`` (12, [x y z ψ] stacked with rates and accelerations);
-    outputs ``propeller_speed``, ``servo_torque`` (clipped to n ≥ 0, |τs| ≤ 2 N m),
-    ``surface_deflection`` (zeros) and ``delta_u`` (4, unclipped Δu).
+    class Impl(LeafSystem_[T]):
+        """u = u_trim + K Δx (state feedback) or the dynamic controller on y = C Δx.
 
-    Parameters
-    ----------
-    ctrl : dict
-        ``kind`` "sf" with ``K`` (4 × 20), or "dyn" with ``AK, BK, CK, DK`` and ``C``
-        (:func:`sobolev_drake.tiltrotor.linear_design.design`).
-    trim : Trim
-        The hover trim (``q``, ``n``, ``tau_s``).
-    velocity_reference : str, default "zero"
-        One of :data:`VELOCITY_REFERENCES`.
-    """
+        .. pydrake_system::
 
-    def __init__(self, ctrl, trim, velocity_reference="zero"):
-        super().__init__()
-        self.path_velocity = check_velocity_reference(velocity_reference) == "path"
-        self.kind = ctrl["kind"]
-        self.q_trim = np.asarray(trim.q, float).copy()
-        self.u_trim = np.r_[trim.n, trim.tau_s]
-        if self.kind == "sf":
-            self.K = np.asarray(ctrl["K"])
-            nk = 0
-        else:
-            self.AK, self.BK, self.CK, self.DK = (np.asarray(ctrl[k]) for k in ("AK", "BK", "CK", "DK"))
-            self.C = np.asarray(ctrl["C"])
-            nk = self.AK.shape[0]
-        self.nk = nk
-        self.x_port = self.DeclareVectorInputPort("x", 16)
-        self.ref_port = self.DeclareVectorInputPort("reference", 12)
-        self.DeclareContinuousState(4 + nk)
-        self.DeclareVectorOutputPort("propeller_speed", 2, self._calc_n)
-        self.DeclareVectorOutputPort("servo_torque", 2, self._calc_ts)
-        self.DeclareVectorOutputPort("surface_deflection", 4, self._calc_zero,
-                                     prerequisites_of_calc={self.nothing_ticket()})
-        self.DeclareVectorOutputPort("delta_u", 4, self._calc_du)
+            name: LinearHoverController
+            input_ports:
+            - x
+            - reference
+            output_ports:
+            - propeller_speed
+            - servo_torque
+            - surface_deflection
+            - delta_u
 
-    def delta_x(self, context):
-        """Δx (20) and the dynamic controller's state in ``context``.
+        Δx = [q − q_r(t); q̇ − q̇_r(t); ∫Δψ ∫Δx ∫Δy ∫Δz] with q_r = trim attitude/tilt + the path
+        [x_r y_r z_r], ψ_r = 0, and q̇_r = 0 (``velocity_reference="zero"``, the thesis' trim) or
+        the path velocity (``"path"``).  Continuous states: the four integrals and the controller
+        state.  Inputs ``x`` (16), ``reference`` (12, [x y z ψ] stacked with rates and
+        accelerations); outputs ``propeller_speed``, ``servo_torque`` (clipped to n ≥ 0,
+        |τs| ≤ 2 N m), ``surface_deflection`` (zeros) and ``delta_u`` (4, unclipped Δu).
+        ``ToAutoDiffXd()`` and ``ToSymbolic()`` give the same law in those scalars (the clips
+        as ``if_then_else``), e.g. to linearize a closed loop with Drake.
 
         Parameters
         ----------
-        context : Context
-            This system's context.
-
-        Returns
-        -------
-        (ndarray, ndarray)
-            Δx and the controller state (empty for a state feedback).
+        ctrl : dict
+            ``kind`` "sf" with ``K`` (4 × 20), or "dyn" with ``AK, BK, CK, DK`` and ``C``
+            (:func:`sobolev_drake.tiltrotor.linear_design.design`).
+        trim : Trim
+            The hover trim (``q``, ``n``, ``tau_s``).
+        velocity_reference : str, default "zero"
+            One of :data:`VELOCITY_REFERENCES`.
         """
-        x = self.x_port.Eval(context)
-        r = self.ref_port.Eval(context)
-        qr = self.q_trim.copy()
-        qr[5:8] = r[0:3]
-        qr[4] = r[3]
-        qdr = np.zeros(8)
-        if self.path_velocity:
-            qdr[5:8], qdr[4] = r[4:7], r[7]
-        s = context.get_continuous_state_vector().CopyToVector()
-        return np.concatenate([x[:8] - qr, x[8:] - qdr, s[:4]]), s[4:]
 
-    def _du(self, context):
-        dx, xk = self.delta_x(context)
-        if self.kind == "sf":
-            return self.K @ dx
-        return self.CK @ xk + self.DK @ (self.C @ dx)
+        def _construct(self, ctrl, trim, velocity_reference="zero", converter=None):
+            LeafSystem_[T].__init__(self, converter=converter)
+            self._args = (ctrl, trim, velocity_reference)
+            self.path_velocity = check_velocity_reference(velocity_reference) == "path"
+            self.kind = ctrl["kind"]
+            self.q_trim = np.asarray(trim.q, float).copy()
+            self.u_trim = np.r_[trim.n, trim.tau_s]
+            if self.kind == "sf":
+                self.K = np.asarray(ctrl["K"])
+                nk = 0
+            else:
+                self.AK, self.BK, self.CK, self.DK = (np.asarray(ctrl[k]) for k in ("AK", "BK", "CK", "DK"))
+                self.C = np.asarray(ctrl["C"])
+                nk = self.AK.shape[0]
+            self.nk = nk
+            self.x_port = self.DeclareVectorInputPort("x", 16)
+            self.ref_port = self.DeclareVectorInputPort("reference", 12)
+            self.DeclareContinuousState(4 + nk)
+            # explicit prerequisites: the feedthrough is known without symbolic inspection
+            deps = {self.all_input_ports_ticket(), self.xc_ticket()}
+            self.DeclareVectorOutputPort("propeller_speed", 2, self._calc_n, prerequisites_of_calc=deps)
+            self.DeclareVectorOutputPort("servo_torque", 2, self._calc_ts, prerequisites_of_calc=deps)
+            self.DeclareVectorOutputPort("surface_deflection", 4, self._calc_zero,
+                                         prerequisites_of_calc={self.nothing_ticket()})
+            self.DeclareVectorOutputPort("delta_u", 4, self._calc_du, prerequisites_of_calc=deps)
 
-    def DoCalcTimeDerivatives(self, context, derivatives):
-        dx, xk = self.delta_x(context)
-        d = np.empty(4 + self.nk)
-        d[:4] = dx[[4, 5, 6, 7]]
-        if self.nk:
-            d[4:] = self.AK @ xk + self.BK @ (self.C @ dx)
-        derivatives.get_mutable_vector().SetFromVector(d)
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, *other._args, converter=converter)
 
-    def _calc_n(self, context, output):
-        output.SetFromVector(np.maximum(self.u_trim[:2] + self._du(context)[:2], 0.0))
+        def delta_x(self, context):
+            """Δx (20) and the dynamic controller's state in ``context``.
 
-    def _calc_ts(self, context, output):
-        output.SetFromVector(np.clip(self.u_trim[2:] + self._du(context)[2:], -2.0, 2.0))
+            Parameters
+            ----------
+            context : Context
+                This system's context.
 
-    def _calc_zero(self, context, output):
-        output.SetFromVector(np.zeros(4))
+            Returns
+            -------
+            (ndarray, ndarray)
+                Δx and the controller state (empty for a state feedback).
+            """
+            x = self.x_port.Eval(context)
+            r = self.ref_port.Eval(context)
+            qr = np.array(self.q_trim, dtype=dtype)
+            qr[5:8] = r[0:3]
+            qr[4] = r[3]
+            qdr = np.zeros(8, dtype=dtype)
+            if self.path_velocity:
+                qdr[5:8], qdr[4] = r[4:7], r[7]
+            s = context.get_continuous_state_vector().CopyToVector()
+            return np.concatenate([x[:8] - qr, x[8:] - qdr, s[:4]]), s[4:]
 
-    def _calc_du(self, context, output):
-        output.SetFromVector(self._du(context))
+        def _du(self, context):
+            dx, xk = self.delta_x(context)
+            if self.kind == "sf":
+                return self.K @ dx
+            return self.CK @ xk + self.DK @ (self.C @ dx)
+
+        def DoCalcTimeDerivatives(self, context, derivatives):
+            dx, xk = self.delta_x(context)
+            d = np.empty(4 + self.nk, dtype=dtype)
+            d[:4] = dx[[4, 5, 6, 7]]
+            if self.nk:
+                d[4:] = self.AK @ xk + self.BK @ (self.C @ dx)
+            derivatives.get_mutable_vector().SetFromVector(d)
+
+        def _calc_n(self, context, output):
+            n = self.u_trim[:2] + self._du(context)[:2]
+            output.SetFromVector(np.maximum(n, 0.0) if T is float else
+                                 [m.where(v >= 0.0, v, 0.0) for v in n])
+
+        def _calc_ts(self, context, output):
+            ts = self.u_trim[2:] + self._du(context)[2:]
+            output.SetFromVector(np.clip(ts, -2.0, 2.0) if T is float else
+                                 [m.where(v < -2.0, -2.0, m.where(v > 2.0, 2.0, v)) for v in ts])
+
+        def _calc_zero(self, context, output):
+            output.SetFromVector(np.zeros(4))
+
+        def _calc_du(self, context, output):
+            output.SetFromVector(self._du(context))
+
+    return Impl
+
+
+LinearHoverController = default_instantiation(LinearHoverController_, "LinearHoverController")

@@ -19,16 +19,19 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import FixedOffsetFrame
 
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem, ValueProducer
+from pydrake.systems.framework import LeafSystem_, ValueProducer
+from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.handles import PlantHandles, add_state_selector
 from sobolev_drake.tiltrotor.params import DOF_NAMES, TiltrotorParams
-from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.generic_forces import force_at_c1, tiltrotor_force_generic
+from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar
+from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
 
 __all__ = [
     "tiltrotor_urdf", "thesis_coordinate_map", "TiltrotorModel", "TiltrotorForces",
-    "TiltrotorHandles", "add_tiltrotor",
+    "TiltrotorForces_", "TiltrotorHandles", "add_tiltrotor",
 ]
 
 #: Drake joint of each thesis coordinate
@@ -249,174 +252,205 @@ class TiltrotorModel(MechanicalModel):
         return input_affine(self, q, qdot, zeta)[0]
 
 
-class TiltrotorForces(LeafSystem):
-    """All generalized forces of the tilt-rotor in one LeafSystem (one Python call per evaluation).
+@TemplateSystem.define("TiltrotorForces_")
+def TiltrotorForces_(T):                         # noqa: D103 - the template of the class below
+    m = scalar_math(T)
 
-    Input ports (all read zero when unconnected, except ``plant_state``):
-    ``u`` (8, thesis τ = [nPR nPL τsR τsL δWR δWL δTR δTL]), ``propeller_speed`` (2, rev/s),
-    ``servo_torque`` (2, N m), ``surface_deflection`` (4, rad) — the last three are *added* to the
-    matching parts of ``u`` (connect either); ``wind`` (3, inertial m/s), ``force_disturbance``
-    (3, inertial N at the main-body centre of mass), ``disturbance`` (8, thesis generalized force
-    w), ``plant_state`` (Drake state).
-    Output ports: ``applied_generalized_force`` (Drake order, to the plant), ``x`` (16, thesis
-    order [q; q̇], state-only), ``generalized_force`` (8, thesis order ϑ + w, for logging).
+    class Impl(LeafSystem_[T]):
+        """All generalized forces of the tilt-rotor in one LeafSystem (one Python call per evaluation).
 
-    ``native``: None (default) computes the forces with the compiled kernel
-    (``native/forces.c``, equal to :meth:`thesis_force` to the bit) when it is built and with
-    Python otherwise; False always uses Python; True requires the kernel.
+        .. pydrake_system::
 
-    Parameters
-    ----------
-    model : TiltrotorModel
-        The model whose parameters (Table B.1) define the propulsion and aerodynamic force
-        cores and whose coordinate map T orders the Drake and thesis vectors.
-    native : bool or None, optional
-        None (default): the compiled force kernel when it is built, else Python; False:
-        always Python; True: the kernel, or ``RuntimeError`` if it is not built.
-    """
+            name: TiltrotorForces
+            input_ports:
+            - plant_state
+            - u
+            - propeller_speed
+            - servo_torque
+            - surface_deflection
+            - wind
+            - force_disturbance
+            - disturbance
+            output_ports:
+            - x
+            - applied_generalized_force
+            - generalized_force
 
-    def __init__(self, model: TiltrotorModel, *, native: bool | None = None):
-        super().__init__()
-        from sobolev_drake.native import kernel
-        from sobolev_drake.native.forces import force_model
-        from sobolev_drake.tiltrotor.input_affine import cores
-        if native not in (None, True, False):
-            raise ValueError(f"native must be None (use the compiled kernel if built), True or False, got {native!r}")
-        self.model = model
-        self.prop, self.aero = cores(model.params)
-        self._state = self.DeclareVectorInputPort("plant_state", 16)
-        self._ports = {name: self.DeclareVectorInputPort(name, size) for name, size in
-                       (("u", 8), ("propeller_speed", 2), ("servo_torque", 2),
-                        ("surface_deflection", 4), ("wind", 3), ("force_disturbance", 3),
-                        ("disturbance", 8))}
-        self._port_list = [self._ports[k] for k in ("u", "propeller_speed", "servo_torque",
-                                                     "surface_deflection", "wind",
-                                                     "force_disturbance", "disturbance")]
-        # The actuator inputs change only when their sources do (a sampled controller: once per
-        # period): one cache entry holds their sum u, so a force evaluation reads it with one
-        # call instead of four look-ups and three copies.
-        self._inputs = self.DeclareCacheEntry(
-            "actuator inputs", ValueProducer(allocate=lambda: AbstractValue.Make(object()),
-                                             calc=self._calc_inputs),
-            {self.input_port_ticket(p.get_index()) for p in self._port_list[:4]})
-        self.input_evaluations = 0    # recomputations of that cache entry (tests, benchmarks)
-        st = {self.input_port_ticket(self._state.get_index())}
-        self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
-        self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake)
-        self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis)
-        # T is a permutation (q_drake = T q_thesis): index arrays instead of matrix products
-        perm = np.argmax(model.T, axis=0)          # q_thesis[j] = q_drake[perm[j]]
-        self._perm16 = np.concatenate([perm, perm + 8])
-        self._perm8_inv = np.argsort(perm)         # τ_drake[i] = τ_thesis[perm⁻¹[i]]
-        self._zero3 = np.zeros(3)
-        self._cosb, self._nu = float(np.cos(model.params.beta)), float(model.params.nu)
-        self._dC1 = [float(v) for v in model.params.d_B_C1]
-        self.evaluations = 0          # number of force evaluations (benchmarks)
-        # The compiled kernel (native/forces.c) computes exactly thesis_force (tested equal to
-        # the bit); thesis_force stays the reference and the fallback without a C compiler.
-        self._kernel = kernel("forces") if native is not False else None
-        if native and self._kernel is None:
-            raise RuntimeError("native=True but the compiled 'forces' kernel is not built (or "
-                               "SOBOLEV_DRAKE_NATIVE=0); reinstall with a C compiler")
-        self._native = None if self._kernel is None else force_model(
-            self.prop, self.aero, perm16=self._perm16.tolist(),
-            perm8_inv=self._perm8_inv.tolist(), cos_beta_servo=self._cosb)
+        Input ports (all read zero when unconnected, except ``plant_state``):
+        ``u`` (8, thesis τ = [nPR nPL τsR τsL δWR δWL δTR δTL]), ``propeller_speed`` (2, rev/s),
+        ``servo_torque`` (2, N m), ``surface_deflection`` (4, rad) — the last three are *added* to the
+        matching parts of ``u`` (connect either); ``wind`` (3, inertial m/s), ``force_disturbance``
+        (3, inertial N at the main-body centre of mass), ``disturbance`` (8, thesis generalized force
+        w), ``plant_state`` (Drake state).
+        Output ports: ``applied_generalized_force`` (Drake order, to the plant), ``x`` (16, thesis
+        order [q; q̇], state-only), ``generalized_force`` (8, thesis order ϑ + w, for logging).
 
-    @property
-    def native(self) -> bool:
-        """True when the forces are computed by the compiled kernel."""
-        return self._native is not None
-
-    def _calc_x(self, context, output) -> None:
-        output.SetFromVector(self._state.Eval(context)[self._perm16])
-
-    def _calc_inputs(self, context, value) -> None:
-        """u = ``u`` plus the propeller speeds, servo torques and deflections (a list of 8
-        floats; unconnected ports read zero)."""
-        self.input_evaluations += 1
-        p_u, p_n, p_s, p_d = self._port_list[:4]
-        u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
-        if p_n.HasValue(context):
-            a, b = p_n.Eval(context).tolist()
-            u[0] += a
-            u[1] += b
-        if p_s.HasValue(context):
-            a, b = p_s.Eval(context).tolist()
-            u[2] += a
-            u[3] += b
-        if p_d.HasValue(context):
-            u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
-        value.set_value(u)
-
-    def thesis_force(self, context) -> np.ndarray:
-        """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
-        reads the actuator inputs from their cache entry, touches each other port once, skips
-        unconnected ones and uses the scalar force cores with one shared body-kinematics pass.
+        ``native``: None (default) computes the forces with the compiled kernel
+        (``native/forces.c``, equal to :meth:`thesis_force` to the bit) when it is built and with
+        Python otherwise; False always uses Python; True requires the kernel.  That is the double
+        system; ``ToAutoDiffXd()`` and ``ToSymbolic()`` (``TiltrotorForces_[T]``) compute with
+        :func:`~sobolev_drake.tiltrotor.generic_forces.tiltrotor_force_generic`, so Drake's
+        ``Linearize`` and ``LinearQuadraticRegulator`` apply to a diagram holding the plant.
 
         Parameters
         ----------
-        context : Context
-            This system's context (its ``plant_state`` and actuator/disturbance input ports
-            are read).
-
-        Returns
-        -------
-        ndarray, shape (8,)
-            Generalized force ϑ (7.18) of propellers, servos (7.33) and aerodynamic surfaces,
-            plus the force disturbance at C1 and the generalized disturbance w, in thesis
-            order [αR αL φ θ ψ x y z] (N m on the angles, N on x, y, z).
+        model : TiltrotorModel
+            The model whose parameters (Table B.1) define the propulsion and aerodynamic force
+            cores and whose coordinate map T orders the Drake and thesis vectors.
+        native : bool or None, optional
+            None (default): the compiled force kernel when it is built, else Python; False:
+            always Python; True: the kernel, or ``RuntimeError`` if it is not built.
         """
-        self.evaluations += 1
-        ql = self._state.Eval(context)[self._perm16].tolist()
-        q, qd = ql[:8], ql[8:]
-        u = self._inputs.Eval(context)                   # read only: the cached list
-        p_w, p_f, p_dist = self._port_list[4:]
-        zeta = p_w.Eval(context).tolist() if p_w.HasValue(context) else [0.0] * 3
-        kin = body_kinematics_scalar(q, qd, zeta)
-        tp = self.prop.propeller_force_scalar(kin, self.prop.rotors_scalar(q, qd, kin), u[0:2])
-        ta = self.aero.loads_scalar(kin, u[4:8])[0]
-        tau = [a + b for a, b in zip(tp, ta)]
-        tau[0] += self._cosb * u[2] - self._nu * qd[0]          # servos (7.33)
-        tau[1] += self._cosb * u[3] - self._nu * qd[1]
-        if p_f.HasValue(context):
-            fx, fy, fz = p_f.Eval(context).tolist()
-            if fx != 0.0 or fy != 0.0 or fz != 0.0:
-                # inertial force at C1: generalized force [0, 0, Wηᵀ (d × Rᵀ F), R Rᵀ F]
-                _, (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
-                bx = r00 * fx + r10 * fy + r20 * fz
-                by = r01 * fx + r11 * fy + r21 * fz
-                bz = r02 * fx + r12 * fy + r22 * fz
-                dx, dy, dz = self._dC1
-                w = body_wrench_scalar(kin, (bx, by, bz), (dy * bz - dz * by, dz * bx - dx * bz,
-                                                           dx * by - dy * bx))
-                for i in range(6):
-                    tau[2 + i] += w[i]
-        tau = np.array(tau)
-        if p_dist.HasValue(context):
-            tau += p_dist.Eval(context)
-        return tau
 
-    def _native_force(self, context, out, drake_order) -> None:
-        """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
-        self.evaluations += 1
-        p_w, p_f, p_dist = self._port_list[4:]
-        self._kernel.plant_force(self._native, self._state.Eval(context), self._inputs.Eval(context),
-                                 p_w.Eval(context) if p_w.HasValue(context) else None,
-                                 p_f.Eval(context) if p_f.HasValue(context) else None,
-                                 p_dist.Eval(context) if p_dist.HasValue(context) else None,
-                                 out, drake_order)
+        def _construct(self, model: TiltrotorModel, *, native: bool | None = None, converter=None):
+            LeafSystem_[T].__init__(self, converter=converter)
+            from sobolev_drake.native import kernel
+            from sobolev_drake.native.forces import force_model
+            from sobolev_drake.tiltrotor.input_affine import cores
+            if native not in (None, True, False) or (native and T is not float):
+                raise ValueError(f"native must be None (use the compiled kernel if built), True or False "
+                                 f"(True only for the double system), got {native!r} for T = {T.__name__}")
+            self.model, self._native_request = model, native
+            self.prop, self.aero = cores(model.params)
+            self._state = self.DeclareVectorInputPort("plant_state", 16)
+            self._ports = {name: self.DeclareVectorInputPort(name, size) for name, size in
+                           (("u", 8), ("propeller_speed", 2), ("servo_torque", 2),
+                            ("surface_deflection", 4), ("wind", 3), ("force_disturbance", 3),
+                            ("disturbance", 8))}
+            self._port_list = [self._ports[k] for k in ("u", "propeller_speed", "servo_torque",
+                                                         "surface_deflection", "wind",
+                                                         "force_disturbance", "disturbance")]
+            # The actuator inputs change only when their sources do (a sampled controller: once per
+            # period): one cache entry holds their sum u, so a force evaluation reads it with one
+            # call instead of four look-ups and three copies.
+            self._inputs = self.DeclareCacheEntry(
+                "actuator inputs", ValueProducer(allocate=lambda: AbstractValue.Make(object()),
+                                                 calc=self._calc_inputs),
+                {self.input_port_ticket(p.get_index()) for p in self._port_list[:4]})
+            self.input_evaluations = 0    # recomputations of that cache entry (tests, benchmarks)
+            st = {self.input_port_ticket(self._state.get_index())}
+            self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
+            inputs = {self.all_input_ports_ticket()}   # explicit: no symbolic feedthrough probe
+            self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake, prerequisites_of_calc=inputs)
+            self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis, prerequisites_of_calc=inputs)
+            # T is a permutation (q_drake = T q_thesis): index arrays instead of matrix products
+            perm = np.argmax(model.T, axis=0)          # q_thesis[j] = q_drake[perm[j]]
+            self._perm16 = np.concatenate([perm, perm + 8])
+            self._perm8_inv = np.argsort(perm)         # τ_drake[i] = τ_thesis[perm⁻¹[i]]
+            self._cosb, self._nu = float(np.cos(model.params.beta)), float(model.params.nu)
+            self._dC1 = [float(v) for v in model.params.d_B_C1]
+            self.evaluations = 0          # number of force evaluations (benchmarks)
+            # The compiled kernel (native/forces.c) computes exactly thesis_force (tested equal to
+            # the bit); thesis_force stays the reference and the fallback without a C compiler.
+            self._kernel = kernel("forces") if native is not False and T is float else None
+            if native and self._kernel is None:
+                raise RuntimeError("native=True but the compiled 'forces' kernel is not built (or "
+                                   "SOBOLEV_DRAKE_NATIVE=0); reinstall with a C compiler")
+            self._native = None if self._kernel is None else force_model(
+                self.prop, self.aero, perm16=self._perm16.tolist(),
+                perm8_inv=self._perm8_inv.tolist(), cos_beta_servo=self._cosb)
 
-    def _calc_thesis(self, context, output) -> None:
-        if self._native is not None:
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.model, native=other._native_request if T is float else False,
+                            converter=converter)
+
+        @property
+        def native(self) -> bool:
+            """True when the forces are computed by the compiled kernel."""
+            return self._native is not None
+
+        def _calc_x(self, context, output) -> None:
+            output.SetFromVector(self._state.Eval(context)[self._perm16])
+
+        def _calc_inputs(self, context, value) -> None:
+            """u = ``u`` plus the propeller speeds, servo torques and deflections (a list of 8
+            floats; unconnected ports read zero)."""
+            self.input_evaluations += 1
+            p_u, p_n, p_s, p_d = self._port_list[:4]
+            u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
+            if p_n.HasValue(context):
+                a, b = p_n.Eval(context).tolist()
+                u[0] += a
+                u[1] += b
+            if p_s.HasValue(context):
+                a, b = p_s.Eval(context).tolist()
+                u[2] += a
+                u[3] += b
+            if p_d.HasValue(context):
+                u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
+            value.set_value(u)
+
+        def thesis_force(self, context) -> np.ndarray:
+            """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
+            reads the actuator inputs from their cache entry, touches each other port once, skips
+            unconnected ones and uses the scalar force cores with one shared body-kinematics pass.
+
+            Parameters
+            ----------
+            context : Context
+                This system's context (its ``plant_state`` and actuator/disturbance input ports
+                are read).
+
+            Returns
+            -------
+            ndarray, shape (8,)
+                Generalized force ϑ (7.18) of propellers, servos (7.33) and aerodynamic surfaces,
+                plus the force disturbance at C1 and the generalized disturbance w, in thesis
+                order [αR αL φ θ ψ x y z] (N m on the angles, N on x, y, z).
+            """
+            self.evaluations += 1
+            ql = self._state.Eval(context)[self._perm16].tolist()
+            q, qd = ql[:8], ql[8:]
+            u = self._inputs.Eval(context)                   # read only: the cached list
+            p_w, p_f, p_dist = self._port_list[4:]
+            zeta = p_w.Eval(context).tolist() if p_w.HasValue(context) else [0.0] * 3
+            if T is not float:              # scalar-generic tier, the same sums (module docstring)
+                f = p_f.Eval(context).tolist() if p_f.HasValue(context) else None
+                tau = tiltrotor_force_generic(self.prop, self.aero, q, qd, u, zeta, f, m, cos_beta=self._cosb,
+                                              nu=self._nu, d_B_C1=self._dC1)
+                w = p_dist.Eval(context).tolist() if p_dist.HasValue(context) else [0.0] * 8
+                return np.array([a + b for a, b in zip(tau, w)], dtype=object)
+            kin = body_kinematics_scalar(q, qd, zeta)
+            tp = self.prop.propeller_force_scalar(kin, self.prop.rotors_scalar(q, qd, kin), u[0:2])
+            ta = self.aero.loads_scalar(kin, u[4:8])[0]
+            tau = [a + b for a, b in zip(tp, ta)]
+            tau[0] += self._cosb * u[2] - self._nu * qd[0]          # servos (7.33)
+            tau[1] += self._cosb * u[3] - self._nu * qd[1]
+            if p_f.HasValue(context):
+                f = p_f.Eval(context).tolist()
+                if f[0] != 0.0 or f[1] != 0.0 or f[2] != 0.0:    # inertial force at C1
+                    w = force_at_c1(kin, f, self._dC1)
+                    for i in range(6):
+                        tau[2 + i] += w[i]
+            tau = np.array(tau)
+            if p_dist.HasValue(context):
+                tau += p_dist.Eval(context)
+            return tau
+
+        def _native_force(self, context, out, drake_order) -> None:
+            """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
+            self.evaluations += 1
+            p_w, p_f, p_dist = self._port_list[4:]
+            self._kernel.plant_force(self._native, self._state.Eval(context), self._inputs.Eval(context),
+                                     p_w.Eval(context) if p_w.HasValue(context) else None,
+                                     p_f.Eval(context) if p_f.HasValue(context) else None,
+                                     p_dist.Eval(context) if p_dist.HasValue(context) else None,
+                                     out, drake_order)
+
+        def _calc_thesis(self, context, output) -> None:
+            if self._native is None:
+                return output.SetFromVector(self.thesis_force(context))
             self._native_force(context, output.get_mutable_value(), False)
-        else:
-            output.SetFromVector(self.thesis_force(context))
 
-    def _calc_drake(self, context, output) -> None:
-        if self._native is not None:
+        def _calc_drake(self, context, output) -> None:
+            if self._native is None:
+                return output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
             self._native_force(context, output.get_mutable_value(), True)
-        else:
-            output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
+
+    return Impl
+
+
+TiltrotorForces = default_instantiation(TiltrotorForces_, "TiltrotorForces")
 
 
 class TiltrotorHandles(PlantHandles):

@@ -68,16 +68,18 @@ class PropellerCoefficients:
     def ct_cq_scalar(self, J: float, phi: float):
         """(Ct, Cq) at scalar (J, φ) with Python floats: :meth:`ct` and :meth:`cq` in the scalar
         force tier of :mod:`~sobolev_drake.tiltrotor.propulsion`, without a numpy call per rotor.
+        Arithmetic only, so AutoDiffXd or Expression arguments work too (the generic tier,
+        :mod:`~sobolev_drake.tiltrotor.generic_forces`).
 
         Parameters
         ----------
         J, phi : float
-            Advance ratio and inflow angle (rad).
+            Advance ratio and inflow angle (rad); or AutoDiffXd / Expression.
 
         Returns
         -------
         tuple of 2 floats
-            (Ct, Cq).
+            (Ct, Cq), of the arguments' scalar type.
         """
         Jp = (1.0, J, J * J, J * J * J, J * J * J * J)
         Pp = (1.0, phi, phi * phi, phi * phi * phi, phi * phi * phi * phi)

@@ -2,10 +2,13 @@
 
 * :class:`PropulsionModel` — the propeller generalized force (7.32): the numpy reference
   (:meth:`~PropulsionModel.unit_columns` times :meth:`~PropulsionModel.thrust_and_torque`) and
-  the scalar tier (:func:`body_kinematics_scalar`, :meth:`~PropulsionModel.rotors_scalar`,
+  the scalar tier (:func:`~sobolev_drake.tiltrotor.body_frame.body_kinematics_scalar`,
+  :meth:`~PropulsionModel.rotors_scalar`,
   :meth:`~PropulsionModel.propeller_force_scalar`), which ``native/forces.c`` mirrors.
 * :class:`PropellerForces` — LeafSystem: generalized force of both propellers (7.32) and of the
-  servomotors with viscous friction (7.33), in thesis order.
+  servomotors with viscous friction (7.33), in thesis order; ``PropellerForces_[T]`` for
+  AutoDiffXd and Expression runs the scalar-generic tier
+  (:func:`~sobolev_drake.tiltrotor.generic_forces.propeller_force_generic`).
 
 The propeller's coefficients Ct(J, φ), Cq(J, φ) (7.25)–(7.30) are
 :class:`~sobolev_drake.tiltrotor.propeller.PropellerCoefficients`.  The scalar tier is kept
@@ -19,76 +22,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
 
+from sobolev_drake.tiltrotor.body_frame import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.generic_forces import propeller_force_generic
 from sobolev_drake.tiltrotor.params import R_W, TiltrotorParams, cross_rows
 from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
+from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
 
 __all__ = [
     "body_kinematics_scalar", "body_wrench_scalar", "PropulsionModel", "PropellerForces",
+    "PropellerForces_",
 ]
-
-
-def body_kinematics_scalar(q, qdot, zeta):
-    """Body-frame kinematics of the scalar force tier (module docstring), thesis order q.
-
-    Shared by the propeller and aerodynamic force paths.
-
-    Parameters
-    ----------
-    q, qdot : list of 8 floats
-        Generalized coordinates and velocities, thesis order (Python floats).
-    zeta : list of 3 floats
-        Wind, inertial axes (m/s).
-
-    Returns
-    -------
-    tuple
-        ((sin ϕ, cos ϕ, sin θ, cos θ), R row-major (9 floats, body → inertial, Z-Y-X Euler
-        angles (7.2)), body angular velocity (wx, wy, wz), body air velocity Rᵀ(ṗ − ζ)
-        (vbx, vby, vbz)).
-    """
-    sin, cos = math.sin, math.cos
-    sf, cf = sin(q[2]), cos(q[2])
-    st, ct = sin(q[3]), cos(q[3])
-    sp, cp = sin(q[4]), cos(q[4])
-    r00, r01, r02 = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
-    r10, r11, r12 = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
-    r20, r21, r22 = -st, ct * sf, ct * cf
-    dphi, dth, dpsi = qdot[2], qdot[3], qdot[4]
-    wx, wy, wz = dphi - st * dpsi, cf * dth + ct * sf * dpsi, -sf * dth + cf * ct * dpsi
-    vix, viy, viz = qdot[5] - zeta[0], qdot[6] - zeta[1], qdot[7] - zeta[2]
-    vbx = r00 * vix + r10 * viy + r20 * viz
-    vby = r01 * vix + r11 * viy + r21 * viz
-    vbz = r02 * vix + r12 * viy + r22 * viz
-    return ((sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22),
-            (wx, wy, wz), (vbx, vby, vbz))
-
-
-def body_wrench_scalar(kin, force, torque):
-    """Rows 2..7 (φ θ ψ x y z) of the generalized force of a body-axes force and torque on the
-    main body: [Wηᵀ T, R F] (scalar form of ``tiltrotor.params.body_generalized_force``).
-
-    Parameters
-    ----------
-    kin : tuple
-        From :func:`body_kinematics_scalar`.
-    force : sequence of 3 floats
-        Force F, body axes (N).
-    torque : sequence of 3 floats
-        Torque T about C1, body axes (N m).
-
-    Returns
-    -------
-    tuple of 6 floats
-        Generalized force rows φ θ ψ x y z.
-    """
-    (sf, cf, st, ct), (r00, r01, r02, r10, r11, r12, r20, r21, r22), _, _ = kin
-    fx, fy, fz = force
-    tx, ty, tz = torque
-    return (tx, cf * ty - sf * tz, -st * tx + ct * sf * ty + cf * ct * tz,
-            r00 * fx + r01 * fy + r02 * fz, r10 * fx + r11 * fy + r12 * fz,
-            r20 * fx + r21 * fy + r22 * fz)
 
 
 class PropulsionModel:
@@ -119,6 +65,8 @@ class PropulsionModel:
         self._sb, self._cb = math.sin(p.beta), math.cos(p.beta)
         c = self.coef
         self._kf, self._kt = c.rho * c.diameter ** 4, c.rho * c.diameter ** 5
+        # ∂Ct/∂J, ∂Cq/∂J at J = 0 as polynomials in φ: (power of φ, Ct coefficient, Cq coefficient)
+        self._dJ_terms = [(j, a, b) for (i, j), a, b in c._terms if i == 1]
 
     def rotor_frames(self, q):
         """Rotor frames and hub positions of both rotors (7.19)–(7.24).
@@ -223,9 +171,10 @@ class PropulsionModel:
         t = self.lam * self.coef.torque(n, J, phi)
         return f, t, J, phi
 
-    def rotors_scalar(self, q, qdot, kin):
+    def rotors_scalar(self, q, qdot, kin, m=math):
         """Per-rotor geometry and inflow with Python floats (scalar tier of the plant's forces
-        and the controller's input-affine terms, module docstring).
+        and the controller's input-affine terms, module docstring); branch-free, so it serves
+        every scalar type with the matching ``m``.
 
         Parameters
         ----------
@@ -233,6 +182,8 @@ class PropulsionModel:
             Generalized coordinates and velocities, thesis order.
         kin : tuple
             From :func:`body_kinematics_scalar`.
+        m : module or ScalarMath, default math
+            ``sin`` and ``cos`` of the scalar type.
 
         Returns
         -------
@@ -241,7 +192,7 @@ class PropulsionModel:
             R_B^A d_A,P, the hub position r in body axes, the rotor axis z in body axes and the
             rotor-frame air-relative velocity components u (in-plane x) and w (axial) (7.31).
         """
-        sin, cos = math.sin, math.cos
+        sin, cos = m.sin, m.cos
         _, _, (wx, wy, wz), (vbx, vby, vbz) = kin
         sb, cb = self._sb, self._cb
         px, py, pz = self._dAP_f
@@ -358,36 +309,77 @@ class PropulsionModel:
         return out
 
 
-class PropellerForces(LeafSystem):
-    """LeafSystem: generalized force of both propellers (7.32) and both servomotors (7.33).
+@TemplateSystem.define("PropellerForces_")
+def PropellerForces_(T):
+    """PropellerForces_[T] for T in float, AutoDiffXd, Expression (``PropellerForces`` is
+    ``PropellerForces_[float]``)."""
+    m = scalar_math(T)
 
-    Inputs: ``x`` (16, thesis order), ``wind`` (3, inertial m/s), ``propeller_speed`` (2, rev/s),
-    ``servo_torque`` (2, N m); the last three read zero when unconnected.
-    Output: ``generalized_force`` (8, thesis order).
+    class Impl(LeafSystem_[T]):
+        """LeafSystem: generalized force of both propellers (7.32) and both servomotors (7.33).
 
-    Parameters
-    ----------
-    params : TiltrotorParams, optional
-        Table B.1 by default.
-    """
+        .. pydrake_system::
 
-    def __init__(self, params=None):
-        super().__init__()
-        self.core = PropulsionModel(params)
-        self._x = self.DeclareVectorInputPort("x", 16)
-        self._wind = self.DeclareVectorInputPort("wind", 3)
-        self._n = self.DeclareVectorInputPort("propeller_speed", 2)
-        self._ts = self.DeclareVectorInputPort("servo_torque", 2)
-        self.DeclareVectorOutputPort("generalized_force", 8, self._calc)
+            name: PropellerForces
+            input_ports:
+            - x
+            - wind
+            - propeller_speed
+            - servo_torque
+            output_ports:
+            - generalized_force
 
-    @staticmethod
-    def _opt(port, context, size):
-        return np.asarray(port.Eval(context)) if port.HasValue(context) else np.zeros(size)
+        Inputs: ``x`` (16, thesis order), ``wind`` (3, inertial m/s), ``propeller_speed`` (2,
+        rev/s), ``servo_torque`` (2, N m); the last three read zero when unconnected.
+        Output: ``generalized_force`` (8, thesis order).
 
-    def _calc(self, context, output: BasicVector) -> None:
-        x = np.asarray(self._x.Eval(context))
-        zeta = self._opt(self._wind, context, 3)
-        n = self._opt(self._n, context, 2)
-        ts = self._opt(self._ts, context, 2)
-        q, qd = x[:8], x[8:]
-        output.SetFromVector(self.core.propeller_force(q, qd, zeta, n) + self.core.servo_force(qd, ts))
+        Scalar types (``PropellerForces_[T]``): double runs the float tier
+        (:meth:`PropulsionModel.propeller_force`); ``ToAutoDiffXd()`` and ``ToSymbolic()`` give
+        systems on :func:`~sobolev_drake.tiltrotor.generic_forces.propeller_force_generic`
+        (equal values; its derivative at zero inflow is documented there).
+
+        Parameters
+        ----------
+        params : TiltrotorParams, optional
+            Table B.1 by default.
+        """
+
+        def _construct(self, params=None, converter=None):
+            LeafSystem_[T].__init__(self, converter=converter)
+            self.core = PropulsionModel(params)
+            self._x = self.DeclareVectorInputPort("x", 16)
+            self._wind = self.DeclareVectorInputPort("wind", 3)
+            self._n = self.DeclareVectorInputPort("propeller_speed", 2)
+            self._ts = self.DeclareVectorInputPort("servo_torque", 2)
+            # explicit prerequisites: the feedthrough is known without symbolic inspection
+            self.DeclareVectorOutputPort("generalized_force", 8, self._calc,
+                                         prerequisites_of_calc={self.all_input_ports_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.core.params, converter=converter)
+
+        @staticmethod
+        def _opt(port, context, size):
+            return np.asarray(port.Eval(context)) if port.HasValue(context) else np.zeros(size)
+
+        def _calc(self, context, output) -> None:
+            x = np.asarray(self._x.Eval(context))
+            zeta = self._opt(self._wind, context, 3)
+            n = self._opt(self._n, context, 2)
+            ts = self._opt(self._ts, context, 2)
+            q, qd = x[:8], x[8:]
+            core = self.core
+            if T is float:
+                output.SetFromVector(core.propeller_force(q, qd, zeta, n) + core.servo_force(qd, ts))
+                return
+            q, qd, zeta, n, ts = (v.tolist() for v in (q, qd, zeta, n, ts))
+            kin = body_kinematics_scalar(q, qd, zeta, m)
+            out = propeller_force_generic(core, kin, core.rotors_scalar(q, qd, kin, m), n, m)
+            for k in (0, 1):            # servo_force: cos β τs − ν α̇, added as in the float path
+                out[k] = out[k] + (core.cosb * ts[k] - core.params.nu * qd[k])
+            output.SetFromVector(out)
+
+    return Impl
+
+
+PropellerForces = default_instantiation(PropellerForces_, "PropellerForces")
