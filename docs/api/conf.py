@@ -31,5 +31,55 @@ def _literal_bars(app, what, name, obj, options, lines):
             lines[i] = line.replace("|", "\\|")
 
 
+def _pydrake_system_block(lines):
+    """(name, input ports, output ports) of a ``.. pydrake_system::`` block: ``name: X`` and
+    ``input_ports:`` / ``output_ports:`` lists of ``- port`` items (pydrake's format)."""
+    name, ports, current = "", {"input_ports": [], "output_ports": []}, None
+    for raw in lines:
+        text = raw.strip()
+        if not text:
+            continue
+        if text.startswith("- ") and current is not None:
+            ports[current].append(text[2:].strip())
+        elif text.startswith("name:"):
+            name, current = text[5:].strip(), None
+        elif text.rstrip(":") in ports:
+            current = text.rstrip(":")
+        else:
+            raise ValueError(f"pydrake_system: unexpected line {text!r}")
+    return name, ports["input_ports"], ports["output_ports"]
+
+
+def _pydrake_system_directive():
+    """The ``.. pydrake_system::`` block (pydrake's docstring convention for a system's ports)
+    drawn as a block with its input ports on the left and output ports on the right."""
+    import html
+
+    from docutils import nodes
+    from docutils.parsers.rst import Directive
+
+    class PydrakeSystem(Directive):
+        has_content = True
+
+        def run(self):
+            name, inputs, outputs = _pydrake_system_block(self.content)
+            rows = max(len(inputs), len(outputs), 1)
+            cells = []
+            for i in range(rows):
+                left = f"{html.escape(inputs[i])} &rarr;" if i < len(inputs) else ""
+                right = f"&rarr; {html.escape(outputs[i])}" if i < len(outputs) else ""
+                middle = (f'<td rowspan="{rows}" style="border:1px solid #444;padding:0.4em 1em;'
+                          f'text-align:center"><b>{html.escape(name)}</b></td>') if i == 0 else ""
+                cells.append(f'<tr><td style="text-align:right">{left}</td>{middle}'
+                             f'<td>{right}</td></tr>')
+            table = ('<table class="pydrake-system" style="border-collapse:collapse;margin:0.5em 0">'
+                     + "".join(cells) + "</table>")
+            text = f"{name}: inputs {', '.join(inputs) or '-'}; outputs {', '.join(outputs) or '-'}"
+            return [nodes.raw("", table, format="html"), nodes.raw("", text, format="latex")]
+
+    return PydrakeSystem
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", _literal_bars)
+    app.add_directive("pydrake_system", _pydrake_system_directive())
