@@ -28,6 +28,7 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 from sobolev_drake.data import load
 from sobolev_drake.native import kernel
 from sobolev_drake.systems.bounded_ls import check_problem, bounded_least_squares
+from sobolev_drake.tiltrotor.scalars import DoubleOnly
 from sobolev_drake.validation import bounds_pair, one_of, real_scalar
 
 __all__ = [
@@ -161,15 +162,7 @@ def _parse_limits(lim):
 # --------------------------------------------------------------------------------------------
 
 
-_NO_CONVERSION = (
-    "ControlAllocator{name} does not convert to {T}: the bounded least-squares allocation "
-    "(7.84) is an active-set solution, piecewise in u*, B and the bounds and not differentiable "
-    "where a bound becomes active; in the diagram to linearize (Linearize, "
-    "LinearQuadraticRegulator), use the unbounded allocation MatrixGain(np.linalg.pinv(B)) "
-    "(equal while no bound is active) or the plant's actuator inputs instead")
-
-
-class ControlAllocator(LeafSystem):
+class ControlAllocator(DoubleOnly, LeafSystem):
     """Bounded least-squares allocation (7.84) as a LeafSystem.
 
     Inputs: ``u_star`` (n) — desired generalized input; ``B`` (n·m) — input matrix flattened
@@ -196,7 +189,7 @@ class ControlAllocator(LeafSystem):
         - tau
         - residual
 
-    Double only: ``ToAutoDiffXd()`` and ``ToSymbolic()`` raise (:meth:`ToAutoDiffXd`), and a
+    Double only: ``ToAutoDiffXd()`` and ``ToSymbolic()`` raise (:class:`DoubleOnly`), and a
     diagram holding the allocator does not convert either.  The active-set solution is
     piecewise in (u*, B, bounds) and not differentiable where a bound becomes active or
     inactive; to linearize or run LQR on a loop, put the unbounded allocation in its place
@@ -255,17 +248,12 @@ class ControlAllocator(LeafSystem):
         self.DeclareVectorOutputPort("residual", 1, self._calc_residual,
                                      prerequisites_of_calc={self._cache.ticket()})
 
-    def ToAutoDiffXd(self):
-        """Refused with a ``RuntimeError`` that names the alternative (class docstring): the
-        bounded allocation is not differentiable where its active set changes."""
-        raise RuntimeError(_NO_CONVERSION.format(name=f" {self.get_name()!r}" * bool(self.get_name()),
-                                                 T="AutoDiffXd"))
-
-    def ToSymbolic(self):
-        """Refused with a ``RuntimeError`` that names the alternative (class docstring): the
-        active-set solve has no symbolic form."""
-        raise RuntimeError(_NO_CONVERSION.format(name=f" {self.get_name()!r}" * bool(self.get_name()),
-                                                 T="Expression"))
+    conversion_refusal = (
+        "the bounded least-squares allocation (7.84) is an active-set solution, piecewise in u*, "
+        "B and the bounds and not differentiable where a bound becomes active; in the diagram to "
+        "linearize (Linearize, LinearQuadraticRegulator), use the unbounded allocation "
+        "MatrixGain(np.linalg.pinv(B)) (equal while no bound is active) or the plant's actuator "
+        "inputs instead")
 
     def bounds(self, context):
         """(lo, hi) used in ``context``.

@@ -44,9 +44,10 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
-from sobolev_drake.native import kernel
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
+from sobolev_drake.tiltrotor.law_checks import checked_vector, saturation_flags
+from sobolev_drake.tiltrotor.scalars import DoubleOnly
 
 __all__ = [
     "N_Q", "THESIS_WEIGHTS", "PARTITION", "thesis_inner_law", "tilt_schedule_polynomial",
@@ -208,74 +209,6 @@ def tracked_reference(ref_c, ref_r):
     return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
-def checked_vector(name, value, size):
-    """A finite vector of length ``size`` as an array and as a list of floats; otherwise
-    ``check_vector``'s descriptive error (the cheap form of the check, run once per sample).
-
-    Parameters
-    ----------
-    name, value, size
-        Argument name (for the error message), the vector and its required length.
-
-    Returns
-    -------
-    tuple
-        (float64 array, list of its floats).
-    """
-    arr = value if type(value) is np.ndarray and value.dtype == np.float64 else np.asarray(value, dtype=float)
-    if arr.shape == (size,):
-        lst = arr.tolist()
-        if all(map(math.isfinite, lst)):
-            return arr, lst
-    return check_vector(name, value, size), None        # raises
-
-
-def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
-    """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
-    of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
-    whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
-    saturated, and counts as inside.
-
-    The numpy form at the end is the reference (any shape); 8-vectors go to the compiled kernel
-    when it is built, other vectors to the float loop, kept because ``benchmarks/speed_tiers.py``
-    measures it ≈ 2.5× faster than the numpy form per sample.  All three make the same
-    comparisons on the same floats, so the flags are identical (tested).
-
-    Parameters
-    ----------
-    tau, lo, up : array_like
-        Actuator values and their bounds (same shape).
-    rel_tol : float, default 1e-3
-        Tolerance relative to the bound width.
-    min_width : float, default 1e-3
-        Narrower boxes count as switched off.
-
-    Returns
-    -------
-    ndarray
-        +1, −1 or 0 per entry.
-    """
-    tau, lo, up = np.asarray(tau, dtype=float), np.asarray(lo, dtype=float), np.asarray(up, dtype=float)
-    if tau.shape == lo.shape == up.shape == (N_TAU,):
-        k = kernel("forces")
-        if k is not None:                 # the same comparisons in C (per-sample path)
-            return np.array(k.saturation_flags(tau, lo, up, rel_tol, min_width))
-    if tau.ndim == 1 and tau.shape == lo.shape == up.shape:     # plain floats: per-sample path
-        out = []
-        for t, lw, uw in zip(tau.tolist(), lo.tolist(), up.tolist()):
-            w = uw - lw
-            if w > min_width:                    # then max(w, 0) = w
-                tol = rel_tol * w
-                out.append(1.0 if t >= uw - tol else (-1.0 if t <= lw + tol else 0.0))
-            else:
-                out.append(0.0)
-        return np.array(out)
-    tol = rel_tol * np.maximum(up - lo, 0.0)
-    width_ok = (up - lo) > min_width
-    return np.where(width_ok & (tau >= up - tol), 1.0,
-                    np.where(width_ok & (tau <= lo + tol), -1.0, 0.0))
-
-
 @dataclass
 class ControlStep:
     """Everything one evaluation of the law produced (for logging and tests).
@@ -402,16 +335,34 @@ class TiltrotorWInfLaw:
         return ControlStep(qdd, u, np.asarray(B), np.asarray(theta), tau, lo, up, n, res, ref_r)
 
 
-class TiltrotorWInfController(LeafSystem):
+class TiltrotorWInfController(DoubleOnly, LeafSystem):
     """Sampled nonlinear W∞ controller with allocation (7.81)–(7.90) as a Drake LeafSystem.
 
-    Inputs: ``x`` (16, thesis order [q; q̇]), ``reference`` (12, [x y z ψ] positions, rates,
-    accelerations), ``wind_measured`` (3, inertial m/s; Assumption 19 — gusts are *not* in it).
-    Outputs: ``propeller_speed`` (2, rev/s), ``servo_torque`` (2, N m), ``surface_deflection``
-    (4, rad [δWR δWL δTR δTL]), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1,
-    ‖u* − Bτ̄‖), ``integral_error`` (3), ``saturation`` (8, ±1 on a bound), ``sample_record`` (30,
-    all of these in one vector for logging, split by :meth:`split_record`).  All outputs are
-    zero-order holds of the last update.
+    .. pydrake_system::
+
+        name: TiltrotorWInfController
+        input_ports:
+        - x
+        - reference
+        - wind_measured
+        output_ports:
+        - propeller_speed
+        - servo_torque
+        - surface_deflection
+        - tau_bar
+        - u_star
+        - allocation_residual
+        - integral_error
+        - saturation
+        - sample_record
+
+    ``x`` (16, thesis order [q; q̇]), ``reference`` (12, [x y z ψ] positions, rates,
+    accelerations), ``wind_measured`` (3, inertial m/s; Assumption 19 — gusts are *not* in it);
+    ``propeller_speed`` (2, rev/s), ``servo_torque`` (2, N m), ``surface_deflection`` (4, rad
+    [δWR δWL δTR δTL]), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1, ‖u* − Bτ̄‖),
+    ``integral_error`` (3), ``saturation`` (8, ±1 on a bound), ``sample_record`` (30, all in one
+    vector, :meth:`split_record`): zero-order holds of the last update.  Double only
+    (:class:`~sobolev_drake.tiltrotor.scalars.DoubleOnly`).
 
     Parameters
     ----------
@@ -423,6 +374,8 @@ class TiltrotorWInfController(LeafSystem):
         τ̄ (8) and propeller speeds (2) held before the first update (zero by default).
     """
 
+    conversion_refusal = ("its allocation is an active-set solve and its thrust inversion a root "
+                          "search; linearize the hover loop with LinearHoverController instead")
     # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
     # copies of n, τs and δ for the three plant-facing outputs, declared as state output ports
     # (copied by Drake in C++: three Python output callbacks less per sample)
@@ -464,7 +417,6 @@ class TiltrotorWInfController(LeafSystem):
         # everything above in one port copied by Drake in C++ (a log sink on it costs no Python
         # call per sample); split with :meth:`split_record`
         self.DeclareStateOutputPort("sample_record", self._state)
-        self.last_step: ControlStep | None = None
 
     #: fields of the ``sample_record`` port (30) and their slices
     RECORD_FIELDS = {"integral_error": _I, "tau_bar": _TAU, "propeller_speed": _N, "u_star": _U,
@@ -515,4 +467,3 @@ class TiltrotorWInfController(LeafSystem):
         discrete_state.get_mutable_vector(g_n).SetFromVector(nl)
         discrete_state.get_mutable_vector(g_s).SetFromVector(tl[2:4])
         discrete_state.get_mutable_vector(g_d).SetFromVector(tl[4:8])
-        self.last_step = step

@@ -28,7 +28,7 @@ import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, ExpressionKind, Variable, if_then_else
 
-__all__ = ["ScalarMath", "scalar_math", "default_instantiation"]
+__all__ = ["ScalarMath", "scalar_math", "default_instantiation", "DoubleOnly"]
 
 
 class ScalarMath:
@@ -196,3 +196,38 @@ def default_instantiation(template, name: str):
     params = [p for n, p in sig.parameters.items() if n not in ("self", "converter")]
     cls.__signature__ = sig.replace(parameters=params)
     return cls
+
+
+class DoubleOnly:
+    """Mixin for a LeafSystem whose mathematics is not differentiable: ``ToAutoDiffXd()`` and
+    ``ToSymbolic()`` raise a ``RuntimeError`` naming the system, why, and what to put in its
+    place (the class attribute ``conversion_refusal``).  A diagram holding it does not convert
+    either (Drake's own error names the class).
+    """
+
+    #: why the system is double only and the alternative (completes "does not convert to T: …")
+    conversion_refusal = "it is double only"
+
+    def _refusal(self, scalar):
+        name = f" {self.get_name()!r}" if self.get_name() else ""
+        return f"{type(self).__name__}{name} does not convert to {scalar}: {self.conversion_refusal}"
+
+    def ToAutoDiffXd(self):
+        """Refused (the class docstring says why and what to use instead).
+
+        Raises
+        ------
+        RuntimeError
+            Always.
+        """
+        raise RuntimeError(self._refusal("AutoDiffXd"))
+
+    def ToSymbolic(self):
+        """Refused (the class docstring says why and what to use instead).
+
+        Raises
+        ------
+        RuntimeError
+            Always.
+        """
+        raise RuntimeError(self._refusal("Expression"))

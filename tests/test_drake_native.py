@@ -1,0 +1,73 @@
+"""Every LeafSystem of the package converts scalar type or refuses by name (issue #31).
+
+The conversions themselves are tested per family, each converted system's outputs against the
+double system's: tests/systems/test_drake_native_sources.py (wind, disturbances, references),
+tests/systems/test_drake_native_linear.py (linear and Galerkin controllers),
+tests/systems/test_drake_native_mechanical.py (mechanical controller, force adapter, and
+Drake's Linearize of the README's arm loop against the design poles),
+tests/tiltrotor/test_drake_native_tiltrotor.py (tilt-rotor forces, linear hover controller).
+This module finds every LeafSystem class the package defines and checks that one of those
+modules exercises it, so a new system cannot ship unconverted and untested; and it checks the
+documented refusals of the double-only systems here.
+"""
+
+import importlib
+import inspect
+import pkgutil
+import re
+from pathlib import Path
+
+import pytest
+from pydrake.systems.framework import DiagramBuilder, LeafSystem_
+
+import sobolev_drake
+
+ROOT = Path(__file__).resolve().parents[1]
+CONVERSION_TESTS = sorted(ROOT.glob("tests/*/test_drake_native_*.py")) + [Path(__file__)]
+
+
+def leaf_system_classes() -> dict:
+    """{class name (without the template suffix): module} of every LeafSystem defined here."""
+    found = {}
+    for info in pkgutil.walk_packages(sobolev_drake.__path__, "sobolev_drake."):
+        if info.name.endswith("__main__"):
+            continue
+        module = importlib.import_module(info.name)
+        for obj in vars(module).values():
+            if inspect.isclass(obj) and obj.__module__ == module.__name__ and any(
+                    issubclass(obj, LeafSystem_[T]) for (T,) in LeafSystem_.param_list):
+                found[re.sub(r"_𝓣.*𝓤$", "", obj.__name__)] = module.__name__
+    return found
+
+
+def test_every_leaf_system_is_exercised_by_a_conversion_test():
+    systems = leaf_system_classes()
+    assert len(systems) >= 18, sorted(systems)
+    text = "\n".join(p.read_text(encoding="utf-8") for p in CONVERSION_TESTS)
+    missing = sorted(name for name in systems if not re.search(rf"\b{name}\b", text))
+    assert missing == [], f"LeafSystems without a scalar-conversion test: {missing}"
+
+
+def _tiltrotor_controller():
+    from sobolev_drake.tiltrotor.mission import build_mission
+
+    return build_mission(2, 1.0)["controller"]
+
+
+def _allocator():
+    from sobolev_drake.tiltrotor.allocation import ControlAllocator
+    return ControlAllocator()
+
+
+@pytest.mark.parametrize("make, name", [(_tiltrotor_controller, "TiltrotorWInfController"),
+                                        (_allocator, "ControlAllocator")])
+def test_double_only_systems_refuse_naming_themselves_and_the_alternative(make, name):
+    system = make()
+    for convert, scalar in ((system.ToAutoDiffXd, "AutoDiffXd"), (system.ToSymbolic, "Expression")):
+        with pytest.raises(RuntimeError, match=rf"{name}.* does not convert to {scalar}: .*instead"):
+            convert()
+    # a diagram holding one does not convert either, and Drake's message names the class
+    builder = DiagramBuilder()
+    builder.AddSystem(_allocator())
+    diagram = builder.Build()
+    assert diagram.ToAutoDiffXdMaybe() is None
