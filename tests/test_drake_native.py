@@ -71,3 +71,26 @@ def test_double_only_systems_refuse_naming_themselves_and_the_alternative(make, 
     builder.AddSystem(_allocator())
     diagram = builder.Build()
     assert diagram.ToAutoDiffXdMaybe() is None
+
+
+def test_the_tiltrotor_controller_takes_its_first_sample_at_initialization():
+    """No hold-at-zero start: after Initialize the outputs are the first sample, and the
+    periodic event at the same time leaves it (the samples are those of an offset-0 schedule)."""
+    import numpy as np
+    from pydrake.systems.analysis import Simulator
+
+    from sobolev_drake.tiltrotor.mission import build_mission
+
+    built = build_mission(2, 1.0)
+    ctrl = built["controller"]
+    simulator = Simulator(built["diagram"])
+    ctx = ctrl.GetMyContextFromRoot(simulator.get_context())
+    before = ctrl.GetOutputPort("propeller_speed").Eval(ctx).copy()
+    assert np.all(before == 0.0)                      # a context not yet initialized
+    simulator.Initialize()
+    first = ctrl.GetOutputPort("sample_record").Eval(ctx).copy()
+    assert np.all(ctrl.GetOutputPort("propeller_speed").Eval(ctx) > 0)
+    simulator.AdvanceTo(0.5 * ctrl.period)            # the t = 0 periodic event ran: no change
+    np.testing.assert_array_equal(ctrl.GetOutputPort("sample_record").Eval(ctx), first)
+    simulator.AdvanceTo(1.5 * ctrl.period)            # the next sample integrates the error
+    assert not np.array_equal(ctrl.GetOutputPort("sample_record").Eval(ctx), first)

@@ -371,7 +371,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     period : float, default 0.01
         Sample period (s).
     initial_tau, initial_speed : array_like, optional
-        τ̄ (8) and propeller speeds (2) held before the first update (zero by default).
+        τ̄ (8) and propeller speeds (2) of a context not yet initialized (zero by default);
+        ``Simulator.Initialize`` takes the first sample at once.
     """
 
     conversion_refusal = ("its allocation is an active-set solve and its thrust inversion a root "
@@ -406,6 +407,10 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         self._state = self.DeclareDiscreteState(BasicVector(init))
         self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in
                       (self._N, slice(5, 7), slice(7, 11))]
+        # the first sample is taken at initialization (outputs are never the placeholder); the
+        # periodic event at that same time then finds it stamped and leaves it
+        self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
+        self.DeclareInitializationDiscreteUpdateEvent(self._update)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
         for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
             self.DeclareStateOutputPort(name, idx)
@@ -448,6 +453,10 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         return calc
 
     def _update(self, context, discrete_state):
+        t = context.get_time()
+        if context.get_discrete_state(self._stamp).GetAtIndex(0) == t:
+            return                                   # this sample was taken at initialization
+        discrete_state.get_mutable_vector(self._stamp).SetAtIndex(0, t)
         x = self.x_port.Eval(context)
         ref = self.reference_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
