@@ -27,7 +27,7 @@ CONVERSION_TESTS = sorted(ROOT.glob("tests/*/test_drake_native_*.py")) + [Path(_
 
 
 def leaf_system_classes() -> dict:
-    """{class name (without the template suffix): module} of every LeafSystem defined here."""
+    """{class name (without the template suffix): class} of every LeafSystem defined here."""
     found = {}
     for info in pkgutil.walk_packages(sobolev_drake.__path__, "sobolev_drake."):
         if info.name.endswith("__main__"):
@@ -36,7 +36,7 @@ def leaf_system_classes() -> dict:
         for obj in vars(module).values():
             if inspect.isclass(obj) and obj.__module__ == module.__name__ and any(
                     issubclass(obj, LeafSystem_[T]) for (T,) in LeafSystem_.param_list):
-                found[re.sub(r"_𝓣.*𝓤$", "", obj.__name__)] = module.__name__
+                found[re.sub(r"_𝓣.*𝓤$", "", obj.__name__)] = obj
     return found
 
 
@@ -46,6 +46,10 @@ def test_every_leaf_system_is_exercised_by_a_conversion_test():
     text = "\n".join(p.read_text(encoding="utf-8") for p in CONVERSION_TESTS)
     missing = sorted(name for name in systems if not re.search(rf"\b{name}\b", text))
     assert missing == [], f"LeafSystems without a scalar-conversion test: {missing}"
+    # and each documents its ports the pydrake way, naming itself
+    undocumented = sorted(name for name, cls in systems.items()
+                          if not re.search(r"\.\. pydrake_system::\s+name: \w+", cls.__doc__ or ""))
+    assert undocumented == [], f"LeafSystems without a .. pydrake_system:: block: {undocumented}"
 
 
 def _tiltrotor_controller():
