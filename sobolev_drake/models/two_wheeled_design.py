@@ -36,7 +36,7 @@ def design_model(params=None):
     def minv(X):
         b = p.m * p.l * p.r * np.cos(X[:, 0])
         det = a * d - b * b
-        out = np.empty((X.shape[0], 2, 2))
+        out = np.empty((X.shape[0], 2, 2), dtype=np.result_type(X, float))   # object arrays: AutoDiff gains
         out[:, 0, 0], out[:, 1, 1] = d / det, a / det
         out[:, 0, 1] = out[:, 1, 0] = -b / det
         return out
@@ -52,12 +52,12 @@ def design_model(params=None):
 
     def g(X):
         Mi = minv(X)
-        out = np.zeros((X.shape[0], 3, 1))
+        out = np.zeros((X.shape[0], 3, 1), dtype=np.result_type(X, float))
         out[:, 1:, 0] = Mi[:, :, 0] - Mi[:, :, 1]  # M⁻¹ F, F = [1, −1]
         return out
 
     def k(X):
-        out = np.zeros((X.shape[0], 3, 2))
+        out = np.zeros((X.shape[0], 3, 2), dtype=np.result_type(X, float))
         out[:, 1:, :] = minv(X)
         return out
 

@@ -14,7 +14,10 @@ Public API
 ``GalerkinProblem(model, cost, basis, box, quadrature=...)`` and ``problem.solve(u0, ...)``,
 or the functional forms :func:`sgaa_w2`, :func:`sgaa_winf`, :func:`sgaa_hinf`.  The result
 (:class:`GalerkinResult`) evaluates V, ∇V, u*(x), w*(x) and the HJ residual anywhere
-(vectorized), and records the iteration history.
+(vectorized), and records the iteration history.  V, ∇V, u* and w* also evaluate on object
+arrays of AutoDiffXd or symbolic Expression (the same expressions; the small saddle solve by
+elimination), when the model's and the cost's functions accept them; ``feedback_gain()`` is
+then the exact AutoDiffXd derivative of u* at the origin.
 
 Safety: the initial control is checked to stabilize the model on Ω (linearization + sampled
 trajectories, :func:`check_admissible`), the saddle-point condition (4.22) is checked at every
@@ -46,11 +49,12 @@ from typing import Callable
 import numpy as np
 
 from sobolev_drake.validation import real_scalar
-from sobolev_drake.synthesis.galerkin_basis import Box, QuadratureRule, gauss_legendre, check_points
+from sobolev_drake.synthesis.galerkin_basis import (Box, ObjectEvaluationError, QuadratureRule,
+                                                    check_points, gauss_legendre)
 from sobolev_drake.synthesis.galerkin_problem import (
     AdmissibilityError, AffineGalerkinSystem, GalerkinConvergenceError, GalerkinDivergenceError,
-    HinfCost, InputAffineModel, NodeData, SaddlePointError, W2Cost, WinfCost, bmm, bmv,
-    solve_galerkin)
+    HinfCost, InputAffineModel, NodeData, SaddlePointError, W2Cost, WinfCost, autodiff_jacobian,
+    bmm, bmv, quiet as _quiet, solve_galerkin, solve_quasidefinite)
 
 __all__ = ["GalerkinProblem", "GalerkinResult", "sgaa_w2", "sgaa_winf", "sgaa_hinf",
            "check_admissible", "closed_loop_jacobian", "W2Cost", "WinfCost", "HinfCost",
@@ -147,21 +151,42 @@ class GalerkinResult:
     diagnostics: dict = field(default_factory=dict)
 
     def value(self, X):
-        return self.basis.evaluate(X) @ self.coefficients
+        """V(X) = Φ(X) c, shape (Q,) (X float, or an object array as in :meth:`decision`)."""
+        with _quiet(X):
+            return self.basis.evaluate(X) @ self.coefficients
 
     def gradient(self, X):
-        """∇V(X), shape (Q, n)."""
-        dPhi = self.basis.gradient(X)
-        return np.tensordot(dPhi, self.coefficients, axes=(1, 0))
+        """∇V(X), shape (Q, n) (X float, or an object array as in :meth:`decision`)."""
+        with _quiet(X):
+            return np.tensordot(self.basis.gradient(X), self.coefficients, axes=(1, 0))
 
     def decision(self, X):
-        """Saddle decision v* = [u*; w*] = −S⁻¹(½Gᵀ∇V + s) at X (shape (Q, nu + nw))."""
+        """Saddle decision v* = [u*; w*] = −S⁻¹(½Gᵀ∇V + s) at X (shape (Q, nu + nw)).
+
+        Float X: vectorized, S⁻¹ by batched LU (the fast path).  Object X (AutoDiffXd or
+        Expression): the same expressions, S⁻¹ by elimination (:func:`solve_quasidefinite`),
+        equal up to rounding; the basis, f, g, k and ∇h must accept object arrays, else an
+        ``ObjectEvaluationError`` (a ``TypeError``) names the function.
+
+        Parameters
+        ----------
+        X : array_like, shape (Q, n) or (n,)
+            Design states: floats, or an object array of AutoDiffXd or Expression.
+
+        Returns
+        -------
+        ndarray, shape (Q, nu + nw)
+            Float, or object entries of the scalar type of X.
+        """
         prob = self.problem
-        X = check_points("X", X, prob.model.n)
-        dV = self.coefficients @ self.basis.gradient(X)  # (Q, n)
-        F, G = prob.model.evaluate(X)
-        _, s, S = prob.cost.coefficients(X, F, G, prob.model.nu)
-        rhs = 0.5 * bmv(G.transpose(0, 2, 1), dV) + s
+        X = check_points("X", X, prob.model.n, keep_object=True)
+        with _quiet(X):
+            dV = self.coefficients @ self.basis.gradient(X)  # (Q, n)
+            F, G = prob.model.evaluate(X)
+            s, S = prob.cost.decision_terms(X, F, G, prob.model.nu)
+            rhs = 0.5 * bmv(G.transpose(0, 2, 1), dV) + s
+            if X.dtype == object:
+                return -solve_quasidefinite(S, rhs)
         return -np.linalg.solve(S, rhs[:, :, None])[:, :, 0]
 
     def control(self, X):
@@ -177,9 +202,34 @@ class GalerkinResult:
         nodes = self.problem.nodes_at(check_points("X", X, self.problem.model.n))
         return nodes.hamiltonian(self.coefficients, nodes.saddle(self.coefficients))
 
-    def feedback_gain(self):
-        """Linearization u ≈ K x at the origin (finite differences), shape (nu, n)."""
-        return closed_loop_jacobian(self.control, self.problem.model.n)
+    def feedback_gain(self, method: str = "auto"):
+        """Linearization u ≈ K x at the origin, shape (nu, n).
+
+        ``"autodiff"``: K = ∂u*/∂x(0) to rounding, u* evaluated on AutoDiffXd (see
+        :meth:`decision`); ``"central"``: central differences, step h = 1e-6 (error
+        h²/6·|u‴| + ε|u|/h); ``"auto"``: AutoDiffXd, or central differences when a function of
+        the design is double only (e.g. it fills ``np.empty`` float arrays).
+
+        Parameters
+        ----------
+        method : {"auto", "autodiff", "central"}, default "auto"
+            How to differentiate u* at the origin.
+
+        Returns
+        -------
+        ndarray, shape (nu, n)
+            K with u*(x) = K x + O(|x|²) (u = +K x).
+        """
+        if method not in ("auto", "autodiff", "central"):
+            raise ValueError(f"method must be 'auto', 'autodiff' or 'central', got {method!r}")
+        n = self.problem.model.n
+        if method != "central":
+            try:
+                return autodiff_jacobian(self.control, np.zeros(n))
+            except ObjectEvaluationError:
+                if method == "autodiff":
+                    raise
+        return closed_loop_jacobian(self.control, n)
 
 
 class GalerkinProblem:

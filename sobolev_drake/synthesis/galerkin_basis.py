@@ -15,6 +15,9 @@ The Galerkin projections (4.24)–(4.29) of the thesis are integrals over a box
 
 Every basis evaluates on a batch of points ``X`` of shape ``(Q, n)`` and returns ``Φ`` of shape
 ``(Q, N)`` and ``∇Φ`` of shape ``(Q, N, n)``, without Python loops over the basis terms.
+The same code evaluates them on object arrays of AutoDiffXd or symbolic Expression (the
+scalar-generic Galerkin law; a :class:`FunctionBasis` only if its callables accept those,
+else a ``TypeError`` naming them, :func:`object_call`).
 """
 
 from __future__ import annotations
@@ -29,12 +32,30 @@ import numpy as np
 from ..validation import real_scalar
 
 __all__ = ["Box", "QuadratureRule", "gauss_legendre", "midpoint", "PolynomialBasis",
-           "FunctionBasis", "check_points"]
+           "FunctionBasis", "check_points", "object_call", "ObjectEvaluationError"]
 
 
-def check_points(name: str, X, n: int) -> np.ndarray:
-    """Return ``X`` as a float array of shape (Q, n) or raise a ``ValueError`` naming it."""
-    X = np.asarray(X, dtype=float)
+def check_points(name: str, X, n: int, *, keep_object: bool = False) -> np.ndarray:
+    """Return ``X`` as a float array of shape (Q, n) or raise a ``ValueError`` naming it.
+
+    Parameters
+    ----------
+    name : str
+        Name of the argument, for the error message.
+    X : array_like
+        A point (n,) or points (Q, n).
+    n : int
+        State dimension.
+    keep_object : bool, default False
+        Keep an object array (AutoDiffXd or symbolic Expression entries) as it is instead of
+        casting it to float (the scalar-generic evaluation of the Galerkin law).
+
+    Returns
+    -------
+    ndarray, shape (Q, n)
+    """
+    X = np.asarray(X)
+    X = X if keep_object and X.dtype == object else np.asarray(X, dtype=float)
     if X.ndim == 1 and X.shape[0] == n:
         X = X[None, :]
     if X.ndim != 2 or X.shape[1] != n:
@@ -106,6 +127,45 @@ class QuadratureRule:
     def integrate(self, values) -> np.ndarray:
         """∫Ω values dΩ for values sampled at the nodes, shape (Q, ...)."""
         return np.tensordot(self.weights, np.asarray(values), axes=(0, 0))
+
+
+class ObjectEvaluationError(TypeError):
+    """A user function (model f, g, k, cost h, ∇h or basis) does not evaluate on object arrays
+    of AutoDiffXd / Expression: the Galerkin law is then double only."""
+
+
+def object_call(what: str, fun: Callable, X: np.ndarray) -> np.ndarray:
+    """``fun(X)`` for an object array ``X`` (AutoDiffXd or Expression entries), not cast to float.
+
+    Parameters
+    ----------
+    what : str
+        The function's name in the error message, e.g. ``"model function f"``.
+    fun : callable
+        A vectorized function of points (Q, n).
+    X : ndarray of object
+        The points.
+
+    Returns
+    -------
+    ndarray
+        Its value (an object array, or a float array for a constant).
+
+    Raises
+    ------
+    ObjectEvaluationError
+        (a ``TypeError``) naming ``what`` when ``fun`` fails on the object array (e.g. it
+        fills ``np.empty`` float arrays, which cannot hold AutoDiffXd or Expression entries).
+    """
+    scalar = type(X.flat[0]).__name__ if X.size else "object"
+    try:
+        return np.asarray(fun(X))
+    except Exception as err:  # noqa: BLE001  (any failure: the function is float-only)
+        raise ObjectEvaluationError(
+            f"{what}(X) does not evaluate on an object array of {scalar} "
+            f"({type(err).__name__}: {err}); for the scalar-generic Galerkin law (AutoDiffXd "
+            "gain, Drake scalar conversion) write it with dtype-preserving NumPy code, e.g. "
+            "np.zeros(shape, dtype=X.dtype) instead of np.zeros(shape)") from err
 
 
 def _tensor_rule(box: Box, nodes_1d, weights_1d, name) -> QuadratureRule:
@@ -215,26 +275,35 @@ class PolynomialBasis:
 
     def _powers(self, X):
         Xs = X / self.scale
+        if X.dtype == object:
+            # repeated products, x⁰ = 1.0 exactly: AutoDiffXd's pow(x, 0) has the derivative
+            # 0·x⁻¹, NaN at x = 0 (the origin, where the gain is taken)
+            P = np.empty(X.shape + (self.degree + 1,), dtype=object)
+            P[:, :, 0] = 1.0
+            for p in range(1, self.degree + 1):
+                P[:, :, p] = Xs if p == 1 else P[:, :, p - 1] * Xs
+            return P
         # P[q, i, p] = (x_i/s_i)^p for p = 0..degree
         return Xs[:, :, None] ** np.arange(self.degree + 1)[None, None, :]
 
     def evaluate(self, X) -> np.ndarray:
-        """Φ(X), shape (Q, N)."""
-        X = check_points("X", X, self.n)
+        """Φ(X), shape (Q, N) (X may be an object array of AutoDiffXd or Expression)."""
+        X = check_points("X", X, self.n, keep_object=True)
         P = self._powers(X)
-        out = np.ones((X.shape[0], len(self)))
+        out = np.ones((X.shape[0], len(self)), dtype=X.dtype)
         for i in range(self.n):  # loop over coordinates, vectorized over terms
             out *= P[:, i, self.exponents[:, i]]
         return out
 
     def gradient(self, X) -> np.ndarray:
-        """∇Φ(X), shape (Q, N, n): entry [q, k, i] = ∂φ_k/∂x_i at X[q]."""
-        X = check_points("X", X, self.n)
+        """∇Φ(X), shape (Q, N, n): entry [q, k, i] = ∂φ_k/∂x_i at X[q] (X may be an object
+        array of AutoDiffXd or Expression: the same products, entries of that type)."""
+        X = check_points("X", X, self.n, keep_object=True)
         P = self._powers(X)
         E = self.exponents
         Em1 = np.maximum(E - 1, 0)
         factors = [P[:, i, E[:, i]] for i in range(self.n)]  # (Q, N) each
-        grad = np.empty((X.shape[0], len(self), self.n))
+        grad = np.empty((X.shape[0], len(self), self.n), dtype=X.dtype)
         for i in range(self.n):  # loops over coordinates only, vectorized over terms
             d = (E[:, i] / self.scale[i]) * P[:, i, Em1[:, i]]
             for j in range(self.n):
@@ -287,16 +356,18 @@ class FunctionBasis:
         return self._size
 
     def evaluate(self, X) -> np.ndarray:
-        X = check_points("X", X, self.n)
-        out = np.asarray(self._phi(X), dtype=float)
+        X = check_points("X", X, self.n, keep_object=True)
+        out = (object_call("basis phi", self._phi, X) if X.dtype == object
+               else np.asarray(self._phi(X), dtype=float))
         if out.shape != (X.shape[0], self._size):
             raise ValueError(f"basis phi(X) must return shape {(X.shape[0], self._size)}, "
                              f"got {out.shape}")
         return out
 
     def gradient(self, X) -> np.ndarray:
-        X = check_points("X", X, self.n)
-        out = np.asarray(self._grad(X), dtype=float)
+        X = check_points("X", X, self.n, keep_object=True)
+        out = (object_call("basis grad", self._grad, X) if X.dtype == object
+               else np.asarray(self._grad(X), dtype=float))
         if out.shape != (X.shape[0], self._size, self.n):
             raise ValueError(f"basis grad(X) must return shape "
                              f"{(X.shape[0], self._size, self.n)}, got {out.shape}")

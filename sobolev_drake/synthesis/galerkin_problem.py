@@ -24,16 +24,19 @@ b is evaluated from the (cheap) pointwise cost at the quadrature nodes.
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from pydrake.autodiffutils import AutoDiffXd, InitializeAutoDiff
 
-from sobolev_drake.synthesis.galerkin_basis import Box, check_points
+from sobolev_drake.synthesis.galerkin_basis import Box, check_points, object_call
 
 __all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
-           "AffineGalerkinSystem", "GalerkinDivergenceError", "GalerkinConvergenceError",
-           "AdmissibilityError", "SaddlePointError"]
+           "AffineGalerkinSystem", "solve_quasidefinite", "autodiff_jacobian", "quiet",
+           "GalerkinDivergenceError", "GalerkinConvergenceError", "AdmissibilityError",
+           "SaddlePointError"]
 
 
 class GalerkinDivergenceError(RuntimeError):
@@ -79,8 +82,10 @@ def bmv(A, x):
     return out
 
 
-def _call(name, fun, X, shape):
-    out = np.asarray(fun(X), dtype=float)
+def _call(name, fun, X, shape, role="model function"):
+    """``fun(X)`` checked for ``shape``; float, or (object X) of the entries' scalar type."""
+    out = (object_call(f"the {role} {name}", fun, X) if X.dtype == object
+           else np.asarray(fun(X), dtype=float))
     if out.shape != shape:
         raise ValueError(f"{name}(X) must return shape {shape} for X of shape {X.shape} "
                          f"(vectorized over the first axis), got {out.shape}")
@@ -92,7 +97,9 @@ class InputAffineModel:
 
     ``f(X) -> (Q, n)``, ``g(X) -> (Q, n, nu)``, ``k(X) -> (Q, n, nw)`` for X of shape (Q, n);
     ``k=None`` means no disturbance channel (nw = 0).  Shapes are checked on a probe batch and
-    f(0) = 0 (Assumption 3) is enforced.
+    f(0) = 0 (Assumption 3) is enforced.  Functions written with dtype-preserving NumPy code
+    also evaluate on object arrays of AutoDiffXd or Expression (:meth:`evaluate`), which the
+    scalar-generic Galerkin law needs.
     """
 
     def __init__(self, f: Callable, g: Callable, k: Callable | None = None, *, n: int,
@@ -126,8 +133,10 @@ class InputAffineModel:
         return self.nu + self.nw
 
     def evaluate(self, X):
-        """F (Q, n) and G = [g k] (Q, n, nu + nw) at the points X."""
-        X = check_points("X", X, self.n)
+        """F (Q, n) and G = [g k] (Q, n, nu + nw) at the points X (float, or an object array of
+        AutoDiffXd / Expression: then the functions' own outputs, a ``TypeError`` naming a
+        function that fails on them)."""
+        X = check_points("X", X, self.n, keep_object=True)
         Q = X.shape[0]
         F = _call("f", self.f, X, (Q, self.n))
         G = _call("g", self.g, X, (Q, self.n, self.nu))
@@ -170,6 +179,11 @@ class W2Cost:
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=None)
 
+    def decision_terms(self, X, F, G, nu):
+        """(s, S) of ℓ = q + 2sᵀv + vᵀSv without q (no h needed; any scalar type)."""
+        nz = np.asarray(self.sigma0).shape[0]
+        return _sobolev_terms(self, X, F, G, nu, nz, gamma=None)[1:]
+
 
 @dataclass
 class WinfCost:
@@ -192,6 +206,11 @@ class WinfCost:
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=float(self.gamma))
 
+    def decision_terms(self, X, F, G, nu):
+        """(s, S) of ℓ = q + 2sᵀv + vᵀSv without q (no h needed; any scalar type)."""
+        nz = np.asarray(self.sigma0).shape[0]
+        return _sobolev_terms(self, X, F, G, nu, nz, gamma=float(self.gamma))[1:]
+
 
 @dataclass
 class HinfCost:
@@ -213,31 +232,38 @@ class HinfCost:
         return float(self.gamma)
 
     def coefficients(self, X, F, G, nu):
-        Qn, m = X.shape[0], G.shape[2]
-        Qw, R = self.Q, self.R
-        nz = Qw.shape[0]
+        h = _call("h", self.h, X, (X.shape[0], self.Q.shape[0]), role="cost function")
+        q = np.einsum("qi,ij,qj->q", h, self.Q, h)
+        return (q, *self.decision_terms(X, F, G, nu))
+
+    def decision_terms(self, X, F, G, nu):
+        """(s, S) = (0, diag(R, −γ²I)) (constants)."""
+        Qn, m, R = X.shape[0], G.shape[2], self.R
         if R.shape != (nu, nu):
             raise ValueError(f"R must be a {nu}x{nu} matrix (nu = {nu}), got shape {R.shape}")
-        h = _call("h", self.h, X, (Qn, nz))
-        q = np.einsum("qi,ij,qj->q", h, Qw, h)
         s = np.zeros((Qn, m))
         S = np.zeros((Qn, m, m))
         S[:, :nu, :nu] = R
         if m > nu:
             S[:, nu:, nu:] = -float(self.gamma) ** 2 * np.eye(m - nu)
-        return q, s, S
+        return s, S
 
 
 def _sobolev_coefficients(cost, X, F, G, nu, nz, gamma):
+    h = _call("h", cost.h, X, (X.shape[0], nz), role="cost function")
+    BF, s, S = _sobolev_terms(cost, X, F, G, nu, nz, gamma)
+    q = 0.5 * np.sum((h @ cost.sigma0) * h, axis=1) + 0.5 * np.sum(F * BF, axis=1)
+    return q, s, S
+
+
+def _sobolev_terms(cost, X, F, G, nu, nz, gamma):
+    """B F, s = ½GᵀBF and S = ½GᵀBG − ½γ² diag(0, I) with B = ∇hᵀσ₁∇h (any scalar type)."""
     Qn, n = X.shape
     m = G.shape[2]
-    s0, s1 = cost.sigma0, cost.sigma1
-    h = _call("h", cost.h, X, (Qn, nz))
-    Dh = _call("dh", cost.dh, X, (Qn, nz, n))
-    s1Dh = np.tensordot(Dh, s1, axes=(1, 0))  # (Q, n, nz) = ∇hᵀσ₁
+    Dh = _call("dh", cost.dh, X, (Qn, nz, n), role="cost function")
+    s1Dh = np.tensordot(Dh, cost.sigma1, axes=(1, 0))  # (Q, n, nz) = ∇hᵀσ₁
     B = bmm(s1Dh, Dh)  # ∇hᵀσ₁∇h
     BF = bmv(B, F)
-    q = 0.5 * np.sum((h @ s0) * h, axis=1) + 0.5 * np.sum(F * BF, axis=1)
     Gt = G.transpose(0, 2, 1)
     s = 0.5 * bmv(Gt, BF)
     S = 0.5 * bmm(Gt, bmm(B, G))
@@ -245,7 +271,90 @@ def _sobolev_coefficients(cost, X, F, G, nu, nz, gamma):
         if gamma is None:
             raise ValueError("a disturbance channel needs gamma")
         S[:, nu:, nu:] -= 0.5 * gamma ** 2 * np.eye(m - nu)
-    return q, s, S
+    return BF, s, S
+
+
+def quiet(X):
+    """A context without floating-point warnings for an object array X (else a no-op).
+
+    NumPy reads the processor's status flags after an object loop, so a flag left by earlier
+    native code (Drake) surfaces as a spurious "invalid value" warning (as in
+    ``ControlOutput``).
+
+    Parameters
+    ----------
+    X : array_like
+        The points about to be evaluated.
+
+    Returns
+    -------
+    context manager
+    """
+    return np.errstate(all="ignore") if np.asarray(X).dtype == object else nullcontext()
+
+
+def autodiff_jacobian(fun: Callable, x) -> np.ndarray:
+    """∂fun/∂x at the point x by one AutoDiffXd evaluation (exact to rounding).
+
+    Parameters
+    ----------
+    fun : callable
+        Vectorized ``fun(X) -> (Q, p)`` that evaluates on object arrays of AutoDiffXd.
+    x : array_like, shape (n,)
+        The point.
+
+    Returns
+    -------
+    ndarray, shape (p, n)
+    """
+    x = np.asarray(x, dtype=float)
+    u = np.asarray(fun(InitializeAutoDiff(x).ravel()[None, :]))[0]
+    J = np.zeros((u.shape[0], x.shape[0]))
+    for i, ui in enumerate(u):  # an entry with no (or empty) derivatives is a constant
+        if isinstance(ui, AutoDiffXd) and ui.derivatives().size:
+            J[i] = ui.derivatives()
+    if not np.all(np.isfinite(J)):
+        raise FloatingPointError(f"non-finite AutoDiffXd Jacobian at x = {x.tolist()}: {J}")
+    return J
+
+
+def solve_quasidefinite(S, r):
+    """x = S⁻¹r for a batch S (Q, m, m), r (Q, m) of any scalar type (object arrays of
+    AutoDiffXd or Expression), by Gaussian elimination in the natural order (no pivoting).
+
+    No pivoting is needed (nor possible for symbolic entries): S = ½∂²ℓ/∂v² is symmetric
+    quasi-definite, [[Suu, Suw], [Swu, Sww]] with Suu ≻ 0 (Assumption 4, checked at the
+    nodes) and Sww ≺ 0 (the saddle condition (4.22)); every leading principal submatrix of such
+    a matrix is nonsingular, so the natural-order pivots are nonzero (Vanderbei 1995, strong
+    factorizability), and the elimination is stable when the blocks are well conditioned
+    (Gill, Saunders & Shinnerl 1996).  m ≤ 3 here: explicit loops over the small dimension.
+
+    Parameters
+    ----------
+    S : ndarray, shape (Q, m, m)
+        Symmetric quasi-definite matrices (float or object).
+    r : ndarray, shape (Q, m)
+        Right-hand sides.
+
+    Returns
+    -------
+    ndarray of object, shape (Q, m)
+    """
+    A = np.array(S, dtype=object)
+    b = np.array(r, dtype=object)
+    m = A.shape[1]
+    for k in range(m):
+        for i in range(k + 1, m):
+            lik = A[:, i, k] / A[:, k, k]
+            A[:, i, k + 1:] = A[:, i, k + 1:] - lik[:, None] * A[:, k, k + 1:]
+            b[:, i] = b[:, i] - lik * b[:, k]
+    x = np.empty_like(b)
+    for k in reversed(range(m)):
+        acc = b[:, k]
+        for j in range(k + 1, m):
+            acc = acc - A[:, k, j] * x[:, j]
+        x[:, k] = acc / A[:, k, k]
+    return x
 
 
 class NodeData:

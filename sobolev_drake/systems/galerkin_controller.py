@@ -12,13 +12,16 @@ first command computed at initialization (:mod:`~sobolev_drake.systems.control_o
 
 Scalar conversion (issue #31): the controller is a ``TemplateSystem`` and converts to
 AutoDiffXd and Expression when its law's ``control(X)`` evaluates on object arrays of those
-types (checked once at construction).  A ``GalerkinResult`` does not: it casts X to float and
-solves its saddle decision with NumPy's batched ``linalg.solve``, which has no AutoDiffXd or
-Expression version.  A controller of such a law refuses conversion: Drake's error names the
-system ("... GalerkinController ... does not support scalar conversion"), and
-:attr:`GalerkinController.conversion_refusal` says why.  For a linear analysis use the law's
-gain at the origin instead, ``LinearStateFeedback(law.feedback_gain(), S=selection,
-x_r=-offset)``, which converts.
+types (checked once at construction).  A ``GalerkinResult`` does when the functions of its
+design do: its polynomial basis, the model's f, g, k and the cost's ∇h written with
+dtype-preserving NumPy code (its saddle decision is then solved by elimination in the scalar
+type, :meth:`~sobolev_drake.synthesis.galerkin.GalerkinResult.decision`); Drake's
+``Linearize`` of the controller at the origin then gives ``law.feedback_gain()`` (times the
+selection).  A law whose functions are double only (e.g. they fill ``np.empty`` float arrays)
+refuses conversion: Drake's error names the system ("... GalerkinController ... does not
+support scalar conversion"), and :attr:`GalerkinController.conversion_refusal` names the
+function that failed.  For a linear analysis of such a law use its gain at the origin,
+``LinearStateFeedback(law.feedback_gain(), S=selection, x_r=-offset)``, which converts.
 """
 
 from __future__ import annotations
@@ -86,7 +89,8 @@ def GalerkinController_(T):  # noqa: N802  (Drake's template naming)
             - u (alias control)
 
         Converts to AutoDiffXd and Expression when the law's ``control(X)`` evaluates on
-        object arrays (a ``GalerkinResult`` does not: see the module docstring).
+        object arrays (a ``GalerkinResult`` does when its design's functions accept them: see
+        the module docstring).
 
         Parameters
         ----------

@@ -1,8 +1,9 @@
 """Drake-native linear controllers, Galerkin controller and linearizations (issue #31).
 
 * every LeafSystem of ``linear_controllers`` / ``galerkin_controller`` converts to AutoDiffXd
-  and Expression with outputs equal to the double system's (a GalerkinResult law refuses, by
-  name);
+  and Expression with outputs equal to the double system's, a GalerkinController of a
+  GalerkinResult too when the design's functions accept object arrays (else it refuses,
+  naming the function), and Drake's ``Linearize`` of it gives the law's ``feedback_gain()``;
 * Drake's ``Linearize`` of a closed loop with ``controller_system(K)`` gives eig(A − B K);
 * a sampled controller's first command at t = 0 is the law's at the initial state (no zero);
 * Drake's linearization of the models equals the former central differences at their accuracy.
@@ -156,17 +157,24 @@ def test_galerkin_controller_converts_for_a_generic_law():
                                rtol=RTOL_SAME_ARITHMETIC)
 
 
-def test_galerkin_controller_of_a_galerkin_result_refuses_conversion_by_name():
-    from sobolev_drake.models.two_wheeled_design import design_model
-    from sobolev_drake.synthesis.galerkin_balance import WINF, sgaa_design
-    law = sgaa_design(WINF, design_model(), nodes=6, check_u0="linearization")
+def test_galerkin_controller_of_a_double_only_galerkin_result_refuses_conversion_by_name():
+    def f_double_only(X):              # fills a float array: no AutoDiffXd / Expression
+        out = np.empty((X.shape[0], 3))
+        out[:] = X @ A3.T
+        return out
+
+    law = _galerkin_law(f_double_only, _g_nl)
     sys = GalerkinController(law, plant_state_size=4, selection=[1, 2, 3])
-    assert "GalerkinResult.control(X) fails on AutoDiffXd" in sys.conversion_refusal
-    assert "Expression" in sys.conversion_refusal
+    for scalar in ("AutoDiffXd", "Expression"):
+        assert (f"GalerkinResult.control(X) fails on {scalar} (ObjectEvaluationError: the model "
+                f"function f(X) does not evaluate on an object array of {scalar}"
+                in sys.conversion_refusal)
     for convert in (sys.ToAutoDiffXd, sys.ToSymbolic):
         with pytest.raises(RuntimeError, match="GalerkinController.*does not support scalar"):
             convert()
     # the documented alternative: the law's gain at the origin in a LinearStateFeedback converts
+    # (the gain by central differences, the design being double only)
+    np.testing.assert_array_equal(law.feedback_gain(), law.feedback_gain("central"))
     alt = LinearStateFeedback(law.feedback_gain(), S=np.eye(4)[1:])
     assert alt.ToAutoDiffXd() is not None and alt.ToSymbolic() is not None
 
@@ -416,3 +424,92 @@ def test_drake_linearization_refuses_what_it_cannot_represent():
 
     with pytest.raises(ValueError, match="friction K\\(q̇\\) is not linear"):
         linearize_mechanical(CubicFriction(), np.zeros(2), np.zeros(2), [0.0])
+
+
+# ------------------------------------------- GalerkinController of a scalar-generic design
+# A W∞ SGAA design on a nonlinear plant whose linearization is (A3, B3), written with
+# dtype-preserving NumPy code so that it evaluates on AutoDiffXd and Expression.  f is odd and
+# g, k even, so V is even and u*(0) = 0 (the origin is an equilibrium of the closed loop).
+def _f_nl(X):
+    x0, x1, x2 = X[:, 0], X[:, 1], X[:, 2]
+    return np.stack([x1, x2 - 0.5 * np.sin(x0) * x1 ** 2, 2.0 * np.sin(x0) - x1 + 0.5 * x2],
+                    axis=1)
+
+
+def _g_nl(X):
+    out = np.zeros((X.shape[0], 3, 1), dtype=X.dtype)
+    out[:, 2, 0] = 1.0 / (1.0 + 0.2 * np.sin(X[:, 0]) ** 2)
+    return out
+
+
+def _k_nl(X):
+    out = np.zeros((X.shape[0], 3, 1), dtype=X.dtype)
+    out[:, 1, 0] = 0.3
+    out[:, 2, 0] = 0.2 * np.cos(X[:, 0])
+    return out
+
+
+def _galerkin_law(f, g):
+    """W∞ SGAA law (degree-4 basis, 5³ nodes on ±0.5; ~0.1 s) from u0 = −K3 x."""
+    from sobolev_drake.synthesis.galerkin import GalerkinProblem, InputAffineModel, WinfCost
+    from sobolev_drake.synthesis.galerkin_basis import Box, PolynomialBasis
+    cost = WinfCost(lambda X: X, lambda X: np.broadcast_to(np.eye(3), (X.shape[0], 3, 3)),
+                    np.eye(3), np.diag([0.5, 0.2, 0.3]), 3.0)
+    prob = GalerkinProblem(InputAffineModel(f, g, _k_nl, n=3), cost, PolynomialBasis(3, 4),
+                           Box.symmetric([0.5, 0.5, 0.5]), quadrature=5)
+    return prob.solve(lambda X: -X @ K3.T, tol=1e-10)
+
+
+@pytest.fixture(scope="module")
+def generic_law():
+    return _galerkin_law(_f_nl, _g_nl)
+
+
+def test_galerkin_controller_of_a_galerkin_result_converts_with_outputs_equal_to_double(
+        generic_law):
+    law = generic_law
+    S, o = np.eye(4)[1:], np.array([0.1, 0.0, 0.0])
+    sys = GalerkinController(law, plant_state_size=4, selection=[1, 2, 3], offset=o)
+    assert sys.conversion_refusal is None
+    x = np.array([5.0, 0.2, -0.3, 0.4])
+    ctx = sys.CreateDefaultContext()
+    sys.get_input_port_estimated_state().FixValue(ctx, x)
+    u = sys.get_output_port_control().Eval(ctx)
+    np.testing.assert_array_equal(u, law.control((S @ x + o)[None])[0])
+
+    # AutoDiffXd: exactly the law's scalar-generic evaluation at the AutoDiffXd design state
+    # (the selection multiplies by exact 0 and 1); that path equals the double one to a few
+    # ulps, bound derived in tests/synthesis/test_galerkin_autodiff.py: 2(N + d + 3m + 8)ε T
+    # with N = 34, d = 4, m = 2 and the term scale T = 3.5|u| at this point, 8e-14|u| < 1e-12
+    ad = sys.ToAutoDiffXd()
+    c = ad.CreateDefaultContext()
+    x_ad = InitializeAutoDiff(x).ravel()
+    ad.get_input_port(0).FixValue(c, x_ad)
+    u_ad = ad.get_output_port(0).Eval(c)
+    ref = law.control((S @ x_ad + o)[None])[0]
+    np.testing.assert_array_equal(ExtractValue(u_ad), ExtractValue(ref))
+    np.testing.assert_array_equal(ExtractGradient(u_ad), ExtractGradient(ref))
+    np.testing.assert_allclose(ExtractValue(u_ad).ravel(), u, rtol=1e-12)
+    assert ExtractGradient(u_ad)[0, 0] == 0.0            # ϕ is not selected
+
+    sym = sys.ToSymbolic()
+    c = sym.CreateDefaultContext()
+    xv, xe = _symbols(4)
+    sym.get_input_port(0).FixValue(c, xe)
+    np.testing.assert_allclose(_evaluate(sym.get_output_port(0).Eval(c), xv, x), u, rtol=1e-12)
+
+
+def test_drake_linearize_of_a_galerkin_controller_gives_the_feedback_gain(generic_law):
+    law = generic_law
+    sys = GalerkinController(law, plant_state_size=4, selection=[1, 2, 3])
+    ctx = sys.CreateDefaultContext()
+    sys.get_input_port(0).FixValue(ctx, np.zeros(4))
+    lin = Linearize(sys, ctx)
+    assert lin.A().shape == (0, 0) and lin.D().shape == (1, 4)
+    # the same AutoDiffXd evaluation at the origin, chained through exact 0/1 selections
+    np.testing.assert_array_equal(lin.D(), law.feedback_gain("autodiff") @ np.eye(4)[1:])
+    # and the closed loop on the linear plant (A3, B3) has eig(A3 + B3 K) in the left half plane
+    diagram, _, _ = _loop(GalerkinController(law))
+    dl = _linearize(diagram, diagram.CreateDefaultContext())
+    _assert_same_spectrum(dl.A(), np.linalg.eigvals(A3 + B3 @ law.feedback_gain()))
+    assert np.linalg.eigvals(dl.A()).real.max() < 0
