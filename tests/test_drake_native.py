@@ -101,3 +101,36 @@ def test_the_tiltrotor_controller_takes_its_first_sample_at_initialization():
     np.testing.assert_array_equal(ctrl.GetOutputPort("sample_record").Eval(ctx), first)
     simulator.AdvanceTo(1.5 * ctrl.period)            # the next sample integrates the error
     assert not np.array_equal(ctrl.GetOutputPort("sample_record").Eval(ctx), first)
+
+
+def test_the_tiltrotor_controller_models_a_one_sample_computation_delay():
+    import numpy as np
+    from pydrake.systems.analysis import Simulator
+
+    from sobolev_drake.tiltrotor.controller import TiltrotorWInfController
+    from sobolev_drake.tiltrotor.mission import build_mission
+
+    built = build_mission(2, 1.0)
+    mission_ctx = built["diagram"].CreateDefaultContext()
+    source = built["controller"]
+    inputs = [source.get_input_port(i).Eval(source.GetMyContextFromRoot(mission_ctx)).copy()
+              for i in range(source.num_input_ports())]
+    inputs[1] = inputs[1] + np.r_[1.0, -0.5, 0.3, np.zeros(9)]   # a tracking error: ∫e grows
+    runs = {}
+    for delay in (False, True):
+        ctrl = TiltrotorWInfController(source.law, period=source.period, computation_delay=delay)
+        ctx = ctrl.CreateDefaultContext()
+        for i, value in enumerate(inputs):
+            ctrl.get_input_port(i).FixValue(ctx, value)
+        sim = Simulator(ctrl, ctx)
+        sim.Initialize()
+        out = []
+        for k in range(3):                             # after samples 0, 1, 2
+            sim.AdvanceTo((k + 0.5) * ctrl.period)
+            out.append(ctrl.GetOutputPort("propeller_speed").Eval(ctx).copy())
+        runs[delay] = out
+    now, late = runs[False], runs[True]
+    assert not np.array_equal(now[0], now[1])         # the samples differ
+    np.testing.assert_array_equal(late[0], now[0])    # the first sample goes out at once
+    np.testing.assert_array_equal(late[1], now[0])    # then each one a period late
+    np.testing.assert_array_equal(late[2], now[1])

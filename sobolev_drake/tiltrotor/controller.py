@@ -370,6 +370,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         The law evaluated at every update.
     period : float, default 0.01
         Sample period (s).
+    computation_delay : bool, default False
+        Apply each sample's propeller, servo and surface commands one period later (the
+        first sample is applied at once); the other outputs report the sample computed.
     initial_tau, initial_speed : array_like, optional
         τ̄ (8) and propeller speeds (2) of a context not yet initialized (zero by default);
         ``Simulator.Initialize`` takes the first sample at once.
@@ -389,8 +392,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _SIZE = 30
 
     def __init__(self, law: TiltrotorWInfLaw, *, period=0.01, initial_tau=None,
-                 initial_speed=None):
+                 initial_speed=None, computation_delay=False):
         super().__init__()
+        self.computation_delay = bool(computation_delay)
         if not isinstance(law, TiltrotorWInfLaw):
             raise TypeError("law must be a TiltrotorWInfLaw")
         if not (np.isfinite(period) and period > 0):
@@ -453,8 +457,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         return calc
 
     def _update(self, context, discrete_state):
-        t = context.get_time()
-        if context.get_discrete_state(self._stamp).GetAtIndex(0) == t:
+        t, stamp = context.get_time(), context.get_discrete_state(self._stamp).GetAtIndex(0)
+        if stamp == t:
             return                                   # this sample was taken at initialization
         discrete_state.get_mutable_vector(self._stamp).SetAtIndex(0, t)
         x = self.x_port.Eval(context)
@@ -472,6 +476,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             ie + tl + nl + step.u_star.tolist() + [step.residual]
             + saturation_flags(tau, step.lo, step.up).tolist())
+        if self.computation_delay and stamp != -np.inf:    # the previous sample goes out now
+            tl, nl = old[self._TAU].tolist(), old[self._N].tolist()
         g_n, g_s, g_d = self._held
         discrete_state.get_mutable_vector(g_n).SetFromVector(nl)
         discrete_state.get_mutable_vector(g_s).SetFromVector(tl[2:4])
