@@ -18,14 +18,13 @@ It also accepts Drake's controller port names (``estimated_state``, ``desired_st
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.math import max as _smax, min as _smin
 from pydrake.symbolic import Expression
 from pydrake.systems.framework import BasicVector_
 
+from sobolev_drake.systems.scalar_time import template_signature
 from sobolev_drake.validation import positive_scalar
 
 __all__ = ["ControlOutput", "SCALARS", "clip", "template_signature", "value_of", "vector_of"]
@@ -96,24 +95,6 @@ def clip(u, bounds):
         out[i] = _smin(out[i], hi) if np.isfinite(hi) else out[i]
         out[i] = _smax(out[i], lo) if np.isfinite(lo) else out[i]
     return out
-
-
-def template_signature(construct):
-    """The public signature of a TemplateSystem built by ``construct`` (without self and
-    converter), so ``inspect.signature`` and the docs show the real constructor.
-
-    Parameters
-    ----------
-    construct : function
-        The ``_construct`` method.
-
-    Returns
-    -------
-    inspect.Signature
-    """
-    sig = inspect.signature(construct)
-    return sig.replace(parameters=[p for name, p in sig.parameters.items()
-                                   if name not in ("self", "converter")])
 
 
 class ControlOutput:

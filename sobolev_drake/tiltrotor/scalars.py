@@ -20,13 +20,14 @@ constructor signature (for ``help()`` and the docstring checks).
 
 from __future__ import annotations
 
-import inspect
 import math
 
 import numpy as np
 import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, ExpressionKind, Variable, if_then_else
+
+from sobolev_drake.systems.scalar_time import template_signature
 
 __all__ = ["ScalarMath", "scalar_math", "default_instantiation", "DoubleOnly"]
 
@@ -192,9 +193,7 @@ def default_instantiation(template, name: str):
     """
     cls = template[None]
     cls.__name__ = cls.__qualname__ = name
-    sig = inspect.signature(cls._construct)
-    params = [p for n, p in sig.parameters.items() if n not in ("self", "converter")]
-    cls.__signature__ = sig.replace(parameters=params)
+    cls.__signature__ = template_signature(cls._construct)
     return cls
 
 

@@ -127,6 +127,28 @@ def _outputs(system, values, T=float):
     return [system.get_output_port(i).Eval(ctx) for i in range(system.num_output_ports())]
 
 
+def _gradient_and_differences(system, values, k, h):
+    """Output ``k`` of ``system`` as a function ``f`` of its stacked inputs ``flat``: the
+    AutoDiffXd Jacobian G and the central differences (step h) of f at ``flat``.
+
+    Returns
+    -------
+    G, fd : ndarray
+    f : callable
+    flat : ndarray
+    """
+    sizes = [len(v) for v in values]
+    flat = np.concatenate([np.asarray(v, float) for v in values])
+    seeded = np.split(InitializeAutoDiff(flat)[:, 0], np.cumsum(sizes)[:-1])
+    G = ExtractGradient(_outputs(system.ToAutoDiffXd(), seeded, AutoDiffXd)[k])
+
+    def f(z):
+        return _outputs(system, np.split(z, np.cumsum(sizes)[:-1]))[k]
+
+    fd = np.column_stack([(f(flat + h * e) - f(flat - h * e)) / (2 * h) for e in np.eye(flat.size)])
+    return G, fd, f, flat
+
+
 @pytest.mark.parametrize("name", ["PropellerForces", "AerodynamicSurfaces", "TiltrotorForces"])
 def test_force_systems_convert_with_the_double_values(trims, name):
     model = trims[0].info["model"]
@@ -163,17 +185,8 @@ def test_autodiff_gradients_are_the_derivatives(trims):
     (module docstring: 3.5e-7)."""
     model = trims[0].info["model"]
     system, inputs = _force_systems(model)["TiltrotorForces"]
-    values = inputs(_states(trims)[2])
-    sizes = [len(v) for v in values]
-    flat = np.concatenate([np.asarray(v, float) for v in values])
-    seeded = np.split(InitializeAutoDiff(flat)[:, 0], np.cumsum(sizes)[:-1])
-    G = ExtractGradient(_outputs(system.ToAutoDiffXd(), seeded, AutoDiffXd)[2])
     h = 1e-6
-
-    def f(z):
-        return _outputs(system, np.split(z, np.cumsum(sizes)[:-1]))[2]
-
-    fd = np.column_stack([(f(flat + h * e) - f(flat - h * e)) / (2 * h) for e in np.eye(flat.size)])
+    G, fd, f, flat = _gradient_and_differences(system, inputs(_states(trims)[2]), 2, h)
     scale = max(100.0, np.abs(f(flat)).max())
     assert np.abs(G - fd).max() <= 16 * EPS * scale / h + h**2 * scale / 6
 
@@ -187,16 +200,8 @@ def test_zero_inflow_derivative_is_the_central_one(trims):
     hover = trims[0]
     system = PropellerForces(hover.info["model"].params)
     values = [np.r_[hover.q, hover.qdot], np.zeros(3), hover.n, hover.tau_s]
-    sizes = [len(v) for v in values]
-    flat = np.concatenate(values)
-    seeded = np.split(InitializeAutoDiff(flat)[:, 0], np.cumsum(sizes)[:-1])
-    G = ExtractGradient(_outputs(system.ToAutoDiffXd(), seeded, AutoDiffXd)[0])
     h = 1e-6
-
-    def f(z):
-        return _outputs(system, np.split(z, np.cumsum(sizes)[:-1]))[0]
-
-    fd = np.column_stack([(f(flat + h * e) - f(flat - h * e)) / (2 * h) for e in np.eye(flat.size)])
+    G, fd, f, flat = _gradient_and_differences(system, values, 0, h)
     coef, n = system.core.coef, hover.n[0]
     c2 = sum(abs(a) * (np.pi / 2) ** j for (i, j), a in zip(coef._pw.astype(int).tolist(),
                                                           coef.ct_coef) if i >= 2)
