@@ -32,6 +32,10 @@ def check(label, design):
 
 def run(case, design):
     time.sleep(float(os.environ.get("FAULT_CASE_SECONDS", "0")))
+    gate = os.environ.get("FAULT_GATE")          # cases after seed 0 wait while the file exists
+    t0 = time.monotonic()
+    while gate and case.seed > 0 and os.path.exists(gate) and time.monotonic() - t0 < 120:
+        time.sleep(0.02)
     return {"indices": {"J": float(design["K"][0, 0]) * (1 + case.seed) / 3.0}, "success": True}
 
 

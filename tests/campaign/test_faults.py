@@ -287,12 +287,17 @@ def _env(case_seconds):
 
 
 def test_two_concurrent_campaigns_do_the_work_once(tmp_path):
-    first = subprocess.Popen(_script(tmp_path, seeds=10), env=_env(0.2), text=True,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    _wait_lines(tmp_path / "records.jsonl", 1, first)
-    second = subprocess.run(_script(tmp_path, "--resume", seeds=10), env=_env(0), text=True,
-                            capture_output=True, timeout=120)
-    assert second.returncode == 2
+    gate = tmp_path.parent / f"{tmp_path.name}.gate"      # holds the first run after seed 0
+    gate.write_text("", encoding="utf-8")
+    first = subprocess.Popen(_script(tmp_path, seeds=10), env={**_env(0), "FAULT_GATE": str(gate)},
+                             text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        _wait_lines(tmp_path / "records.jsonl", 1, first)
+        second = subprocess.run(_script(tmp_path, "--resume", seeds=10), env=_env(0), text=True,
+                                capture_output=True, timeout=120)
+    finally:
+        gate.unlink()
+    assert second.returncode == 2, second.stderr
     assert f"in use by another campaign (pid {first.pid} on" in second.stderr
     assert first.wait(timeout=120) == 0
     assert set(by_key(tmp_path)) == expected_keys(10) and len(lines(tmp_path)) == 20
