@@ -13,7 +13,7 @@ export OMP_NUM_THREADS ?= 1
 # for library users); `make lock` refreshes it.
 LOCK := constraints.txt
 
-.PHONY: demo test bench reproduce report docs install lock clean
+.PHONY: demo test bench reproduce report docs install lock clean wheel-check
 
 $(STAMP): pyproject.toml setup.py $(LOCK) $(wildcard sobolev_drake/native/*.c sobolev_drake/native/*.h)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -55,6 +55,11 @@ reproduce: $(STAMP)
 # the same two files rebuilt from $(OUT)/*/result.json and $(OUT)/campaigns/ without rerunning
 report: $(STAMP)
 	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake report --out $(OUT) --copy-to REPRODUCTION.md
+
+# the sdist and the wheel built, the wheel installed (constraints.txt versions) into a clean venv
+# outside the repository and run from elsewhere, with and without a C compiler (.ci/wheel-check)
+wheel-check:
+	PYTHON=$(PYTHON) bash .ci/wheel-check
 
 clean:
 	rm -rf $(VENV) .venv-lock $(OUT) build *.egg-info sobolev_drake/native/*.so

@@ -71,8 +71,20 @@ _COPY_HELP = ("also write the report to FILE, its links relative to FILE's folde
               "replaced")
 
 
+def _installed_version() -> str:
+    """The installed distribution's version (its metadata), or the package's ``__version__``
+    when it runs from a source tree that was not installed."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("sobolev_drake")
+    except PackageNotFoundError:
+        from sobolev_drake import __version__
+        return __version__
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(prog="sobolev-drake", description="Robust W2/W∞ control experiments on Drake.")
+    p.add_argument("--version", action="version", version=f"%(prog)s {_installed_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the registered experiments")
     r = sub.add_parser("run", help="run one experiment")

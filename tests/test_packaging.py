@@ -1,0 +1,121 @@
+"""Packaging metadata (issue #35): extras named by install hints exist, the lock fits the ranges,
+LICENSE / CITATION.cff, ``--version``.  Fast checks only; building and installing the sdist and
+the wheel is ``.ci/wheel-check`` (``make wheel-check``)."""
+
+import importlib.metadata as md
+import re
+from pathlib import Path
+
+import pytest
+
+import sobolev_drake
+from sobolev_drake import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "sobolev_drake"
+
+try:
+    import tomllib
+except ImportError:                     # Python 3.10
+    tomllib = pytest.importorskip("tomli")
+
+Requirement = pytest.importorskip("packaging.requirements").Requirement
+canonicalize_name = pytest.importorskip("packaging.utils").canonicalize_name
+
+
+@pytest.fixture(scope="module")
+def project():
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+
+
+def _extras(project):
+    return {name: [Requirement(r) for r in reqs]
+            for name, reqs in project.get("optional-dependencies", {}).items()}
+
+
+def _install_hints():
+    """(file:line, extra) of every ``sobolev_drake[extra,...]`` in the package, docs and README."""
+    files = [*PACKAGE.rglob("*.py"), *(ROOT / "docs").rglob("*.md"), ROOT / "README.md"]
+    hints = []
+    for path in files:
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for match in re.finditer(r"sobolev_drake\[([^\]]*)\]", line):
+                for extra in match.group(1).split(","):
+                    hints.append((f"{path.relative_to(ROOT)}:{number}", extra.strip()))
+    return hints
+
+
+def test_install_hints_name_existing_extras(project):
+    hints = _install_hints()
+    assert hints, "expected install hints such as pip install 'sobolev_drake[campaign]'"
+    extras = _extras(project)
+    missing = [f"{where}: [{extra}]" for where, extra in hints if extra not in extras]
+    assert not missing, f"install hints name extras pyproject.toml lacks ({sorted(extras)}): {missing}"
+
+
+def test_extras_provide_the_optional_imports(project):
+    """The modules the code imports on demand come with the extra its hint names, and the
+    ``test`` extra brings them all (the tests of those paths skip without them)."""
+    extras = _extras(project)
+    provides = {name: {canonicalize_name(r.name) for r in reqs} for name, reqs in extras.items()}
+    assert {"control", "slycot"} <= provides["control"]
+    dask = [r for r in extras["campaign"] if canonicalize_name(r.name) == "dask"]
+    assert dask and "distributed" in dask[0].extras          # executors import `distributed`
+    self_extras = set().union(*(r.extras for r in extras["test"]
+                                if canonicalize_name(r.name) == canonicalize_name(project["name"])))
+    assert {"control", "campaign"} <= self_extras
+    assert "sphinx" in provides["docs"]
+
+
+def test_lock_satisfies_the_ranges(project):
+    """constraints.txt (what `make` installs) lies inside pyproject's ranges, and every direct
+    dependency is a range, not an exact pin."""
+    locked = {}
+    for line in (ROOT / "constraints.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            name, version = line.split("==")
+            locked[canonicalize_name(name)] = version.strip()
+    requirements = [Requirement(r) for r in project["dependencies"]]
+    requirements += [r for reqs in _extras(project).values() for r in reqs]
+    for req in requirements:
+        name = canonicalize_name(req.name)
+        if name == canonicalize_name(project["name"]):
+            continue
+        assert name in locked, f"{req} is not pinned in constraints.txt"
+        assert req.specifier.contains(locked[name], prereleases=True), \
+            f"constraints.txt pins {name}=={locked[name]} outside pyproject's {req}"
+    for req in map(Requirement, project["dependencies"]):
+        assert not any(spec.operator in ("==", "===") for spec in req.specifier), \
+            f"{req}: a library dependency should be a compatible range"
+
+
+def test_license_and_citation(project):
+    license_text = (ROOT / "LICENSE").read_text()
+    assert license_text.startswith("MIT License")
+    assert "Copyright (c) 2026 the sobolev_drake developers" in license_text
+    assert project["license"] == "MIT" and project["license-files"] == ["LICENSE"]
+    text = (ROOT / "CITATION.cff").read_text()
+    try:
+        import yaml
+    except ImportError:
+        for key in ("cff-version: 1.2.0", "title:", "authors:", "license: MIT", "references:",
+                    "type: thesis", f"version: {project['version']}"):
+            assert key in text, key
+        return
+    cff = yaml.safe_load(text)
+    assert cff["cff-version"] == "1.2.0"
+    for key in ("message", "title", "authors"):               # required by the schema
+        assert cff[key], key
+    assert cff["license"] == "MIT"
+    assert str(cff["version"]) == project["version"]
+    thesis = [r for r in cff["references"] if r["type"] == "thesis"]
+    assert len(thesis) == 1
+    assert thesis[0]["authors"][0]["family-names"] == "Cardoso"
+    assert thesis[0]["title"] and "UFMG" in thesis[0]["institution"]["name"]
+
+
+def test_version_option_prints_the_metadata_version(project, capsys):
+    installed = md.version("sobolev_drake")
+    assert installed == project["version"] == sobolev_drake.__version__
+    assert cli.main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"sobolev-drake {installed}"
