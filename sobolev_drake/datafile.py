@@ -248,6 +248,18 @@ def write_json_atomic(path, value) -> Path:
     Returns
     -------
     Path
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from sobolev_drake.datafile import read_json, write_json_atomic
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = write_json_atomic(Path(folder) / "design.json", {"K": np.array([[-1.0, -2.0]])})
+    ...     back = read_json(path, "the design")
+    >>> back["K"], back["K"].dtype
+    (array([[-1., -2.]]), dtype('float64'))
     """
     text = json.dumps(to_tree(value), indent=1, ensure_ascii=False, allow_nan=True) + "\n"
     return write_text_atomic(path, text)
@@ -301,6 +313,23 @@ def read_json(path, what: str = "data file"):
         array; the message names the file and what it should be.
     FileNotFoundError
         No such file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from sobolev_drake.datafile import DataFileError, read_json
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "records.json"
+    ...     _ = path.write_text('{"gamma": 2.5, "ok": true}')
+    ...     print(read_json(path))
+    ...     _ = path.write_text('{"gamma": 2.5,')
+    ...     try:
+    ...         read_json(path, "the records")
+    ...     except DataFileError as error:
+    ...         print(str(error).split(": ", 1)[1])
+    {'gamma': 2.5, 'ok': True}
+    the records is not valid JSON (...; truncated or edited?)
     """
     path = Path(path)
     raw = path.read_bytes()

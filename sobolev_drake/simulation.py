@@ -404,6 +404,27 @@ def simulate(diagram, context, duration: float, *, progress: bool = True, label:
         ``max_steps`` is used up, or :data:`STALL_STEPS` consecutive steps did not advance time.
     SimulationTimeout
         ``wall_time_limit`` was reached.
+
+    Examples
+    --------
+    A tiny diagram: an integrator of the reference rate q̇_r, which then follows q_r (zero
+    until t = 1, then sin(π (t − 1))):
+
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from pydrake.systems.primitives import Integrator
+    >>> trajectory = sd.PiecewiseTrajectory(["x"], [[sd.const(0.0)], [sd.sine(1.0, np.pi, t0=1.0)]],
+    ...                                     breakpoints=[1.0])
+    >>> builder = DiagramBuilder()
+    >>> reference = builder.AddSystem(sd.TrajectoryReference(trajectory))
+    >>> integrator = builder.AddSystem(Integrator(1))
+    >>> builder.Connect(reference.GetOutputPort("qdot_r"), integrator.get_input_port())
+    >>> diagram = builder.Build()
+    >>> context = diagram.CreateDefaultContext()
+    >>> simulator = sd.simulate(diagram, context, 1.5, progress=False)
+    >>> round(context.get_time(), 6), round(float(context.get_continuous_state_vector()[0]), 3)
+    (1.5, 1.0)
     """
     duration = positive_scalar("duration", duration)
     one_of("integrator", integrator, INTEGRATORS)

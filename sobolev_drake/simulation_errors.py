@@ -14,6 +14,23 @@ class SimulationTimeout(TimeoutError):
         The error message.
     simulated : float
         Simulated time reached when the simulation was stopped (kept as ``.simulated``).
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from pydrake.systems.primitives import ConstantVectorSource, Integrator
+    >>> builder = DiagramBuilder()
+    >>> source = builder.AddSystem(ConstantVectorSource([1.0]))
+    >>> integrator = builder.AddSystem(Integrator(1))
+    >>> builder.Connect(source.get_output_port(), integrator.get_input_port())
+    >>> diagram = builder.Build()
+    >>> try:                                         # 1e5 s of simulation in 0.05 s of wall time
+    ...     sd.simulate(diagram, diagram.CreateDefaultContext(), 1e5, wall_time_limit=0.05,
+    ...                 progress=False)
+    ... except sd.SimulationTimeout as error:
+    ...     print(0.0 < error.simulated < 1e5)
+    True
     """
 
     def __init__(self, message: str, simulated: float):
@@ -53,6 +70,23 @@ class SimulationStalled(RuntimeError):
         Simulated time (s) reached (kept as ``.simulated``); the context keeps the state reached.
     steps : int
         Simulator steps taken by this call (kept as ``.steps``).
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> from pydrake.systems.framework import DiagramBuilder
+    >>> from pydrake.systems.primitives import ConstantVectorSource, Integrator
+    >>> builder = DiagramBuilder()
+    >>> source = builder.AddSystem(ConstantVectorSource([1.0]))
+    >>> integrator = builder.AddSystem(Integrator(1))
+    >>> builder.Connect(source.get_output_port(), integrator.get_input_port())
+    >>> diagram = builder.Build()
+    >>> try:                                         # a step budget of 5 for 10 s
+    ...     sd.simulate(diagram, diagram.CreateDefaultContext(), 10.0, max_steps=5,
+    ...                 progress=False)
+    ... except sd.SimulationStalled as error:
+    ...     print(error.steps, error.simulated < 10.0)
+    5 True
     """
 
     def __init__(self, message: str, simulated: float, steps: int):

@@ -67,6 +67,15 @@ def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, pert
     list of Case
         Seed-major order (all designs of seed k before seed k + 1), so an interrupted campaign
         leaves complete pairs.
+
+    Examples
+    --------
+    >>> from sobolev_drake.campaign import make_cases
+    >>> cases = make_cases("manipulator", seeds=2, perturb={"m1": 0.1})
+    >>> [case.key for case in cases]
+    ['W2/W∞|0', 'H∞|0', 'W2/W∞|1', 'H∞|1']
+    >>> cases[0].draws() == cases[1].draws()     # both designs meet the same draw on a seed
+    True
     """
     defn = get_campaign(name)
     if not (isinstance(seeds, int) and not isinstance(seeds, bool) and seeds >= 1):

@@ -95,12 +95,13 @@ class CampaignStore:
     Examples
     --------
     >>> import tempfile
-    >>> store = CampaignStore(tempfile.mkdtemp())
-    >>> with store.locked():
-    ...     done = store.start({"campaign": "c", "designs": ["A"], "perturb": [],
-    ...                         "duration": None, "smoke": True}, resume=False)
-    ...     store.append({"key": "A|0", "design": "A", "seed": 0, "success": True})
-    ...     sorted(store.load())
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     store = CampaignStore(folder)
+    ...     with store.locked():
+    ...         done = store.start({"campaign": "c", "designs": ["A"], "perturb": [],
+    ...                             "duration": None, "smoke": True}, resume=False)
+    ...         store.append({"key": "A|0", "design": "A", "seed": 0, "success": True})
+    ...         sorted(store.load())
     ['A|0']
     """
 

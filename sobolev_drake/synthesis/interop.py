@@ -332,8 +332,14 @@ def to_statespace(result_or_controller):
     -------
     control.StateSpace
         Static gain (no state) for state feedback.
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> sd.to_statespace([[-1.0, -2.0]]).D     # a state-feedback gain: a static system
+    array([[-1., -2.]])
     """
-    import control   # optional dependency (pip install sobolev_drake[control])
+    import control   # optional dependency (pip install 'sobolev_drake[control]')
     obj = result_or_controller
     if isinstance(obj, SynthesisResult):
         obj = obj.K if obj.kind == "state_feedback" else obj.controller
@@ -476,6 +482,15 @@ def hinfsyn(P, nmeas, ncon, **options):
     stable, lightly damped and feedthrough families (the synthesis gamma is published); on
     unstable and badly scaled ones they spread up to 2.4e-5 and gamma is raised by up to that
     much.  Without slycot the bound rests on the two Hamiltonian estimates.
+
+    Examples
+    --------
+    >>> import control, sobolev_drake as sd
+    >>> P = control.ss([[0, 1], [-1, -0.5]], [[0, 0, 0], [1, 0, 1]],        # inputs w1, w2, u
+    ...                [[1, 0], [0, 0], [1, 0]], [[0, 0, 0], [0, 0, 1], [0, 1, 0]])  # z1, z2, y
+    >>> K, CL, gamma, rcond = sd.hinfsyn(P, nmeas=1, ncon=1)
+    >>> round(gamma, 3), K.nstates, bool(all(CL.poles().real < 0))
+    (1.14, 2, True)
     """
     import control   # optional dependency, for the StateSpace objects returned
     _required_count("nmeas", nmeas)

@@ -214,6 +214,18 @@ def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:
         ``[[Q, K, T], [Kᵀ, R, S], [Tᵀ, Sᵀ, P]]`` on [ė, e, ∫e]; the block equations are
         (5.32)–(5.37) with 2K read as K + Kᵀ, 2S as S + Sᵀ.  The gain ``K = Y3⁻¹[Q K T]``
         (5.26).
+
+    Examples
+    --------
+    One DOF: the gains [K_d, K_p, K_i] of ë = −K_d ė − K_p e − K_i ∫e (a PID law):
+
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> gains = sd.controlled_gains(1.0, 2.0, 1.0, 1.0)
+    >>> np.round(gains.K, 3)
+    array([[2.51 , 2.649, 1.   ]])
+    >>> bool(np.all(np.linalg.eigvals(gains.closed_loop).real < 0))
+    True
     """
     n = _size((Y0, Y1, Y2, Y3))
     Y0 = _weight("Y0", Y0, n, definite=True)
@@ -252,6 +264,14 @@ def regulated_gains(S0, S1, S2, *, norm: str = "W2") -> SobolevGains:
         ``group="regulated"``; blocks A, B, C with CARE solution ``[[A, B], [Bᵀ, C]]`` on
         [ė, e]: −AΣ2⁻¹A + B + Bᵀ + Σ1 = 0 (7.73), −BᵀΣ2⁻¹B + Σ0 = 0 (7.71), C = AΣ2⁻¹B (the
         thesis' (7.76) prints "C = BΓ2⁻¹A", a typo).  Desired ë = −Σ2⁻¹[A B][ė; e].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> gains = sd.regulated_gains(4.0, 1.0, 1.0)       # ë = −√5 ė − 2 e
+    >>> np.round(gains.K, 4)
+    array([[2.2361, 2.    ]])
     """
     n = _size((S0, S1, S2))
     S0 = _weight("S0", S0, n, definite=True)
@@ -281,6 +301,14 @@ def stabilized_gains(U0, U1, *, norm: str = "W2") -> SobolevGains:
     SobolevGains
         ``group="stabilized"``; block U solves −UΥ1⁻¹U + Υ0 = 0; desired
         q̈s = −Υ1⁻¹U q̇s (5.84).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> gains = sd.stabilized_gains([4.0, 9.0], 1.0)    # U = diag(√(υ0 υ1))
+    >>> np.diag(gains.K).round(6)
+    array([2., 3.])
     """
     n = _size((U0, U1))
     U0 = _weight("U0", U0, n, definite=True)
@@ -460,5 +488,13 @@ def hinf_mechanical_gains(omega1: float, omega2: float, omega3: float, omega_u: 
     -------
     HinfMechanicalGains
         With T11 = ω1c, T12 = s c, T13 = ω3c, c = γωu/√(γ² − ωu²), s = √(ω2² + 2ω1ω3).
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> gains = sd.hinf_mechanical_gains(1.0, 1.0, 1.0, omega_u=0.5, gamma=1.0)
+    >>> [round(float(T), 4) for T in (gains.T11, gains.T12, gains.T13)]
+    [0.5774, 1.0, 0.5774]
+    >>> law = sd.HinfLaw(gains)       # the inner law of a MechanicalController
     """
     return HinfMechanicalGains(omega1, omega2, omega3, omega_u, gamma)   # checked there

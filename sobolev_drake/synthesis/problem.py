@@ -50,6 +50,24 @@ class GeneralizedPlant:
     ----------
     n, nw, nu, nz, ny : int
         Numbers of states, disturbances, controls, performance outputs and measurements.
+
+    Examples
+    --------
+    A mass-spring-damper pushed by a force w and the input u, z = [x1; u], the full state
+    measured (C2 = I by default):
+
+    >>> import sobolev_drake as sd
+    >>> P = sd.GeneralizedPlant.make([[0, 1], [-1, -0.5]], B1=[[0], [1]], B2=[[0], [1]],
+    ...                              C1=[[1, 0], [0, 0]], D12=[[0], [1]])
+    >>> P.n, P.nw, P.nu, P.nz, P.ny
+    (2, 1, 1, 2, 2)
+    >>> A_cl, B_cl, C_cl, D_cl = P.closed_loop(K=[[-1.0, -1.0]])     # u = +K x
+    >>> A_cl
+    array([[ 0. ,  1. ],
+           [-2. , -1.5]])
+    >>> res = sd.hinf_state_feedback(P)
+    >>> round(res.gamma, 3), res.certificate.ok
+    (0.9, True)
     """
 
     A: np.ndarray
@@ -249,6 +267,16 @@ class SynthesisResult:
         What the call tried before this result, in order: "<what>: <seconds> s, <outcome>".
     well_posed : bool
         True when ``warnings`` is empty.
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> res = sd.winf_state_feedback([[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]],
+    ...                              Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=2.0)
+    >>> res.kind, res.method, res.gamma, res.well_posed
+    ('state_feedback', 'riccati', 2.0, True)
+    >>> res.certificate.ok, res.K.shape, res.controller is None
+    (True, (1, 2), True)
     """
 
     kind: str  # "state_feedback" | "output_feedback"

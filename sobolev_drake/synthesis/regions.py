@@ -9,6 +9,24 @@ linear in the output-feedback variables (6.40).
 The disk of radius r centred at -c is L = [[-r, c], [c, -r]], M = [[0, 1], [0, 0]]
 (the thesis prints "alpha = [-r 0; 0 r]", which does not describe a disk: a transcription
 error; see docs/design.md §4.4).
+
+Examples
+--------
+Closed-loop poles in the disk of radius 10 with a damping ratio of at least 0.5 (the
+``region`` option of every synthesis; it takes the LMI path):
+
+>>> import numpy as np
+>>> import sobolev_drake as sd
+>>> region = sd.regions.disk(10.0) & sd.regions.damping(0.5)
+>>> str(region.label)
+'disk(r=10, c=0) & sector(60.0 deg)'
+>>> A, B = np.array([[0.0, 1.0], [-1.0, -0.5]]), np.array([[0.0], [1.0]])
+>>> res = sd.winf_state_feedback(A, B, np.eye(2), Gamma0=[1, 1], Gamma1=[0.1, 0.1],
+...                              region=region)
+>>> round(res.gamma, 2), res.certificate.ok
+(1.08, True)
+>>> bool(region.contains(np.linalg.eigvals(A + B @ res.K)).all())
+True
 """
 
 from __future__ import annotations

@@ -99,6 +99,16 @@ def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
     Returns
     -------
     GeneralizedPlant
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
+    >>> P = sd.winf_plant(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> P.nz, P.nw, P.nu, P.ny          # z = [x; 0.1^1/2 x'], y = x
+    (4, 2, 1, 2)
+    >>> P.D12.ravel().round(4)          # u enters z through x' = ... + B u
+    array([0.    , 0.    , 0.    , 0.3162])
     """
     A, B, D = _abd(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
@@ -126,6 +136,14 @@ def hinf_plant(A, B, D, Q, R, C=None):
     Returns
     -------
     GeneralizedPlant
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
+    >>> P = sd.hinf_plant(A, B, D, Q=[1, 1], R=[1], C=[[1, 0]])
+    >>> P.nz, P.nw, P.nu, P.ny          # z = [x; u], y = x1
+    (3, 2, 1, 1)
     """
     A, B, D = _abd(A, B, D)
     n, nu = A.shape[0], B.shape[1]
@@ -158,6 +176,28 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
     -------
     SynthesisResult
         ``K`` with u = +K x (no minus sign), certified ``gamma``.
+
+    Examples
+    --------
+    A mass-spring-damper with a disturbance on each state, position and velocity weighted by
+    1 and their rates by 0.1:
+
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> A = np.array([[0.0, 1.0], [-1.0, -0.5]])
+    >>> B = np.array([[0.0], [1.0]])
+    >>> res = sd.winf_state_feedback(A, B, np.eye(2), Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> round(res.gamma, 3), res.certificate.ok, res.well_posed
+    (1.049, True, True)
+
+    The optimum needs large gains; a requested level gives a moderate one (u = +K x):
+
+    >>> res = sd.winf_state_feedback(A, B, np.eye(2), Gamma0=[1, 1], Gamma1=[0.1, 0.1],
+    ...                              gamma=2.0)
+    >>> np.round(res.K, 3)
+    array([[-3.075, -3.951]])
+    >>> np.sort(np.linalg.eigvals(A + B @ res.K).real).round(3)
+    array([-3.162, -1.289])
     """
     _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
@@ -182,6 +222,26 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     -------
     SynthesisResult
         ``controller`` (A_K, B_K, C_K, D_K) with x_K' = A_K x_K + B_K y, u = C_K x_K + D_K y.
+
+    Examples
+    --------
+    The position of a mass-spring-damper measured, y = x1.  A noise-free measurement makes
+    the problem singular (rank D21 = 0): the synthesis regularizes it and says so with a
+    :class:`~sobolev_drake.synthesis.problem.SynthesisWarning`, silenced here:
+
+    >>> import warnings
+    >>> import sobolev_drake as sd
+    >>> from sobolev_drake.synthesis import SynthesisWarning
+    >>> A, B, C, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0]], [[1, 0], [0, 1]]
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore", SynthesisWarning)
+    ...     res = sd.winf_output_feedback(A, B, C, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> round(res.gamma, 2), res.certificate.ok, res.regularized
+    (1.1, True, True)
+    >>> res.warnings[0].split(":")[0]
+    'singular problem (rank D21 = 0 < 1)'
+    >>> [M.shape for M in res.controller]           # (A_K, B_K, C_K, D_K), full order
+    [(2, 2), (2, 1), (1, 2), (1, 1)]
     """
     _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
     A, B, D, C = _measured_plant(A, B, D, C)
@@ -203,6 +263,18 @@ def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
     Returns
     -------
     SynthesisResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> A, B = np.array([[0.0, 1.0], [-1.0, -0.5]]), np.array([[0.0], [1.0]])
+    >>> res = sd.hinf_state_feedback_qr(A, B, np.eye(2), Q=[1, 1], R=[1])
+    >>> round(res.gamma, 3), res.certificate.ok
+    (1.476, True)
+    >>> res = sd.hinf_state_feedback_qr(A, B, np.eye(2), Q=[1, 1], R=[1], gamma=2.0)
+    >>> np.round(res.K, 3)
+    array([[-0.866, -1.416]])
     """
     _require_weights("Q", Q, "R", R)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
@@ -224,6 +296,21 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
     Returns
     -------
     SynthesisResult
+
+    Examples
+    --------
+    As for :func:`winf_output_feedback`, y = C x is noise free, so the result is regularized
+    (and a SynthesisWarning says so):
+
+    >>> import warnings
+    >>> import sobolev_drake as sd
+    >>> from sobolev_drake.synthesis import SynthesisWarning
+    >>> A, B, C, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0]], [[1, 0], [0, 1]]
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore", SynthesisWarning)
+    ...     res = sd.hinf_output_feedback_qr(A, B, C, D, Q=[1, 1], R=[1])
+    >>> round(res.gamma, 2), res.certificate.ok, res.regularized
+    (1.58, True, True)
     """
     _require_weights("Q", Q, "R", R)
     A, B, D, C = _measured_plant(A, B, D, C)

@@ -105,6 +105,21 @@ def TimeProfiledForce_(T):   # the class for scalar type T (float, AutoDiffXd, E
             (from/to default to −∞/+∞); see :func:`normalize_pulse`.
         function : callable, optional
             t ↦ (n,) vector added to the pulses.
+
+        Examples
+        --------
+        A force of 1.5 on DOF 0 during 1 ≤ t < 2 and sin t on DOF 1 from t = 0 on:
+
+        >>> import numpy as np
+        >>> import sobolev_drake as sd
+        >>> w = sd.TimeProfiledForce(2, [{"index": 0, "value": 1.5, "from": 1.0, "to": 2.0},
+        ...                              {"index": 1, "value": np.sin, "from": 0.0}])
+        >>> w.value(1.5).round(4), w.value(2.0).round(4), w.switch_times
+        (array([1.5   , 0.9975]), array([0.    , 0.9093]), [0.0, 1.0, 2.0])
+        >>> context = w.CreateDefaultContext()
+        >>> context.SetTime(1.5)
+        >>> w.get_output_port().Eval(context).round(4)      # the Drake output port
+        array([1.5   , 0.9975])
         """
 
         def _construct(self, n, pulses=(), *, function=None, converter=None):

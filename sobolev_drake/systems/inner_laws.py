@@ -28,6 +28,16 @@ class SobolevLaw:
     Each group's gains must come from the matching ``*_gains`` function (``TypeError`` /
     ``ValueError`` otherwise); their sizes are checked against the partition by
     :class:`MechanicalLaw`.
+
+    Examples
+    --------
+    One controlled and one stabilized DOF (W2 and W∞ give the same gains, Remarks 30/36):
+
+    >>> import sobolev_drake as sd
+    >>> law = sd.SobolevLaw(controlled=sd.controlled_gains(100.0, 50.0, 5.0, 1.0, norm="Winf"),
+    ...                     stabilized=sd.stabilized_gains(4.0, 1.0))
+    >>> law.name, law.controlled.n, law.stabilized.n
+    ('W2/W∞', 1, 1)
     """
 
     controlled: SobolevGains
@@ -59,6 +69,13 @@ class HinfLaw:
     ----------
     gains : HinfMechanicalGains
         From :func:`~sobolev_drake.synthesis.mechanical.hinf_mechanical_gains`.
+
+    Examples
+    --------
+    >>> import sobolev_drake as sd
+    >>> law = sd.HinfLaw(sd.hinf_mechanical_gains(10.0, 5.0, 1.0, omega_u=0.5, gamma=1.0))
+    >>> law.name
+    'H∞'
     """
 
     gains: HinfMechanicalGains

@@ -462,6 +462,20 @@ def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=
     Returns
     -------
     LinearStateFeedback or LinearDynamicOutputFeedback
+
+    Examples
+    --------
+    A W∞ gain of a mass-spring-damper linearized at x_op = (1, 0), u_op = 1:
+
+    >>> import numpy as np
+    >>> import sobolev_drake as sd
+    >>> A, B = [[0, 1], [-1, -0.5]], [[0], [1]]
+    >>> res = sd.winf_state_feedback(A, B, np.eye(2), Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=2.0)
+    >>> controller = sd.controller_system(res, x_op=[1.0, 0.0], u_op=[1.0])
+    >>> context = controller.CreateDefaultContext()
+    >>> _ = controller.GetInputPort("x").FixValue(context, [1.1, 0.0])
+    >>> controller.GetOutputPort("u").Eval(context).round(4)      # u_op + K (x − x_op)
+    array([0.6925])
     """
     sampling = dict(period=period, computation_delay=computation_delay)
     kind = getattr(result, "kind", None)

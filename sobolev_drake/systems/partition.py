@@ -48,6 +48,19 @@ class Partition:
         DOF eliminated by the reduced model (5.5).
 
     Each is stored as a tuple of ints.
+
+    Examples
+    --------
+    A quadrotor-like split: x, y, z, yaw tracked with integral action, roll and pitch rates
+    driven to zero:
+
+    >>> import sobolev_drake as sd
+    >>> partition = sd.Partition(controlled=[0, 1, 2, 3], stabilized=[4, 5])
+    >>> partition.mode, partition.tracked
+    ('input_coupling', (0, 1, 2, 3))
+    >>> partition.check(6)                   # every one of the 6 DOF in exactly one group
+    >>> sd.Partition(controlled=[0, 1], uncontrolled=[2]).mode
+    'reduced'
     """
 
     controlled: tuple
