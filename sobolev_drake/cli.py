@@ -304,14 +304,10 @@ def _cmd_run(args) -> int:
         exp = exps.get(args.name)
     except exps.UnknownExperimentError as err:
         raise UsageError(str(err)) from None
-    d, low, high = args.duration, exp.min_duration, exp.max_duration
-    default = f"its default is {exp.default_duration} s"   # bounds exist only with a default
-    if d is not None and high is not None and d > high:
-        raise UsageError(f"--duration {d:g} s is longer than experiment {exp.name!r} can use "
-                         f"(at most {high:g} s; {default})")
-    if d is not None and low is not None and d < low:
-        raise UsageError(f"--duration {d:g} s is too short for experiment {exp.name!r} "
-                         f"(at least {low:g} s; {default}; --smoke gives the short version)")
+    try:
+        exp.check_duration(args.duration, "--duration")
+    except ValueError as err:
+        raise UsageError(str(err)) from None
     out_dir = _writable_dir(Path(args.out) / exp.name)
     try:
         result = _run(exp, Path(args.out), duration=args.duration, record=not args.no_record,

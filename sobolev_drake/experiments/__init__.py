@@ -63,6 +63,32 @@ class Experiment:
         (shorter runs divide by empty logs): MIN_DURATION_FACTOR x its default duration."""
         return None if self.default_duration is None else MIN_DURATION_FACTOR * self.default_duration
 
+    def check_duration(self, duration, option: str = "duration") -> None:
+        """Refuse a simulated time outside [:attr:`min_duration`, :attr:`max_duration`]
+        (``sobolev-drake run --duration`` and campaign cases follow the same rule).
+
+        Parameters
+        ----------
+        duration : float or None
+            Seconds (None: the experiment's default, always accepted).
+        option : str, default "duration"
+            How the message names the value (``"--duration"`` on the command line).
+
+        Raises
+        ------
+        ValueError
+            Naming the option, the value, the bound and the default.
+        """
+        low, high = self.min_duration, self.max_duration
+        default = f"its default is {self.default_duration} s"   # bounds exist only with a default
+        smoke = "--smoke" if option.startswith("--") else "smoke=True"
+        if duration is not None and high is not None and duration > high:
+            raise ValueError(f"{option} {duration:g} s is longer than experiment {self.name!r} can "
+                             f"use (at most {high:g} s; {default})")
+        if duration is not None and low is not None and duration < low:
+            raise ValueError(f"{option} {duration:g} s is too short for experiment {self.name!r} "
+                             f"(at least {low:g} s; {default}; {smoke} gives the short version)")
+
 
 #: default bound on ``--duration``: this many times the experiment's default duration
 MAX_DURATION_FACTOR = 10.0
