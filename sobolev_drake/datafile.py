@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["DataFileError", "to_tree", "from_tree", "fingerprint", "write_json_atomic",
-           "write_text_atomic", "read_json", "fsync_directory"]
+           "write_text_atomic", "write_bytes_atomic", "read_json", "fsync_directory"]
 
 _ARRAY = "__array__"
 _DTYPES = {"bool": np.bool_, "int64": np.int64, "float64": np.float64, "complex128": np.complex128}
@@ -266,8 +266,7 @@ def write_json_atomic(path, value) -> Path:
 
 
 def write_text_atomic(path, text: str) -> Path:
-    """Replace ``path`` by ``text`` (UTF-8) atomically: temporary file in the same folder,
-    flush, fsync, rename, folder fsync.  On any failure (a full disk) the old file stays.
+    """Replace ``path`` by ``text`` (UTF-8) atomically (:func:`write_bytes_atomic`).
 
     Parameters
     ----------
@@ -278,11 +277,27 @@ def write_text_atomic(path, text: str) -> Path:
     -------
     Path
     """
+    return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path, data: bytes) -> Path:
+    """Replace ``path`` by ``data`` atomically: temporary file in the same folder, flush, fsync,
+    rename, folder fsync.  On any failure (a full disk) the old file stays.
+
+    Parameters
+    ----------
+    path : str or Path
+    data : bytes
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
+        with open(tmp, "wb") as f:
+            f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)

@@ -40,7 +40,7 @@ from pathlib import Path
 from sobolev_drake.campaign.errors import (CampaignFolderError, CampaignLockedError,
                                            CorruptRecordsError)
 from sobolev_drake.datafile import (DataFileError, fingerprint, from_tree, fsync_directory,
-                                    read_json, to_tree, write_json_atomic)
+                                    read_json, to_tree, write_bytes_atomic, write_json_atomic)
 
 __all__ = ["CampaignStore", "DESIGNS_FORMAT", "DESIGNS_SCHEMA"]
 
@@ -81,6 +81,28 @@ def _record_problem(line: bytes):
     if rec["key"] != f"{rec['design']}|{rec['seed']}":
         return None, f"a record whose key {rec['key']!r} is not its design|seed"
     return rec, None
+
+
+def _append_synced(path, data: bytes, expect_size=None) -> None:
+    """Append ``data`` to ``path`` with unbuffered writes and fsync; on failure (a full disk)
+    cut the file back to its size before, so no partial line is left for the next append."""
+    # unbuffered: a failed write leaves no buffered remainder for close() to write later
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        size = os.fstat(fd).st_size
+        if expect_size is not None and size != expect_size:
+            raise RuntimeError(f"{path} changed while it was read")
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fsync(fd)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.ftruncate(fd, size)
+            raise
+    finally:
+        os.close(fd)
 
 
 class CampaignStore:
@@ -289,17 +311,14 @@ class CampaignStore:
         if fragment and self._lock_fd is not None:
             rec, _ = _record_problem(fragment)
             if rec is not None and rec["key"] not in out:
-                self._append_bytes(b"\n", expect_size=len(raw))     # only the newline was lost
+                _append_synced(self.records_path, b"\n", expect_size=len(raw))     # only the newline was lost
                 out[rec["key"]] = rec
             else:
                 self._set_aside(fragment, len(raw) - len(fragment))
         return out
 
     def _set_aside(self, fragment: bytes, keep: int):
-        with open(self.torn_path, "ab") as f:     # copy first: nothing is lost if we die here
-            f.write(fragment + b"\n")
-            f.flush()
-            os.fsync(f.fileno())
+        _append_synced(self.torn_path, fragment + b"\n")   # copy first: nothing lost if we die here
         with open(self.records_path, "r+b") as f:
             f.truncate(keep)
             f.flush()
@@ -321,26 +340,8 @@ class CampaignStore:
             The write failed (e.g. a full disk); the file is cut back to its last whole line.
         """
         line = (json.dumps(record, allow_nan=True) + "\n").encode("utf-8")
-        self._append_bytes(line)
+        _append_synced(self.records_path, line)
 
-    def _append_bytes(self, data: bytes, expect_size=None):
-        # unbuffered: a failed write leaves no buffered remainder for close() to write later
-        fd = os.open(self.records_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-        try:
-            size = os.fstat(fd).st_size
-            if expect_size is not None and size != expect_size:
-                raise RuntimeError(f"{self.records_path} changed while it was read")
-            try:
-                view = memoryview(data)
-                while view:
-                    view = view[os.write(fd, view):]
-                os.fsync(fd)
-            except BaseException:
-                with contextlib.suppress(OSError):
-                    os.ftruncate(fd, size)          # no partial line for the next append
-                raise
-        finally:
-            os.close(fd)
 
     def repair(self) -> dict:
         """Move every line that is not a usable record (and later copies of a case recorded
@@ -363,19 +364,11 @@ class CampaignStore:
         kept = [body for _, body, rec, _ in lines if rec is not None]
         if not rejected:
             return {"kept": len(kept), "rejected": 0, "side_file": None}
-        with open(self.rejected_path, "ab") as f:
-            for n, reason, body in rejected:
-                text = body.rstrip(b"\n").decode("utf-8", "backslashreplace")
-                f.write((json.dumps({"line": n, "reason": reason, "text": text}) + "\n").encode())
-            f.flush()
-            os.fsync(f.fileno())
-        tmp = self.records_path.with_name(f".{RECORDS}.repair.tmp")
-        with open(tmp, "wb") as f:
-            f.write(b"".join(kept))
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, self.records_path)
-        fsync_directory(self.dir)
+        _append_synced(self.rejected_path, b"".join(
+            (json.dumps({"line": n, "reason": reason,
+                         "text": body.rstrip(b"\n").decode("utf-8", "backslashreplace")}) + "\n").encode()
+            for n, reason, body in rejected))
+        write_bytes_atomic(self.records_path, b"".join(kept))
         return {"kept": len(kept), "rejected": len(rejected), "side_file": str(self.rejected_path)}
 
     def log_run(self, entry: dict) -> None:
@@ -386,10 +379,7 @@ class CampaignStore:
         ----------
         entry : dict
         """
-        with open(self.dir / RUNS, "ab") as f:
-            f.write((json.dumps(entry) + "\n").encode("utf-8"))
-            f.flush()
-            os.fsync(f.fileno())
+        _append_synced(self.dir / RUNS, (json.dumps(entry) + "\n").encode("utf-8"))
 
     # -- pinned designs --------------------------------------------------------------------
 
