@@ -281,11 +281,8 @@ class _Guard(ProgressMonitor):
         """Why time stopped advancing (:meth:`_ahead` finds what the integrator runs into)."""
         found = self._ahead(context)
         if found is not None:
-            h, text, sub = found
-            return SimulationDiverged(
-                f"simulate: the time derivative turns non-finite just after t = {t:.9g} s (at "
-                f"t + {h:.1g} s along the current derivative: {text}); the integrator cannot step past "
-                f"it ({STALL_STEPS} steps without advancing time)", t, sub)
+            return _diverged_ahead(found, t, "the integrator cannot step past it "
+                                   f"({STALL_STEPS} steps without advancing time)")
         return SimulationStalled(
             f"simulate: time stopped advancing at t = {t:.9g} s ({STALL_STEPS} consecutive steps shorter "
             "than Drake's minimum step size; no non-finite derivative found just ahead)", t, self.steps)
@@ -300,12 +297,16 @@ class _Guard(ProgressMonitor):
             return None
         if found is None:
             return None
-        h, text, sub = found
-        t = self._accepted[0]
-        return SimulationDiverged(
-            f"simulate: the time derivative turns non-finite just after t = {t:.9g} s (at t + {h:.1g} s "
-            f"along the current derivative: {text}); Drake's integrator gave up: "
-            f"{str(error).splitlines()[0]}", t, sub)
+        return _diverged_ahead(found, self._accepted[0],
+                               f"Drake's integrator gave up: {str(error).splitlines()[0]}")
+
+
+def _diverged_ahead(found, t: float, why: str) -> SimulationDiverged:
+    """The error for a non-finite derivative ``found`` (:meth:`_Guard._ahead`) just after t."""
+    h, text, sub = found
+    return SimulationDiverged(
+        f"simulate: the time derivative turns non-finite just after t = {t:.9g} s (at t + {h:.1g} s "
+        f"along the current derivative: {text}); {why}", t, sub)
 
 
 def _periodic_updates(system) -> list:
