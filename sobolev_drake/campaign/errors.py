@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-__all__ = ["CampaignError", "CampaignFolderError", "CorruptRecordsError", "CampaignLockedError",
-           "ClusterUnavailableError", "ClusterLostError"]
+__all__ = ["first_line", "CampaignError", "CampaignFolderError", "CorruptRecordsError",
+           "CampaignLockedError", "ClusterUnavailableError", "ClusterLostError"]
 
 
 class CampaignError(Exception):
@@ -44,3 +44,18 @@ class ClusterUnavailableError(CampaignError):
 
 class ClusterLostError(CampaignError):
     """The Dask cluster lost all its workers mid-run; the finished cases are recorded."""
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (at most 300 characters), as records and
+    messages quote it.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    str
+    """
+    return str(exc).splitlines()[0][:300] if str(exc) else ""

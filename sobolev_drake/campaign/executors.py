@@ -20,7 +20,7 @@ import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
-from sobolev_drake.campaign.errors import ClusterLostError, ClusterUnavailableError
+from sobolev_drake.campaign.errors import ClusterLostError, ClusterUnavailableError, first_line
 
 __all__ = ["inline", "processes", "dask", "pick", "worker_count", "DASK_CONNECT_TIMEOUT",
            "DASK_WORKERLESS_TIMEOUT"]
@@ -67,9 +67,6 @@ _ARGUMENTS = """
         ``fn(*args)`` of each call, in the order they finish.
 """
 
-
-def _first_line(exc):
-    return str(exc).splitlines()[0][:300] if str(exc) else ""
 
 
 def inline(fn, calls, workers, scheduler, tasks_per_worker):
@@ -133,7 +130,7 @@ def dask(fn, calls, workers, scheduler, tasks_per_worker):
         except (OSError, TimeoutError, ValueError) as exc:
             raise ClusterUnavailableError(
                 f"scheduler: cannot reach a Dask scheduler at {scheduler!r} within "
-                f"{DASK_CONNECT_TIMEOUT:g} s ({type(exc).__name__}: {_first_line(exc)}); start one "
+                f"{DASK_CONNECT_TIMEOUT:g} s ({type(exc).__name__}: {first_line(exc)}); start one "
                 "(`dask scheduler`, then `dask worker ADDRESS`), or use --scheduler dask-local") from None
     try:
         try:

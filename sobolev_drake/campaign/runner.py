@@ -29,7 +29,7 @@ from pathlib import Path
 
 from sobolev_drake.campaign import executors
 from sobolev_drake.campaign.case import Case, DesignFailed
-from sobolev_drake.campaign.errors import CampaignFolderError
+from sobolev_drake.campaign.errors import CampaignFolderError, first_line
 from sobolev_drake.campaign.registry import get_campaign
 from sobolev_drake.campaign.store import CampaignStore
 from sobolev_drake.datafile import fingerprint, write_text_atomic
@@ -139,9 +139,9 @@ def synthesize_design(name: str, label: str) -> dict:
     try:
         return {"design": defn.synthesize(label)}
     except DesignFailed as exc:
-        return {"failure": f"synthesis failed: {_first_line(exc)}"}
+        return {"failure": f"synthesis failed: {first_line(exc)}"}
     except Exception as exc:  # noqa: BLE001 - every case of the design records it
-        return {"failure": f"synthesis failed: {type(exc).__name__}: {_first_line(exc)}"}
+        return {"failure": f"synthesis failed: {type(exc).__name__}: {first_line(exc)}"}
 
 
 @functools.lru_cache(maxsize=None)
@@ -149,9 +149,6 @@ def _design_in_process(name, label):
     # run_case without a pinned design: synthesize once per process
     return synthesize_design(name, label)
 
-
-def _first_line(exc):
-    return str(exc).splitlines()[0][:300] if str(exc) else ""
 
 
 def run_case(case: Case, pinned: dict | None = None) -> dict:
@@ -185,7 +182,7 @@ def run_case(case: Case, pinned: dict | None = None) -> dict:
             out = ({"success": False, "failure": pinned["failure"]} if "failure" in pinned
                    else dict(defn.run(case, pinned["design"])))
     except Exception as exc:  # noqa: BLE001 - recorded as the case's failure
-        out = {"success": False, "indices": {}, "failure": f"{type(exc).__name__}: {_first_line(exc)}"}
+        out = {"success": False, "indices": {}, "failure": f"{type(exc).__name__}: {first_line(exc)}"}
     return {"key": case.key, "campaign": case.campaign, "design": case.design, "seed": case.seed,
             "perturb_values": case.draws(), "indices": {k: float(v) for k, v in out.get("indices", {}).items()},
             "success": bool(out.get("success", False)), "failure": str(out.get("failure", "")),
