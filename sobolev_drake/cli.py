@@ -127,11 +127,11 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--resume", action="store_true", help="skip the cases already recorded in --out")
     c.add_argument("--smoke", action="store_true", help="short cases (for testing the pipeline)")
     c.add_argument("--no-progress", action="store_true", help="no progress bar")
-    c.add_argument("--out", required=True, help="output folder of the campaign")
+    c.add_argument("--out", type=_out_dir, required=True, help="output folder of the campaign")
     cr = sub.add_parser("campaign-repair",
                         help="move the lines of a campaign's records.jsonl that are not records "
                              "(or repeat a case) to records.rejected.jsonl, keeping the others")
-    cr.add_argument("out", help="the campaign's output folder")
+    cr.add_argument("out", type=_out_dir, help="the campaign's output folder")
     return p
 
 
@@ -176,8 +176,6 @@ def _cmd_campaign(args) -> int:
     from sobolev_drake.campaign.errors import CampaignError, ClusterLostError
     from sobolev_drake.campaign.registry import UnknownCampaignError
 
-    if not args.out.strip():
-        raise UsageError("--out must name a folder, got '' (use --out . for the current folder)")
     _writable_dir(Path(args.out))
     try:
         summary = run_campaign(args.name, seeds=args.seeds, first_seed=args.first_seed,
@@ -216,7 +214,7 @@ def _cmd_campaign_repair(args) -> int:
     from sobolev_drake.campaign.store import CampaignStore
 
     folder = Path(args.out)
-    if not args.out.strip() or not (folder / "records.jsonl").is_file():
+    if not (folder / "records.jsonl").is_file():
         raise UsageError(f"campaign-repair: {str(folder)!r} holds no records.jsonl (give the "
                          "campaign's --out folder)")
     try:

@@ -393,7 +393,7 @@ def test_duplicate_design_labels_count_once(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, message", [
     (["--seeds", "1000000000000"], "seeds: 1000000000000 seeds × 2 designs is more than"),
-    (["--out", ""], "--out must name a folder, got ''"),
+    (["--out", ""], "argument --out: expected a folder, got ''"),
     (["--scheduler", " "], "scheduler must be None, 'dask-local' or a Dask scheduler address"),
 ])
 def test_unbounded_or_empty_options_are_refused_at_once(tmp_path, argv, message, capsys):
