@@ -26,16 +26,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, TrajectorySource, ZeroOrderHold
 from pydrake.trajectories import PiecewisePolynomial
 
-from sobolev_drake.models.serial_chain import SEVEN_LINK_EFFORT_LIMITS, seven_link_arm
+from sobolev_drake.models.serial_chain import SEVEN_LINK_EFFORT_LIMITS
+from sobolev_drake.rigs.seven_link import fly_seven_link_arm
 from sobolev_drake.synthesis.mechanical import controlled_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalController, SobolevLaw
 
@@ -68,34 +65,12 @@ def desired(duration):
 
 def fly(make_controller, time_step, trajectory, duration, zoh=None):
     """One run: (CPU seconds of AdvanceTo, ISE, start-up peak |τ|/limit)."""
-    builder = DiagramBuilder()
-    plant = builder.AddSystem(seven_link_arm(time_step))
-    controller = builder.AddSystem(make_controller(seven_link_arm()))
-    source = builder.AddSystem(TrajectorySource(trajectory, output_derivative_order=1))
-    state = plant.get_state_output_port()
-    if zoh is not None:
-        hold = builder.AddSystem(ZeroOrderHold(zoh, 2 * N))
-        builder.Connect(state, hold.get_input_port())
-        state = hold.get_output_port()
-    builder.Connect(state, controller.get_input_port_estimated_state())
-    builder.Connect(source.get_output_port(), controller.get_input_port_desired_state())
-    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
-    x_log = LogVectorOutput(plant.get_state_output_port(), builder, 1e-3)
-    u_log = LogVectorOutput(controller.get_output_port_control(), builder, 1e-3)
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    plant.SetPositions(plant.GetMyMutableContextFromRoot(context),
-                       trajectory.value(0.0).ravel() + 0.1)
-    simulator.get_mutable_integrator().set_target_accuracy(1e-6)
-    start = time.process_time()
-    simulator.AdvanceTo(duration)
-    cpu = time.process_time() - start
-    t, x = x_log.FindLog(context).sample_times(), x_log.FindLog(context).data()
-    u = u_log.FindLog(context).data()
+    run = fly_seven_link_arm(make_controller, trajectory, trajectory.value(0.0).ravel() + 0.1,
+                             duration, time_step=time_step, zoh=zoh)
+    cpu, t, x, u = run["cpu_s"], run["t"], run["x"], run["u"]
     e = x[:N] - trajectory.vector_values(t)
     ise = float(np.trapezoid(np.sum(e ** 2, axis=0), t))
-    startup = u_log.FindLog(context).sample_times() <= 2e-3
+    startup = t <= 2e-3
     peak = float(np.max(np.abs(u[:, startup]).T / SEVEN_LINK_EFFORT_LIMITS))
     return cpu, ise, peak
 

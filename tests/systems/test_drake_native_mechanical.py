@@ -16,12 +16,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import (DiagramBuilder, InputPortSelection,
                                        OutputPortSelection)
-from pydrake.systems.primitives import (ConstantVectorSource, Linearize, LogVectorOutput,
-                                        TrajectorySource, ZeroOrderHold)
+from pydrake.systems.primitives import ConstantVectorSource, Linearize, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.models._adapter import ThesisForceAdapter
 from sobolev_drake.models.arm import add_arm, make_arm_model
+from sobolev_drake.rigs.seven_link import fly_seven_link_arm
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.quadrotor import make_quadrotor_model
 from sobolev_drake.models.scalar_terms import ScalarTerms
@@ -313,29 +313,8 @@ Q0 = DESIRED.value(0.0).ravel() + 0.1
 def idc_example(make_controller, duration, zoh=None, time_step=0.0):
     """Drake's InverseDynamicsController tracking a desired state on a 7-joint arm; the
     controller is made by ``make_controller(controller_plant)``, the one line a user swaps."""
-    builder = DiagramBuilder()
-    plant = builder.AddSystem(seven_link_arm(time_step))
-    controller_plant = seven_link_arm()
-    desired = builder.AddSystem(TrajectorySource(DESIRED, output_derivative_order=1))
-    controller = builder.AddSystem(make_controller(controller_plant))
-    state = plant.get_state_output_port()
-    if zoh is not None:                   # the former workaround: a ZeroOrderHold in front
-        hold = builder.AddSystem(ZeroOrderHold(zoh, 2 * N7))
-        builder.Connect(state, hold.get_input_port())
-        state = hold.get_output_port()
-    builder.Connect(state, controller.get_input_port_estimated_state())
-    builder.Connect(desired.get_output_port(), controller.get_input_port_desired_state())
-    builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
-    x_log = LogVectorOutput(plant.get_state_output_port(), builder, 1e-3)
-    u_log = LogVectorOutput(controller.get_output_port_control(), builder, 1e-3)
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), Q0)
-    simulator.get_mutable_integrator().set_target_accuracy(1e-6)
-    simulator.AdvanceTo(duration)
-    t = x_log.FindLog(context).sample_times()
-    return t, x_log.FindLog(context).data(), u_log.FindLog(context).data()
+    run = fly_seven_link_arm(make_controller, DESIRED, Q0, duration, time_step=time_step, zoh=zoh)
+    return run["t"], run["x"], run["u"]
 
 
 @pytest.fixture(scope="module")
