@@ -19,6 +19,8 @@ follows python-control's signature and return value.  Sign convention everywhere
 __version__ = "0.1.0"
 
 from sobolev_drake import norms, plots, recording_html, viz
+from sobolev_drake.errors import (CampaignError, ModelError, SimulationError, SobolevDrakeError,
+                                  SobolevDrakeWarning)
 from sobolev_drake.models import MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
@@ -36,6 +38,8 @@ from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearS
 
 __all__ = [
     "__version__", "norms", "plots", "recording_html", "viz",
+    # the exception hierarchy (sobolev_drake.errors)
+    "SobolevDrakeError", "SobolevDrakeWarning", "ModelError", "SimulationError", "CampaignError",
     # models
     "MechanicalModel", "PlantModel", "PlantHandles",
     # nonlinear mechanical controllers

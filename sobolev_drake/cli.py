@@ -24,12 +24,13 @@ import traceback
 from pathlib import Path
 
 from sobolev_drake import experiments as exps
+from sobolev_drake.errors import SobolevDrakeError
 from sobolev_drake.experiments import Claim, ExperimentResult
 
 __all__ = ["main"]
 
 
-class UsageError(Exception):
+class UsageError(SobolevDrakeError):
     """Bad command-line usage: reported as one line on stderr, exit code 2."""
 
 

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sobolev_drake.errors import SobolevDrakeError
+
 __all__ = ["DataFileError", "to_tree", "from_tree", "fingerprint", "write_json_atomic",
            "write_text_atomic", "write_bytes_atomic", "read_json", "fsync_directory"]
 
@@ -42,7 +44,7 @@ _ARRAY = "__array__"
 _DTYPES = {"bool": np.bool_, "int64": np.int64, "float64": np.float64, "complex128": np.complex128}
 
 
-class DataFileError(ValueError):
+class DataFileError(SobolevDrakeError, ValueError):
     """A data file that cannot be used: unreadable, not JSON, or not of the expected structure.
 
     The message starts with the file's path (and ``:line:column`` for a JSON syntax error).

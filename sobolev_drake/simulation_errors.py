@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from sobolev_drake.errors import SimulationError
+
 __all__ = ["SimulationTimeout", "SimulationDiverged", "SimulationStalled"]
 
 
-class SimulationTimeout(TimeoutError):
+class SimulationTimeout(SimulationError, TimeoutError):
     """:func:`simulate` ran longer than its ``wall_time_limit``; ``simulated`` is where it stopped.
 
     Parameters
@@ -38,7 +40,7 @@ class SimulationTimeout(TimeoutError):
         self.simulated = simulated
 
 
-class SimulationDiverged(RuntimeError):
+class SimulationDiverged(SimulationError, RuntimeError):
     """:func:`simulate` met a state or time derivative that is not finite (NaN or ±inf).
 
     Parameters
@@ -59,7 +61,7 @@ class SimulationDiverged(RuntimeError):
         self.subsystem = subsystem
 
 
-class SimulationStalled(RuntimeError):
+class SimulationStalled(SimulationError, RuntimeError):
     """:func:`simulate` stopped a run that used up its step budget or stopped advancing time.
 
     Parameters

@@ -24,10 +24,12 @@ from typing import Callable
 
 import numpy as np
 
+from sobolev_drake.errors import CampaignError
+
 __all__ = ["Case", "CampaignDefinition", "DesignFailed"]
 
 
-class DesignFailed(Exception):
+class DesignFailed(CampaignError):
     """A campaign design could not be synthesized; its message is recorded as the failure of
     every case of that design (it must depend on the design only — no wall times)."""
 

@@ -3,12 +3,10 @@
 
 from __future__ import annotations
 
+from sobolev_drake.errors import CampaignError
+
 __all__ = ["first_line", "CampaignError", "CampaignFolderError", "CorruptRecordsError",
            "CampaignLockedError", "ClusterUnavailableError", "ClusterLostError"]
-
-
-class CampaignError(Exception):
-    """Base of the campaign errors."""
 
 
 class CampaignFolderError(CampaignError, ValueError):

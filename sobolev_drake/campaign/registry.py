@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import importlib
 
+from sobolev_drake.errors import CampaignError
+
 from sobolev_drake.campaign.case import CampaignDefinition
 
 __all__ = ["register_campaign", "get_campaign", "campaigns", "UnknownCampaignError"]
@@ -16,7 +18,7 @@ __all__ = ["register_campaign", "get_campaign", "campaigns", "UnknownCampaignErr
 _CAMPAIGNS: dict = {}
 
 
-class UnknownCampaignError(KeyError):
+class UnknownCampaignError(CampaignError, KeyError):
     """No experiment of that name declares a campaign."""
 
     def __str__(self):  # KeyError quotes its message

@@ -24,6 +24,7 @@ from typing import Callable
 # the result records live with the code that saves and loads them; re-exported here for the
 # experiment modules
 from sobolev_drake.report import Claim, ExperimentResult
+from sobolev_drake.errors import SobolevDrakeError
 
 __all__ = ["Claim", "ExperimentResult", "Experiment", "UnknownExperimentError", "register",
            "discover", "get", "flagship", "thesis_differences", "THESIS_TABLES", "MAX_DURATION_FACTOR",
@@ -99,7 +100,7 @@ MIN_DURATION_FACTOR = 0.01
 REGISTRY: dict[str, Experiment] = {}
 
 
-class UnknownExperimentError(KeyError):
+class UnknownExperimentError(SobolevDrakeError, KeyError):
     def __str__(self):  # KeyError quotes its message; we want plain text
         return self.args[0]
 

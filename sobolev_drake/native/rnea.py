@@ -24,13 +24,14 @@ import numpy as np
 
 import sobolev_drake.native as _native
 from sobolev_drake.native import kernel
+from sobolev_drake.errors import ModelError
 
 __all__ = ["tree_model", "cached_tree_kernel", "tree_constants", "unsupported_reason"]
 
 REVOLUTE, PRISMATIC = 0, 1
 
 
-class Unsupported(ValueError):
+class Unsupported(ModelError, ValueError):
     """The plant has a feature the kernel does not model."""
 
 

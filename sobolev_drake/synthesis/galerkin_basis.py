@@ -29,6 +29,8 @@ from typing import Callable
 
 import numpy as np
 
+from sobolev_drake.errors import ModelError
+
 from ..validation import real_scalar
 
 __all__ = ["Box", "QuadratureRule", "gauss_legendre", "midpoint", "PolynomialBasis",
@@ -129,7 +131,7 @@ class QuadratureRule:
         return np.tensordot(self.weights, np.asarray(values), axes=(0, 0))
 
 
-class ObjectEvaluationError(TypeError):
+class ObjectEvaluationError(ModelError, TypeError):
     """A user function (model f, g, k, cost h, ∇h or basis) does not evaluate on object arrays
     of AutoDiffXd / Expression: the Galerkin law is then double only."""
 

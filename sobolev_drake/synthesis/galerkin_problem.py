@@ -31,6 +31,8 @@ from typing import Callable
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd, InitializeAutoDiff
 
+from sobolev_drake.errors import SynthesisError
+
 from sobolev_drake.synthesis.galerkin_basis import Box, check_points, object_call
 
 __all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
@@ -39,7 +41,7 @@ __all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
            "SaddlePointError"]
 
 
-class GalerkinDivergenceError(RuntimeError):
+class GalerkinDivergenceError(SynthesisError):
     """The iteration diverged; ``history`` holds the per-iteration records (no coefficients)."""
 
     def __init__(self, message, history=None):
@@ -47,7 +49,7 @@ class GalerkinDivergenceError(RuntimeError):
         self.history = list(history or [])
 
 
-class GalerkinConvergenceError(RuntimeError):
+class GalerkinConvergenceError(SynthesisError):
     """The iteration did not reach the tolerance within the iteration budget."""
 
     def __init__(self, message, history=None):
@@ -55,11 +57,11 @@ class GalerkinConvergenceError(RuntimeError):
         self.history = list(history or [])
 
 
-class AdmissibilityError(ValueError):
+class AdmissibilityError(SynthesisError, ValueError):
     """The initial control does not stabilize the design model on Ω."""
 
 
-class SaddlePointError(ValueError):
+class SaddlePointError(SynthesisError, ValueError):
     """γ (or the weights) violate the saddle-point condition (4.22) somewhere on Ω."""
 
 

@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from sobolev_drake.errors import SynthesisError
+
 __all__ = [
     "BACKENDS", "SynthesisError", "InfeasibleLMIError", "Affine", "bmat", "kron", "SolveOutcome",
     "LMIProgram",
@@ -44,10 +46,6 @@ __all__ = [
 DEFAULT_BACKEND = "clarabel"
 BACKENDS = ("clarabel", "ipm", "auto", "cvxpy", "cvxpy:clarabel", "cvxpy:scs", "cvxpy:mosek",
             "drake", "drake:clarabel", "drake:scs", "drake:csdp", "drake:mosek")
-
-
-class SynthesisError(RuntimeError):
-    """A synthesis failed or its result did not pass an independent check."""
 
 
 class InfeasibleLMIError(SynthesisError):

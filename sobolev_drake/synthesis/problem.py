@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sobolev_drake.errors import SobolevDrakeWarning
+
 from .certificates import Certificate, as_matrix
 from .regions import LMIRegion
 
@@ -18,7 +20,7 @@ __all__ = ["SynthesisWarning", "GeneralizedPlant", "DynamicController", "Synthes
            "check_initial_states", "transient_bound"]
 
 
-class SynthesisWarning(UserWarning):
+class SynthesisWarning(SobolevDrakeWarning):
     """The result is valid but degenerate (feedthrough infimum, regularized, large gains)."""
 
 

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from sobolev_drake.errors import SynthesisError
+
 from .certificates import parrott_bound
 from .problem import DynamicController, GeneralizedPlant
 
@@ -51,7 +53,7 @@ __all__ = [
 ARE_RESIDUAL_TOL = 1e-7
 
 
-class RiccatiInfeasible(Exception):
+class RiccatiInfeasible(SynthesisError):
     """The level gamma is not reachable according to the Riccati tests (reason attached)."""
 
 
@@ -254,7 +256,7 @@ def central_controller(pn, lev):
 
 
 # --------------------------------------------------------------------------- gamma search
-class BudgetExceeded(Exception):
+class BudgetExceeded(SynthesisError):
     """The deadline passed during the gamma search."""
 
 

@@ -26,6 +26,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from sobolev_drake.data import load
+from sobolev_drake.errors import ModelError
 from sobolev_drake.native import kernel
 from sobolev_drake.systems.bounded_ls import check_problem, bounded_least_squares
 from sobolev_drake.tiltrotor.scalars import DoubleOnly
@@ -298,7 +299,7 @@ class ControlAllocator(DoubleOnly, LeafSystem):
 # --------------------------------------------------------------------------------------------
 
 
-class UnreachableThrustError(ValueError):
+class UnreachableThrustError(ModelError, ValueError):
     """The requested thrust is outside [0, f(n_max)] for the given inflow."""
 
 
