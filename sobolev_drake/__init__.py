@@ -29,6 +29,9 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      hinf_state_feedback_qr, hinfsyn, regions, regulated_gains,
                                      stabilized_gains, to_statespace, winf_output_feedback,
                                      winf_plant, winf_state_feedback)
+from sobolev_drake.synthesis.loop_analysis import LoopAnalysis, loop_analysis
+from sobolev_drake.synthesis.weights import winf_weights
+from sobolev_drake.analysis_plots import plot_loop_analysis
 from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
                                    MechanicalController, MechanicalLaw, Partition,
                                    PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
@@ -49,6 +52,8 @@ __all__ = [
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
     "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisError",
     "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace",
+    # analysis of a designed loop, weights from bandwidth and damping
+    "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
     # linear controllers as Drake systems
     "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
 ]
