@@ -31,6 +31,8 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      winf_plant, winf_state_feedback)
 from sobolev_drake.synthesis.loop_analysis import LoopAnalysis, loop_analysis
 from sobolev_drake.synthesis.weights import winf_weights
+from sobolev_drake.synthesis.discrete import (DiscreteSynthesisResult, hinf_discrete,
+                                              sampled_data_plant)
 from sobolev_drake.analysis_plots import plot_loop_analysis
 from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
                                    MechanicalController, MechanicalLaw, Partition,
@@ -54,6 +56,8 @@ __all__ = [
     "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace",
     # analysis of a designed loop, weights from bandwidth and damping
     "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
+    # discrete-time and sampled-data synthesis
+    "hinf_discrete", "sampled_data_plant", "DiscreteSynthesisResult",
     # linear controllers as Drake systems
     "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
 ]
