@@ -311,15 +311,15 @@ def hinf_discrete(plant, nmeas, ncon, *, dt=None, computation_delay=False, **opt
 
     Examples
     --------
-    A lightly damped discrete oscillator at 100 Hz, w and u entering together, z = [x1; u]:
+    A lightly damped oscillator sampled at 100 Hz, w and u entering together, z = [x1; u],
+    y = x1 + 0.1 w:
 
-    >>> import numpy as np
     >>> import control
     >>> import sobolev_drake as sd
     >>> Pc = control.ss([[0, 1], [-4, -0.2]], [[0, 0], [1, 1]],
-    ...                 [[1, 0], [0, 0], [1, 0], [0, 1]], [[0, 0], [0, 1], [0.1, 0], [0, 0]])
+    ...                 [[1, 0], [0, 0], [1, 0]], [[0, 0], [0, 1], [0.1, 0]])
     >>> P = control.c2d(Pc, 0.01)                       # inputs [w; u], outputs [z; y]
-    >>> res = sd.hinf_discrete(P, nmeas=2, ncon=1)
+    >>> res = sd.hinf_discrete(P, nmeas=1, ncon=1)
     >>> res.dt, res.spectral_radius < 1
     (0.01, True)
     >>> bool(res.norm_ab13dd <= res.gamma and abs(res.norm_ab13dd - res.norm_sweep) < 1e-4)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LinearSystem, TrajectorySource, VectorLogSink
+from pydrake.systems.primitives import (LinearSystem, Multiplexer, TrajectorySource,
+                                        VectorLogSink)
 from pydrake.trajectories import PiecewisePolynomial
 
 import sobolev_drake as sd
@@ -18,8 +19,9 @@ from sobolev_drake.synthesis import SynthesisWarning
 from sobolev_drake.synthesis.discrete import (bilinear_to_continuous, discrete_hinf_norm,
                                               sampled_data_plant)
 
+# a regular problem (D12, D21 of full rank): z = [x1; u], y = x1 + 0.1 w
 OSCILLATOR = control.ss([[0, 1], [-4, -0.2]], [[0, 0], [1, 1]],
-                        [[1, 0], [0, 0], [1, 0], [0, 1]], [[0, 0], [0, 1], [0.1, 0], [0, 0]])
+                        [[1, 0], [0, 0], [1, 0]], [[0, 0], [0, 1], [0.1, 0]])
 
 
 def quiet(fn, *a, **kw):
@@ -31,7 +33,7 @@ def quiet(fn, *a, **kw):
 @pytest.mark.parametrize("dt", [0.01, 0.001])
 def test_discrete_plant_certified_against_an_independent_discrete_norm(dt):
     P = control.c2d(OSCILLATOR, dt)                      # python-control, dt > 0
-    res = quiet(sd.hinf_discrete, P, 2, 1)
+    res = sd.hinf_discrete(P, 1, 1)
     assert res.spectral_radius < 1
     # γ bounds both estimates; ab13dd (tolerance 1e-10) and the refined sweep agree to the
     # sweep's grid resolution (measured 3e-6)
@@ -47,12 +49,12 @@ def test_discrete_plant_certified_against_an_independent_discrete_norm(dt):
 def test_drake_discrete_system_is_accepted():
     P = control.c2d(OSCILLATOR, 0.01)
     drake_P = LinearSystem(P.A, P.B, P.C, P.D, time_period=0.01)
-    a, b = quiet(sd.hinf_discrete, drake_P, 2, 1), quiet(sd.hinf_discrete, P, 2, 1)
+    a, b = sd.hinf_discrete(drake_P, 1, 1), sd.hinf_discrete(P, 1, 1)
     assert a.gamma == pytest.approx(b.gamma, rel=1e-9)
     with pytest.raises(ValueError, match="discrete-time"):
-        sd.hinf_discrete(OSCILLATOR, 2, 1)
+        sd.hinf_discrete(OSCILLATOR, 1, 1)
     with pytest.raises(TypeError, match="dt"):
-        sd.hinf_discrete((P.A, P.B, P.C, P.D), 2, 1)
+        sd.hinf_discrete((P.A, P.B, P.C, P.D), 1, 1)
 
 
 def test_bilinear_map_preserves_the_norm_of_a_random_system():
@@ -87,9 +89,6 @@ def hybrid_energy_ratio(plant, res, dt, W, delay):
     times = dt * np.arange(N + 1)
     src = b.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
         times, np.hstack([W, W[:, -1:] * 0]))))
-    mux = b.AddSystem(LinearSystem(np.zeros((0, 0)), np.zeros((0, plant.nw + nu)),
-                                   np.zeros((plant.nw + nu, 0)), np.eye(plant.nw + nu)))
-    from pydrake.systems.primitives import Multiplexer
     mux = b.AddSystem(Multiplexer([plant.nw, nu]))
     b.Connect(src.get_output_port(), mux.get_input_port(0))
     b.Connect(K.get_output_port(), mux.get_input_port(1))
@@ -103,7 +102,6 @@ def hybrid_energy_ratio(plant, res, dt, W, delay):
     sim = Simulator(diagram)
     sim.get_mutable_integrator().set_target_accuracy(1e-9)
     sim.AdvanceTo(dt * (N - 0.5))
-    ctx = diagram.GetMutableSubsystemContext
     x = log_x.FindLog(sim.get_context()).data()[:, :N]
     u_log = log_u.FindLog(sim.get_context())
     # a logger at t_k sees u before the update at t_k: the command held on [t_k, t_k+1) is
@@ -125,13 +123,23 @@ def test_sampled_data_design_on_the_arm_meets_gamma_in_hybrid_simulation(delay):
     res = quiet(sd.hinf_discrete, sampled_data_plant(plant, dt, computation_delay=delay),
                 None, None, dt=dt, computation_delay=delay)
     assert res.spectral_radius < 1 and res.norm_ab13dd <= res.gamma
-    # worst-case-ish inputs: the peak frequency of the discrete loop along its top input
-    # direction (a long sinusoid approaches the norm), and white noise
+    # worst-case-ish inputs: white noise, and a long sinusoid at the discrete loop's peak
+    # frequency along its top input direction (its ratio approaches the norm: measured
+    # 2.0478 for γ = 2.0528 without delay, 2.1256 for γ = 2.1360 with it)
     Acl, Bcl, Ccl, Dcl = res.closed_loop
-    N = 600
-    rng = np.random.default_rng(0)
-    ratios = []
-    for W in (rng.normal(size=(plant.nw, N)),):
+    theta = np.linspace(1e-4, np.pi, 4000)
+    G = np.array([Ccl @ np.linalg.solve(np.exp(1j * t) * np.eye(len(Acl)) - Acl, Bcl) + Dcl
+                  for t in theta])
+    k = np.argmax(np.linalg.svd(G, compute_uv=False)[:, 0])
+    v = np.linalg.svd(G[k])[2][0].conj()
+    N = 1000
+    W_peak = np.real(np.outer(v, np.exp(1j * theta[k] * np.arange(N))))
+    for W in (np.random.default_rng(0).normal(size=(plant.nw, N)), W_peak):
         r, x, u = hybrid_energy_ratio(plant, res, dt, W, delay)
-        ratios.append(r)
-    assert max(ratios) <= res.gamma
+        # the hybrid loop is the discrete loop at the samples: same ratio to integration
+        # accuracy (1e-9 requested; measured 1e-8 relative)
+        zd = control.forced_response(control.ss(Acl, Bcl, Ccl, Dcl, dt), U=W,
+                                     T=dt * np.arange(N)).outputs[:, :N - 1]
+        assert r == pytest.approx(np.linalg.norm(zd) / np.linalg.norm(W[:, :N - 1]), rel=1e-6)
+        assert r <= res.gamma
+    assert r >= 0.95 * res.norm_ab13dd       # the peak input is worst-case-ish indeed
