@@ -31,6 +31,11 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      hinf_state_feedback_qr, hinfsyn, regions, regulated_gains,
                                      stabilized_gains, to_statespace, winf_output_feedback,
                                      winf_plant, winf_state_feedback)
+from sobolev_drake.synthesis.loop_analysis import LoopAnalysis, loop_analysis
+from sobolev_drake.synthesis.weights import winf_weights
+from sobolev_drake.synthesis.discrete import (DiscreteSynthesisResult, hinf_discrete,
+                                              sampled_data_plant)
+from sobolev_drake.analysis_plots import plot_loop_analysis
 from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
                                    MechanicalController, MechanicalLaw, Partition,
                                    PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
@@ -53,6 +58,10 @@ __all__ = [
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
     "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisError",
     "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace",
+    # analysis of a designed loop, weights from bandwidth and damping
+    "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
+    # discrete-time and sampled-data synthesis
+    "hinf_discrete", "sampled_data_plant", "DiscreteSynthesisResult",
     # linear controllers as Drake systems
     "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
 ]

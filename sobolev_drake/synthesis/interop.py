@@ -91,12 +91,12 @@ def state_space_matrices(system, name="system"):
         period = system.time_period() if hasattr(system, "time_period") else 0.0
         if period:
             raise ValueError(f"{name} must be continuous-time, got a Drake system with time "
-                             f"period {period}")
+                             f"period {period} (discrete plants: sd.hinf_discrete)")
         A, B, C, D = system.A(), system.B(), system.C(), system.D()
     elif kind == "statespace":                                   # python-control / scipy
         dt = getattr(system, "dt", 0)
         if dt not in (0, None):
-            raise ValueError(f"{name} must be continuous-time, got dt = {dt}")
+            raise ValueError(f"{name} must be continuous-time, got dt = {dt} (sd.hinf_discrete)")
         A, B, C, D = system.A, system.B, system.C, system.D
     else:
         raise TypeError(f"{name} must be a Drake LinearSystem/AffineSystem, a python-control or "
