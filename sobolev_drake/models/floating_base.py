@@ -103,6 +103,7 @@ class FloatingBaseModel(MechanicalModel):
         if not 0.0 < self.max_pitch < 0.5 * np.pi:
             raise ValueError(f"max_pitch must be in (0, π/2) rad, got {max_pitch}")
         self.context = plant.CreateDefaultContext()
+        self._last = {}
         if context is not None:
             check_context(plant, context)
             self.context.SetTimeStateAndParametersFrom(context)
@@ -159,7 +160,7 @@ class FloatingBaseModel(MechanicalModel):
                              f"{plant.num_force_elements() - 1} other force element(s)")
 
     # --- the chart ------------------------------------------------------------------------
-    def to_drake_state(self, q, qdot=None):
+    def to_drake_state(self, q, qdot=None, *, J=None):
         """Drake's (positions, velocities) of a model state.
 
         Parameters
@@ -168,6 +169,8 @@ class FloatingBaseModel(MechanicalModel):
             [ϕ θ ψ x y z, other joints].
         qdot : array_like, shape (n,), optional
             Its time derivative (zeros when omitted).
+        J : ndarray, optional
+            :meth:`velocity_jacobian` at ``q`` when already known.
 
         Returns
         -------
@@ -179,9 +182,11 @@ class FloatingBaseModel(MechanicalModel):
         qd = np.zeros(self.plant.num_positions())
         vd = np.zeros(self.n)
         att = euler_to_quaternion(q[:3]) if self.kind == "quaternion_floating" else q[:3]
-        qd[self._fq:self._fq + len(att) + 3] = np.r_[att, q[3:6]]
+        qd[self._fq:self._fq + len(att)] = att
+        qd[self._fq + len(att):self._fq + len(att) + 3] = q[3:6]
         qd[self._rest_q] = q[6:]
-        vd[self._fv:self._fv + 6] = self.velocity_jacobian(q)[:6, :6] @ qdot[:6]
+        J = self.velocity_jacobian(q) if J is None else J
+        vd[self._fv:self._fv + 6] = J[self._fv:self._fv + 6, :6] @ qdot[:6]
         vd[self._rest_v] = qdot[6:]
         return qd, vd
 
@@ -227,13 +232,27 @@ class FloatingBaseModel(MechanicalModel):
         fv = self._fv
         J[fv:fv + 3, :3] = rotation_of_euler(q[:3]) @ euler_rate_matrix(q[0], q[1])
         J[fv + 3:fv + 6, 3:6] = np.eye(3)
-        J[self._rest_v, np.arange(6, self.n)] = 1.0
+        if self._rest_v:
+            J[self._rest_v, np.arange(6, self.n)] = 1.0
         return J
 
     def _set(self, q, qdot=None):
-        qd, vd = self.to_drake_state(q, qdot)
-        self.plant.SetPositionsAndVelocities(self.context, np.r_[qd, vd])
-        return self.velocity_jacobian(q)
+        """Write (q, q̇) into the model's context (q̇ = 0 when omitted) and return J(q); the
+        last q and state are remembered, as a controller asks for M, C q̇, g and B at one
+        state."""
+        q = check_vector("q", q, self.n)
+        key_q = q.tobytes()
+        if key_q != self._last.get("q"):
+            self._last = {"q": key_q, "J": self.velocity_jacobian(q)}
+        J = self._last["J"]
+        if qdot is None and "state" in self._last:
+            return J                      # M, g and B do not depend on the velocities
+        key = None if qdot is None else check_vector("qdot", qdot, self.n).tobytes()
+        if self._last.get("state", 0) != key:
+            qd, vd = self.to_drake_state(q, qdot, J=J)
+            self.plant.SetPositionsAndVelocities(self.context, np.concatenate([qd, vd]))
+            self._last["state"] = key
+        return J
 
     # --- Euler–Lagrange terms ---------------------------------------------------------------
     def M(self, q) -> np.ndarray:
@@ -308,7 +327,7 @@ class FloatingBaseModel(MechanicalModel):
             Jv = plant.CalcJacobianSpatialVelocity(ctx, JacobianWrtVariable.kV, body.body_frame(),
                                                    info.X_BP.translation(), world, world)
             axis = X_WP.rotation().col(2)
-            cols.append(Jv.T @ np.r_[info.moment_ratio * axis, info.thrust_ratio * axis])
+            cols.append(Jv.T @ np.concatenate([info.moment_ratio * axis, info.thrust_ratio * axis]))
         B_d = np.column_stack(cols + [self._B_actuators]) if cols else self._B_actuators
         return J.T @ B_d
 

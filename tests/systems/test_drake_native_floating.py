@@ -61,3 +61,19 @@ def test_floating_base_state_refuses_the_singular_attitude(model):
         system.get_output_port(0).Eval(ctx)
     with pytest.raises(TypeError, match="FloatingBaseModel"):
         FloatingBaseState(object())
+
+
+def test_multirotor_controller_is_double_only_and_says_what_to_use_instead(model):
+    from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains
+    from sobolev_drake.systems.mechanical_law import SobolevLaw
+    from sobolev_drake.systems.multirotor_control import MultirotorController
+
+    inner = SobolevLaw(controlled_gains(1.0, 1.0, 1.0, 1.0), regulated=regulated_gains(1.0, 1.0, 1.0))
+    system = MultirotorController(model, SobolevLaw(controlled_gains([1.0] * 4, 1.0, 1.0, 1.0),
+                                                    regulated=regulated_gains([1.0] * 2, 1.0, 1.0)))
+    for convert, scalar in ((system.ToAutoDiffXd, "AutoDiffXd"), (system.ToSymbolic, "Expression")):
+        with pytest.raises(RuntimeError, match=rf"MultirotorController does not convert to {scalar}: "
+                                               r".*linearize_hover.* instead"):
+            convert()
+    with pytest.raises(ValueError, match="gains are for 1 DOF"):
+        MultirotorController(model, inner)
