@@ -61,7 +61,8 @@ def FloatingBaseState_(T):   # the class for scalar type T (float, AutoDiffXd, E
             plant = model.plant
             self._nq, self._nv = plant.num_positions(), plant.num_velocities()
             self.DeclareVectorInputPort("plant_state", self._nq + self._nv)
-            self.DeclareVectorOutputPort("state", 2 * model.n, self._calc)
+            self.DeclareVectorOutputPort("state", 2 * model.n, self._calc,
+                                         prerequisites_of_calc={self.all_input_ports_ticket()})
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.model, converter=converter)
