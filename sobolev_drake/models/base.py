@@ -16,9 +16,10 @@ so the thesis' quantities are ``M_th = Tᵀ M T``, ``h_th = Tᵀ h`` and general
 from __future__ import annotations
 
 import numpy as np
-from pydrake.multibody.plant import MultibodyPlant, MultibodyPlant_
+from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ForceElementIndex
-from pydrake.systems.framework import Context
+
+from sobolev_drake.models.plant_checks import check_context, check_plant, constraint_kinds
 
 __all__ = ["check_vector", "MechanicalModel", "PlantModel"]
 
@@ -75,7 +76,7 @@ class MechanicalModel:
     """
 
     def __init__(self, plant: MultibodyPlant, *, coordinate_map=None, dof_names=None, name="model"):
-        _check_plant(plant)
+        check_plant(plant)
         if plant.num_positions() != plant.num_velocities():
             raise ValueError("MechanicalModel needs q̇ = v (no quaternion floating base); "
                              f"got nq = {plant.num_positions()}, nv = {plant.num_velocities()}")
@@ -277,18 +278,29 @@ class MechanicalModel:
         check_vector("qdot", qdot, self.n)
         return np.zeros(self.n)
 
+    #: the model class of floating-base plants, registered by models.floating_base (which
+    #: imports this module, so it cannot be imported here)
+    floating_base_model = None
+
     @classmethod
-    def from_plant(cls, plant: MultibodyPlant, *, context=None, name=None) -> "PlantModel":
-        """A model of any finalized ``MultibodyPlant`` (continuous or discrete), in Drake's
-        coordinates (q_thesis = q_drake, so the plant's state port is the controller's ``x``
-        and its actuation port takes the controller's ``u``).  See :class:`PlantModel`.
+    def from_plant(cls, plant: MultibodyPlant, *, context=None, name=None, propellers=None,
+                   **floating) -> "PlantModel":
+        """A model of any finalized ``MultibodyPlant`` (continuous or discrete).
+
+        Without a floating base: a :class:`PlantModel` in Drake's coordinates (q_thesis =
+        q_drake, so the plant's state port is the controller's ``x`` and its actuation port
+        takes the controller's ``u``).  With a quaternion or roll-pitch-yaw floating joint, or
+        ``propellers``: a :class:`~sobolev_drake.models.floating_base.FloatingBaseModel` in
+        Euler-angle coordinates [ϕ θ ψ x y z …] whose inputs are the propeller commands (its
+        state comes from the plant's state port through
+        :class:`~sobolev_drake.systems.floating_state.FloatingBaseState`).
 
         Parameters
         ----------
         plant : MultibodyPlant
-            Finalized, double-valued plant whose q̇ = v (revolute, prismatic, planar, weld,
-            universal joints; a quaternion or roll-pitch-yaw floating base is refused by name),
-            with joint actuators and no constraints; parsed or built in code.
+            Finalized, double-valued plant: joints with q̇ = v (revolute, prismatic, planar,
+            weld, universal) and at most one quaternion or roll-pitch-yaw floating joint, no
+            constraints; parsed or built in code.
         context : Context, optional
             A context of ``plant`` whose parameters (masses, damping, reflected inertias) the
             model uses, the plant's defaults when omitted: ``plant.CreateDefaultContext()`` or,
@@ -296,20 +308,33 @@ class MechanicalModel:
             modified.
         name : str, optional
             Model name for messages (default: the name(s) of the model instance(s) holding the
-            actuated joints, joined by " + ").
+            actuated joints, or the floating body).
+        propellers : sequence of PropellerInfo, optional
+            The propellers of the Drake ``Propeller`` system driving a floating base, in its
+            command order (they become the first columns of B(q)).
+        **floating
+            ``command_lower``, ``command_upper``, ``max_pitch`` of ``FloatingBaseModel``.
 
         Returns
         -------
-        PlantModel
+        PlantModel or FloatingBaseModel
 
         Raises
         ------
         TypeError
             ``plant`` is not a double ``MultibodyPlant``, ``context`` not a double ``Context``.
         ValueError
-            ``plant`` is not finalized, has no joint actuators, constraints or an element the
-            model cannot represent (see :class:`PlantModel`); ``context`` is another system's.
+            ``plant`` is not finalized, has no inputs, constraints or an element the model
+            cannot represent (see :class:`PlantModel`); ``context`` is another system's.
         """
+        check_plant(plant)
+        kinds = {plant.get_joint(i).type_name() for i in plant.GetJointIndices()}
+        if propellers is not None or kinds & {"quaternion_floating", "rpy_floating"}:
+            return cls.floating_base_model(plant, propellers=propellers, context=context,
+                                           name=name, **floating)
+        if floating:
+            raise TypeError(f"from_plant got {sorted(floating)}, which only a floating-base "
+                            "plant (or propellers=) takes")
         return PlantModel(plant, context=context, name=name)
 
 
@@ -332,9 +357,8 @@ class PlantModel(MechanicalModel):
 
     Refused with a ``ValueError`` naming the element: force elements other than gravity
     (springs, bushings, custom ones: subclass :class:`MechanicalModel` and put them in
-    ``g``/``friction``), joints whose q̇ ≠ v (quaternion or roll-pitch-yaw floating bases,
-    ball joints: model a floating body with a chain of prismatic and revolute joints, as the
-    library's quadrotor does), constraints (couplers, e.g. from a URDF ``<mimic>``, and
+    ``g``/``friction``), joints whose q̇ ≠ v (ball joints; floating bases go to
+    :class:`~sobolev_drake.models.floating_base.FloatingBaseModel`), constraints (couplers, e.g. from a URDF ``<mimic>``, and
     distance, ball and weld constraints: their forces are not in M q̈ + C q̇ + g = B u), a plant
     without joint actuators (B would have no columns) and actuators with Drake's implicit PD
     control.  Contact, joint limits and effort limits are not part of M q̈ + C q̇ + g = B u;
@@ -348,10 +372,10 @@ class PlantModel(MechanicalModel):
     """
 
     def __init__(self, plant: MultibodyPlant, *, context=None, name=None):
-        _check_plant(plant)
+        check_plant(plant)
         _refuse_unsupported(plant)
         if context is not None:
-            _check_context(plant, context)
+            check_context(plant, context)
         if name is None:   # the model instance(s) holding the actuated joints
             instances = sorted({plant.get_joint_actuator(a).joint().model_instance()
                                 for a in plant.GetJointActuatorIndices()}, key=int)
@@ -411,40 +435,6 @@ class PlantModel(MechanicalModel):
         return self.damping * check_vector("qdot", qdot, self.n)
 
 
-def _check_plant(plant) -> None:
-    """TypeError unless ``plant`` is a double MultibodyPlant; ValueError unless finalized."""
-    if not isinstance(plant, MultibodyPlant):
-        scalars = [s.__name__ for (s,) in MultibodyPlant_.param_list
-                   if isinstance(plant, MultibodyPlant_[s])]
-        got = f"MultibodyPlant_[{scalars[0]}]" if scalars else type(plant).__name__
-        raise TypeError(
-            f"plant must be a finalized MultibodyPlant of scalar type float, got {got}: pass "
-            "the double plant (the one ToAutoDiffXd/ToSymbolic converted; for a Diagram, the "
-            "plant inside it, e.g. diagram.GetSubsystemByName('plant'))")
-    if not plant.is_finalized():
-        raise ValueError(f"plant {plant.get_name()!r} must be finalized before from_plant: call "
-                         "plant.Finalize() after adding its bodies, joints and actuators")
-
-
-def _check_context(plant: MultibodyPlant, context) -> None:
-    """TypeError/ValueError naming ``context`` unless it is a double context of ``plant``."""
-    fix = ("pass plant.CreateDefaultContext() or plant.GetMyContextFromRoot(diagram_context) "
-           "of the diagram holding the plant, or omit it for the plant's defaults")
-    if not isinstance(context, Context):
-        raise TypeError(f"context must be a double Context of plant {plant.get_name()!r}, got "
-                        f"{type(context).__name__}: {fix}")
-    try:
-        plant.ValidateContext(context)
-    except RuntimeError as err:
-        try:
-            plant.GetMyContextFromRoot(context)
-            fix = "it is the diagram's, holding the plant's: pass plant.GetMyContextFromRoot(context)"
-        except RuntimeError:
-            pass
-        raise ValueError(f"context is not a context of plant {plant.GetSystemPathname()!r} "
-                         f"(Drake: {str(err).splitlines()[0]}); {fix}") from err
-
-
 def _refuse_unsupported(plant: MultibodyPlant) -> None:
     """ValueError naming the first joint, force element, constraint, actuator (or none) refused."""
     for index in plant.GetJointIndices():
@@ -453,8 +443,7 @@ def _refuse_unsupported(plant: MultibodyPlant) -> None:
             raise ValueError(
                 f"joint {joint.name()!r} ({joint.type_name()}) has {joint.num_positions()} "
                 f"positions and {joint.num_velocities()} velocities; the Euler–Lagrange model "
-                "needs q̇ = v: model a floating body with prismatic and revolute joints "
-                "(x, y, z, yaw, pitch, roll), as sobolev_drake's quadrotor URDF does")
+                "needs q̇ = v (only a quaternion or roll-pitch-yaw floating base is converted)")
     context = plant.CreateDefaultContext()
     rng = np.random.default_rng(0)
     q = rng.uniform(-1.0, 1.0, plant.num_positions())
@@ -481,7 +470,7 @@ def _refuse_unsupported(plant: MultibodyPlant) -> None:
                 "MechanicalModel and add its generalized force to g(q) or friction(q̇)")
     if plant.num_constraints():
         raise ValueError(
-            f"plant has {plant.num_constraints()} constraint(s) ({_constraint_kinds(plant)}); "
+            f"plant has {plant.num_constraints()} constraint(s) ({constraint_kinds(plant)}); "
             "from_plant models M q̈ + C q̇ + g = B u without constraint forces: build the plant "
             "without them (remove the URDF <mimic> tags and the plant.Add*Constraint calls; a "
             "weld constraint can become plant.WeldFrames), or write the constrained mechanism "
@@ -492,28 +481,10 @@ def _refuse_unsupported(plant: MultibodyPlant) -> None:
             "inputs (B is n × 0): add actuators before plant.Finalize(), with "
             "plant.AddJointActuator(name, joint) in code or a <transmission> per actuated joint "
             "in a URDF (SDFormat gives a joint one unless its <axis><limit><effort> is 0); "
-            "thrusters pushing bodies from outside the plant (e.g. pydrake's Propeller) are not "
-            "joint actuators and are not supported yet by from_plant")
+            "thrusters (pydrake's Propeller) need a floating base and from_plant(propellers=)")
     for index in plant.GetJointActuatorIndices():
         actuator = plant.get_joint_actuator(index)
         if actuator.has_controller():
             raise ValueError(
                 f"actuator {actuator.name()!r} has Drake's implicit PD controller, so the "
                 "actuation port does not carry torques; build the plant without PD gains")
-
-
-def _constraint_kinds(plant: MultibodyPlant) -> str:
-    """The plant's constraints by kind, as far as pydrake tells them apart (only distance
-    constraints have a query of their own)."""
-    context, distance = plant.CreateDefaultContext(), 0
-    for constraint_id in plant.GetConstraintIds():
-        try:
-            plant.GetDistanceConstraintParams(context, constraint_id)
-            distance += 1
-        except RuntimeError:
-            pass
-    kinds = [f"{distance} distance"] if distance else []
-    if plant.num_constraints() > distance:
-        kinds.append(f"{plant.num_constraints() - distance} coupler (e.g. from a URDF <mimic>), "
-                     "ball or weld")
-    return ", ".join(kinds)
