@@ -10,7 +10,9 @@ can be done once at construction taken out of the sample:
   [e; ė; ∫e; q̇s] (the per-group K of :class:`SobolevLaw`, columns rearranged);
 * u* = M q̈_des + C q̇ + g (+ D q̇) by one recursive Newton–Euler pass, the compiled kernel
   ``native/rnea.c`` when it covers the plant, else Drake's ``CalcInverseDynamics`` — no mass
-  matrix, no bias term, no conversion of M through pybind;
+  matrix, no bias term, no conversion of M through pybind.  When the kernel covers the plant
+  and the friction is joint damping (or none), q̈_des, u* and d∫e/dt are one compiled call
+  (``_rnea.tracking_sample``, the numpy form below being its reference);
 * τ = B⁻¹u* (or B†u*) with B⁻¹ precomputed when the model's B is constant (a
   :class:`~sobolev_drake.models.base.PlantModel`), skipped when B is the identity; with
   actuator bounds, a command outside them goes to the law's bounded least squares;
@@ -62,9 +64,26 @@ class FloatSample:
             model.damping if type(model).friction is PlantModel.friction else None)
         self._friction = None if model.frictionless or self._damping is not None else model.friction
         self._alloc = self._allocation(law)
+        self._compiled = self._compiled_law()
         self._bounded = law.lower is not None or law.upper is not None
         self._lo = -np.inf if law.lower is None else law.lower
         self._hi = np.inf if law.upper is None else law.upper
+
+    def _compiled_law(self):
+        """The kernel's law capsule when the whole of u* fits in one compiled call (the
+        kernel covers the plant, friction is joint damping or none), else None."""
+        if self._rnea is None or self._friction is not None:
+            return None
+        module = self._rnea[0]
+        if not hasattr(module, "tracking_sample"):     # a kernel built before the law entry
+            return None
+        law = self.law
+        damping = np.zeros(self.n) if self._damping is None else self._damping
+        return module.make_tracking_law({
+            "n": self.n, "n_ref": self.n_ref, "nc": self.nc, "ns": law.ns,
+            "err_index": self._err_index.tolist(), "qdot_s": self._qdot_s.tolist(),
+            "tracked": self._tracked.tolist(), "gain": self.gain.ravel().tolist(),
+            "damping": np.asarray(damping, float).tolist()})
 
     @classmethod
     def of(cls, law):
@@ -141,6 +160,12 @@ class FloatSample:
             u* (n,), τ (n_τ,), q_c − q_cr (n_c,).
         """
         n = self.n
+        if self._compiled is not None:          # q̈_des, u* and d∫e/dt in one compiled call
+            u_star, rate = np.empty(n), np.empty(self.nc)
+            if not self._rnea[0].tracking_sample(self._rnea[1], self._compiled, x, desired,
+                                                 qddot_r, e_int, u_star, rate):
+                return None
+            return u_star, self._allocate(u_star, x), rate
         err = x[self._err_index] - desired                        # [e; ė] of the tracked DOF
         z = np.concatenate((err, e_int, x[self._qdot_s])) if len(self._qdot_s) else \
             np.concatenate((err, e_int))
@@ -163,14 +188,17 @@ class FloatSample:
             u_star = self.law.dynamics.recursive_inverse_dynamics_drake(x[:n], x[n:], acc)
             if not np.isfinite(u_star).all():
                 return None
+        return u_star, self._allocate(u_star, x), err[:self.nc]
+
+    def _allocate(self, u_star, x):
+        n = self.n
         kind, A = self._alloc
         if kind == "identity":
             tau = u_star.copy()
         elif kind == "matrix":
             tau = A @ u_star
         else:
-            tau = self.law.allocate(u_star, x[:n], x[n:])
-            return u_star, tau, err[:self.nc]
+            return self.law.allocate(u_star, x[:n], x[n:])
         if self._bounded and not (np.all(tau >= self._lo) and np.all(tau <= self._hi)):
             tau = self.law.allocate(u_star, x[:n], x[n:])
-        return u_star, tau, err[:self.nc]
+        return tau

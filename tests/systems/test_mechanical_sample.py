@@ -80,14 +80,18 @@ def generic(law, x, desired, qddot_r, e_int):
     return u_star, law.allocate(u_star, x[:n], x[n:]), law.integral_derivative(x[:n], ref)
 
 
-@pytest.mark.parametrize("kernel", [True, False], ids=["compiled RNEA", "Drake RNEA"])
+@pytest.mark.parametrize("path", ["compiled law", "compiled RNEA", "Drake RNEA"])
 @pytest.mark.parametrize("name", list(laws()))
-def test_float_sample_equals_generic_law(name, kernel):
+def test_float_sample_equals_generic_law(name, path):
     rng = np.random.default_rng(7)
+    kernel = path != "Drake RNEA"
     with (native.disabled() if not kernel else _nothing()):
         law = laws()[name]
         fast = FloatSample.of(law)
         assert fast is not None
+        assert (fast._compiled is not None) == (fast._rnea is not None)
+        if path == "compiled RNEA":              # the numpy form around the kernel's pass
+            fast._compiled = None
         # the seven-link arm is in the compiled kernel's scope; the two-link arm is not
         assert (fast._rnea is not None) == (kernel and name.startswith("seven")
                                             and native.kernel("rnea") is not None)
@@ -154,3 +158,17 @@ class _nothing:
 
     def __exit__(self, *exc):
         return False
+
+
+def test_compiled_sample_refuses_wrong_sizes_by_name():
+    fast = FloatSample.of(laws()["seven-link"])
+    if fast._compiled is None:
+        pytest.skip("the rnea kernel is not built")
+    module, capsule = fast._rnea
+    args = [np.zeros(14), np.zeros(14), None, np.zeros(7), np.empty(7), np.empty(7)]
+    with pytest.raises(ValueError, match="x must have 14 entries"):
+        module.tracking_sample(capsule, fast._compiled, np.zeros(13), *args[1:])
+    with pytest.raises(ValueError, match="u_out must be a float64 array of 7"):
+        module.tracking_sample(capsule, fast._compiled, *args[:4], np.empty(6), args[5])
+    with pytest.raises(ValueError, match="incorrect name"):      # not a law capsule
+        module.tracking_sample(capsule, capsule, *args)
