@@ -571,6 +571,145 @@ done:
     return out;
 }
 
+/* --------------------------- q̈_des of the Sobolev law in the operation order of Python ---- */
+/*
+ * MechanicalLaw.desired_acceleration_scalar (systems/mechanical_law.py) operation for
+ * operation: the same differences, each row's products summed left to right from zero, so the
+ * result equals the Python floats to the bit (Python < 3.12, whose sum() is not compensated).
+ */
+#define QDD_CAPSULE_NAME "sobolev_drake.native.rnea.DesiredAcceleration"
+
+typedef struct {
+    int n, nc, nr, ns, n_ref;
+    int *index;                  /* tracked (n_ref), controlled (nc), regulated (nr), stabilized (ns) */
+    double *K;                   /* Kc (nc × 3nc), Kr (nr × 2nr), Ks (ns × ns), row-major */
+} DesiredAcceleration;
+
+static void free_qdd(PyObject *capsule)
+{
+    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(capsule, QDD_CAPSULE_NAME);
+    if (D) {
+        free(D->index);
+        free(D->K);
+        free(D);
+    }
+}
+
+static PyObject *make_desired_acceleration(PyObject *self, PyObject *args)
+{
+    PyObject *d;
+    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &d))
+        return NULL;
+    int n, nc, nr, ns;
+    if (law_size(d, "n", 1, MAX_BODIES, &n) || law_size(d, "nc", 1, n, &nc)
+        || law_size(d, "nr", 0, n, &nr) || law_size(d, "ns", 0, n, &ns))
+        return NULL;
+    if (nc + nr + ns != n) {
+        PyErr_Format(PyExc_ValueError, "make_desired_acceleration: nc + nr + ns = %d, n = %d",
+                     nc + nr + ns, n);
+        return NULL;
+    }
+    int n_ref = nc + nr;
+    size_t nk = 3 * (size_t)nc * nc + 2 * (size_t)nr * nr + (size_t)ns * ns;
+    DesiredAcceleration *D = (DesiredAcceleration *)calloc(1, sizeof(DesiredAcceleration));
+    double *scratch = (double *)malloc(sizeof(double) * (nk + (size_t)n + n_ref + 1));
+    if (D) {
+        D->index = (int *)malloc(sizeof(int) * ((size_t)n + n_ref + 1));
+        D->K = (double *)malloc(sizeof(double) * (nk + 1));
+    }
+    if (!D || !scratch || !D->index || !D->K) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    D->n = n, D->nc = nc, D->nr = nr, D->ns = ns, D->n_ref = n_ref;
+    int *tr = D->index, *ic = tr + n_ref, *ir = ic + nc, *is = ir + nr;
+    if (law_ints(d, "tracked", n_ref, n, tr, scratch) || law_ints(d, "controlled", nc, n, ic, scratch)
+        || law_ints(d, "regulated", nr, n, ir, scratch)
+        || law_ints(d, "stabilized", ns, n, is, scratch)
+        || get_doubles(d, "K", (Py_ssize_t)nk, D->K))
+        goto fail;
+    PyObject *cap = PyCapsule_New(D, QDD_CAPSULE_NAME, free_qdd);
+    if (!cap)
+        goto fail;
+    free(scratch);
+    return cap;
+fail:
+    if (D) {
+        free(D->index);
+        free(D->K);
+    }
+    free(D);
+    free(scratch);
+    return NULL;
+}
+
+static PyObject *py_desired_acceleration(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    /* (capsule, q, qdot, e_int, reference) -> list of n floats (NaN nowhere: no uncontrolled DOF) */
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "desired_acceleration takes (law, q, qdot, e_int, reference)");
+        return NULL;
+    }
+    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(args[0], QDD_CAPSULE_NAME);
+    if (!D)
+        return NULL;
+    int n = D->n, nc = D->nc, nr = D->nr, ns = D->ns, n_ref = D->n_ref;
+    double small[16 * 32], *buf = small;
+    /* q, q̇, a (n each), ∫e (nc), reference (3 n_ref), e, ė (n_ref each), z (3 n_ref + nc) */
+    size_t need = 3 * (size_t)n + 2 * (size_t)nc + 8 * (size_t)n_ref;
+    if (need > sizeof(small) / sizeof(double)) {
+        buf = (double *)malloc(sizeof(double) * need);
+        if (!buf)
+            return PyErr_NoMemory();
+    }
+    double *q = buf, *qd = q + n, *eint = qd + n, *ref = eint + nc, *e = ref + 3 * n_ref;
+    double *ed = e + n_ref, *z = ed + n_ref, *acc = z + 3 * (size_t)n_ref + nc;
+    PyObject *out = NULL;
+    if (read_doubles(args[1], n, q, "q") || read_doubles(args[2], n, qd, "qdot")
+        || read_doubles(args[3], nc, eint, "e_int")
+        || read_doubles(args[4], 3 * n_ref, ref, "reference"))
+        goto done;
+    const int *tr = D->index, *ic = tr + n_ref, *ir = ic + nc, *is = ir + nr;
+    const double *Kc = D->K, *Kr = Kc + 3 * (size_t)nc * nc, *Ks = Kr + 2 * (size_t)nr * nr;
+    const double *qddr = ref + 2 * n_ref;
+    for (int k = 0; k < n_ref; k++) {
+        e[k] = q[tr[k]] - ref[k];
+        ed[k] = qd[tr[k]] - ref[n_ref + k];
+    }
+    for (int k = 0; k < nc; k++) {                  /* z = ė_c, e_c, ∫e */
+        z[k] = ed[k];
+        z[nc + k] = e[k];
+        z[2 * nc + k] = eint[k];
+    }
+    for (int k = 0; k < nc; k++) {
+        double s = 0.0;
+        for (int j = 0; j < 3 * nc; j++)
+            s += Kc[(size_t)k * 3 * nc + j] * z[j];
+        acc[ic[k]] = qddr[k] - s;
+    }
+    for (int k = 0; k < nr; k++) {                  /* z = ė_r, e_r */
+        z[k] = ed[nc + k];
+        z[nr + k] = e[nc + k];
+    }
+    for (int k = 0; k < nr; k++) {
+        double s = 0.0;
+        for (int j = 0; j < 2 * nr; j++)
+            s += Kr[(size_t)k * 2 * nr + j] * z[j];
+        acc[ir[k]] = qddr[nc + k] - s;
+    }
+    for (int k = 0; k < ns; k++) {
+        double s = 0.0;
+        for (int j = 0; j < ns; j++)
+            s += Ks[(size_t)k * ns + j] * qd[is[j]];
+        acc[is[k]] = -s;
+    }
+    out = list_of(acc, n);
+done:
+    if (buf != small)
+        free(buf);
+    return out;
+}
+
 /* ---------------------------------------------------------------- Python entry ---- */
 
 static PyObject *py_inverse_dynamics(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -619,6 +758,13 @@ static PyMethodDef methods[] = {
      "tracking_sample(model, law, x, desired, qddot_r, e_int, u_out, rate_out) -> bool:\n"
      "u* = M q_des'' + C q' - tau_g + D q' and d(int e)/dt into u_out, rate_out; False when\n"
      "u* is not finite."},
+    {"make_desired_acceleration", (PyCFunction)make_desired_acceleration, METH_VARARGS,
+     "make_desired_acceleration(constants: dict) -> capsule of the Sobolev law's gains\n"
+     "(see systems/mechanical_sample.py)."},
+    {"desired_acceleration", (PyCFunction)(void (*)(void))py_desired_acceleration,
+     METH_FASTCALL,
+     "desired_acceleration(law, q, qdot, e_int, reference) -> list of n floats: q_des'' as\n"
+     "MechanicalLaw.desired_acceleration_scalar computes it."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -35,7 +35,42 @@ import numpy as np
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.systems.inner_laws import SobolevLaw
 
-__all__ = ["FloatSample"]
+__all__ = ["FloatSample", "compiled_desired_acceleration"]
+
+
+def compiled_desired_acceleration(law):
+    """``f(q, qdot, e_int, reference) -> list``: :meth:`MechanicalLaw.desired_acceleration_scalar`
+    by the compiled kernel (``_rnea.desired_acceleration``, the same operations in the same
+    order: equal to the bit on Python < 3.12, whose ``sum`` is not compensated, to rounding
+    after), or None (kernel not built or switched off, no Sobolev law, a reduced model).
+
+    Parameters
+    ----------
+    law : MechanicalLaw
+        The law.
+
+    Returns
+    -------
+    callable or None
+    """
+    from sobolev_drake.native import kernel
+    module = kernel("rnea")
+    inner = law.law
+    if (module is None or not hasattr(module, "desired_acceleration")
+            or not isinstance(inner, SobolevLaw) or law.partition.mode == "reduced"):
+        return None
+    p = law.partition
+    blocks = [g.K.ravel() for g in (inner.controlled, inner.regulated, inner.stabilized)
+              if g is not None]
+    capsule = module.make_desired_acceleration({
+        "n": law.n, "nc": law.nc, "nr": law.nr, "ns": law.ns, "tracked": list(p.tracked),
+        "controlled": list(p.controlled), "regulated": list(p.regulated),
+        "stabilized": list(p.stabilized), "K": np.concatenate(blocks).tolist()})
+    evaluate = module.desired_acceleration
+
+    def desired_acceleration(q, qdot, e_int, reference):
+        return evaluate(capsule, q, qdot, e_int, reference)
+    return desired_acceleration
 
 
 class FloatSample:

@@ -2,6 +2,8 @@
 equals the generic law it specializes, for each partition, allocation and dynamics path it
 covers, and hands non-finite samples back to the generic law's named errors."""
 
+import sys
+
 import numpy as np
 import pytest
 from pydrake.all import FindResourceOrThrow, MultibodyPlant, Parser
@@ -14,7 +16,7 @@ from sobolev_drake.synthesis.mechanical import (controlled_gains, hinf_mechanica
                                                 regulated_gains, stabilized_gains)
 from sobolev_drake.systems.mechanical_controller import (HinfLaw, MechanicalController,
                                                          MechanicalLaw, Partition, SobolevLaw)
-from sobolev_drake.systems.mechanical_sample import FloatSample
+from sobolev_drake.systems.mechanical_sample import FloatSample, compiled_desired_acceleration
 
 W_ARM = ([100, 200], [500, 400], [40, 40], [0.0720, 0.0126])
 # The fast path computes u* by one Newton–Euler pass instead of M q̈ + h and the desired
@@ -172,3 +174,30 @@ def test_compiled_sample_refuses_wrong_sizes_by_name():
         module.tracking_sample(capsule, fast._compiled, *args[:4], np.empty(6), args[5])
     with pytest.raises(ValueError, match="incorrect name"):      # not a law capsule
         module.tracking_sample(capsule, capsule, *args)
+
+
+@pytest.mark.parametrize("name", ["arm regulated", "arm stabilized", "seven-link",
+                                  "seven-link damped, regulated, stabilized"])
+def test_compiled_desired_acceleration_equals_the_python_floats(name):
+    law = laws()[name]
+    with native.disabled():
+        python = laws()[name]
+        python.desired_acceleration_scalar([0.0] * law.n, [0.0] * law.n, [0.0] * law.nc,
+                                           [0.0] * (3 * law.n_ref))     # caches "no kernel"
+    compiled = compiled_desired_acceleration(law)
+    if compiled is None:
+        pytest.skip("the rnea kernel is not built")
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        q, qd = rng.normal(size=(2, law.n)).tolist()
+        e_int = rng.normal(scale=0.1, size=law.nc).tolist()
+        ref = rng.normal(size=3 * law.n_ref).tolist()
+        got = law.desired_acceleration_scalar(q, qd, e_int, ref)
+        want = python.desired_acceleration_scalar(q, qd, e_int, ref)
+        if sys.version_info < (3, 12):     # same operations in the same order: the same bits
+            assert got == want
+        else:                              # sum() compensates from 3.12: rounding of the sums
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * (1 + np.abs(want).max()))
+        np.testing.assert_allclose(got, law.desired_acceleration(
+            np.array(q), np.array(qd), np.array(e_int), np.array(ref)), rtol=0,
+            atol=REL * (1 + np.abs(want).max()))
