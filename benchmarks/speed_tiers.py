@@ -24,7 +24,8 @@ built, or ``SOBOLEV_DRAKE_NATIVE=0``):
   law, cold in ``MechanicalLaw.allocate``); the general numpy path for other arguments.
 * u* by inverse dynamics per sample: C (plants the kernel covers), else Drake's recursive
   Newton–Euler; the mass-matrix form for models without a permutation to Drake's order.
-* q̈_des per sample: the Python tier always (no kernel).
+* q̈_des per sample: C (the Python tier's operations in its order: the same bits), else the
+  Python tier.
 * saturation flags per sample: C for 8-vectors, else the Python tier; numpy for other shapes.
 * thrust inversion (7.90) and surface bounds (7.87)–(7.89): C, else the Python reference.
 """
@@ -204,10 +205,17 @@ def paths(n_states):
     for (q, qd, *_) in states:
         e_int, tracked = rng.normal(size=3) * 0.1, rng.normal(size=18)
         qdd.append((q, qd, e_int.tolist(), tracked.tolist(), q.tolist(), qd.tolist()))
+    # a law decides once whether its q̈_des uses the kernel: one copy per tier
+    py_law, c_law = mech.with_inner(mech.law), mech.with_inner(mech.law)
+    with native.disabled():
+        py_law.desired_acceleration_scalar(*qdd[0][4:6], *qdd[0][2:4])
     rows = [("numpy `desired_acceleration` (its unchecked core)", "reference",
              lambda c: mech._desired_acceleration_core(c[0], c[1], np.array(c[2]), np.array(c[3]))),
             ("Python `desired_acceleration_scalar`", "Python tier",
-             lambda c: np.array(mech.desired_acceleration_scalar(c[4], c[5], c[2], c[3])))]
+             lambda c: np.array(py_law.desired_acceleration_scalar(c[4], c[5], c[2], c[3])))]
+    if _module("rnea") is not None:
+        rows.append(("C `_rnea.desired_acceleration` via `desired_acceleration_scalar`", "kernel",
+                     lambda c: np.array(c_law.desired_acceleration_scalar(c[4], c[5], c[2], c[3]))))
     out.append((QDD, rows, qdd))
 
     flags = []

@@ -377,6 +377,339 @@ fail:
     return NULL;
 }
 
+/* ------------------------------------------- the W2/W∞ tracking law's per-sample path ---- */
+/*
+ * One sample of the Sobolev law on a fully actuated or input-coupled plant (thesis (5.26),
+ * (5.84)): q̈_des = S q̈_r − K z with z = [x[err_index] − desired; ∫e; x[qdot_s]] (the gain
+ * matrix K and the index lists from systems/mechanical_sample.py), then
+ * u* = M q̈_des + C q̇ − τ_g + D q̇ by the pass above, and d∫e/dt = z[0 .. n_c).  The Python
+ * FloatSample computes the same numbers in numpy (tested equal to rounding).
+ */
+#define LAW_CAPSULE_NAME "sobolev_drake.native.rnea.TrackingLaw"
+
+typedef struct {
+    int n, n_ref, nc, ns, m;     /* m = 2 n_ref + nc + ns columns of the gain */
+    int *err_index;              /* 2 n_ref indices into x = [q; q̇] */
+    int *qdot_s;                 /* ns indices into x */
+    int *tracked;                /* n_ref: the coordinate of each q̈_r entry */
+    double *gain;                /* n × m, row-major */
+    double *damping;             /* n */
+    double *z;                   /* work: m, then acc (n), tau (n) */
+} TrackingLaw;
+
+static void free_law(PyObject *capsule)
+{
+    TrackingLaw *L = (TrackingLaw *)PyCapsule_GetPointer(capsule, LAW_CAPSULE_NAME);
+    if (L) {
+        free(L->err_index);
+        free(L->gain);
+        free(L);
+    }
+}
+
+static int law_ints(PyObject *d, const char *key, int count, int hi, int *out, double *scratch)
+{
+    if (get_doubles(d, key, count, scratch))
+        return -1;
+    for (int i = 0; i < count; i++) {
+        double x = scratch[i];
+        if (x != floor(x) || x < 0 || x >= hi) {
+            PyErr_Format(PyExc_ValueError, "make_tracking_law: %s[%d] must be an integer in "
+                         "[0, %d)", key, i, hi);
+            return -1;
+        }
+        out[i] = (int)x;
+    }
+    return 0;
+}
+
+static int law_size(PyObject *d, const char *key, long lo, long hi, int *out)
+{
+    PyObject *obj = PyDict_GetItemString(d, key);
+    if (!obj) {
+        PyErr_Format(PyExc_KeyError, "make_tracking_law: missing %s", key);
+        return -1;
+    }
+    long v = PyLong_AsLong(obj);
+    if (v == -1 && PyErr_Occurred())
+        return -1;
+    if (v < lo || v > hi) {
+        PyErr_Format(PyExc_ValueError, "make_tracking_law: %s must be in [%ld, %ld], got %ld",
+                     key, lo, hi, v);
+        return -1;
+    }
+    *out = (int)v;
+    return 0;
+}
+
+static PyObject *make_tracking_law(PyObject *self, PyObject *args)
+{
+    PyObject *d;
+    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &d))
+        return NULL;
+    int n, n_ref, nc, ns;
+    if (law_size(d, "n", 1, MAX_BODIES, &n) || law_size(d, "n_ref", 0, n, &n_ref)
+        || law_size(d, "nc", 0, n_ref, &nc) || law_size(d, "ns", 0, n, &ns))
+        return NULL;
+    int m = 2 * n_ref + nc + ns;
+    TrackingLaw *L = (TrackingLaw *)calloc(1, sizeof(TrackingLaw));
+    double *scratch = (double *)malloc(sizeof(double) * ((size_t)n * m + 2 * (size_t)n + 1));
+    if (L) {
+        L->err_index = (int *)malloc(sizeof(int) * (2 * (size_t)n_ref + ns + n_ref + 1));
+        L->gain = (double *)malloc(sizeof(double) * ((size_t)n * m + n + m + 2 * (size_t)n + 1));
+    }
+    if (!L || !scratch || !L->err_index || !L->gain) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    L->n = n, L->n_ref = n_ref, L->nc = nc, L->ns = ns, L->m = m;
+    L->qdot_s = L->err_index + 2 * n_ref;
+    L->tracked = L->qdot_s + ns;
+    L->damping = L->gain + (size_t)n * m;
+    L->z = L->damping + n;
+    if (law_ints(d, "err_index", 2 * n_ref, 2 * n, L->err_index, scratch)
+        || law_ints(d, "qdot_s", ns, 2 * n, L->qdot_s, scratch)
+        || law_ints(d, "tracked", n_ref, n, L->tracked, scratch)
+        || get_doubles(d, "gain", (Py_ssize_t)n * m, L->gain)
+        || get_doubles(d, "damping", n, L->damping))
+        goto fail;
+    PyObject *cap = PyCapsule_New(L, LAW_CAPSULE_NAME, free_law);
+    if (!cap)
+        goto fail;
+    free(scratch);
+    return cap;
+fail:
+    if (L) {
+        free(L->err_index);
+        free(L->gain);
+    }
+    free(L);
+    free(scratch);
+    return NULL;
+}
+
+/* n doubles into a writable C-contiguous float64 buffer */
+static int write_doubles(PyObject *obj, Py_ssize_t n, const double *src, const char *name)
+{
+    Py_buffer view;
+    if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)) {
+        PyErr_Format(PyExc_TypeError, "%s must be a writable float64 array", name);
+        return -1;
+    }
+    int ok = view.format && strcmp(view.format, "d") == 0 && view.len == (Py_ssize_t)(8 * n);
+    if (ok)
+        memcpy(view.buf, src, sizeof(double) * n);
+    PyBuffer_Release(&view);
+    if (!ok) {
+        PyErr_Format(PyExc_ValueError, "%s must be a float64 array of %zd entries", name, n);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_tracking_sample(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    /* (model, law, x, desired, qddot_r or None, e_int, u_out, rate_out) -> bool finite */
+    if (nargs != 8) {
+        PyErr_SetString(PyExc_TypeError, "tracking_sample takes (model, law, x, desired, "
+                        "qddot_r, e_int, u_out, rate_out)");
+        return NULL;
+    }
+    Model *model = (Model *)PyCapsule_GetPointer(args[0], CAPSULE_NAME);
+    TrackingLaw *L = model ? (TrackingLaw *)PyCapsule_GetPointer(args[1], LAW_CAPSULE_NAME) : NULL;
+    if (!L)
+        return NULL;
+    int n = L->n, n_ref = L->n_ref, nc = L->nc, ns = L->ns, m = L->m;
+    if (model->n != n) {
+        PyErr_Format(PyExc_ValueError, "tracking_sample: model has %d coordinates, law %d",
+                     model->n, n);
+        return NULL;
+    }
+    double small[8 * 32], *buf = small;
+    size_t need = 2 * (size_t)n + 2 * (size_t)n_ref + n_ref + nc;
+    if (need > sizeof(small) / sizeof(double)) {
+        buf = (double *)malloc(sizeof(double) * need);
+        if (!buf)
+            return PyErr_NoMemory();
+    }
+    double *x = buf, *des = x + 2 * n, *qddr = des + 2 * n_ref, *eint = qddr + n_ref;
+    int has_acc = args[4] != Py_None;
+    PyObject *out = NULL;
+    if (read_doubles(args[2], 2 * n, x, "x") || read_doubles(args[3], 2 * n_ref, des, "desired")
+        || (has_acc && read_doubles(args[4], n_ref, qddr, "qddot_r"))
+        || read_doubles(args[5], nc, eint, "e_int"))
+        goto done;
+    double *z = L->z, *acc = z + m, *tau = acc + n;
+    for (int k = 0; k < 2 * n_ref; k++)
+        z[k] = x[L->err_index[k]] - des[k];
+    for (int k = 0; k < nc; k++)
+        z[2 * n_ref + k] = eint[k];
+    for (int k = 0; k < ns; k++)
+        z[2 * n_ref + nc + k] = x[L->qdot_s[k]];
+    for (int i = 0; i < n; i++) {
+        const double *K = L->gain + (size_t)i * m;
+        double s = 0.0;
+        for (int j = 0; j < m; j++)
+            s += K[j] * z[j];
+        acc[i] = -s;
+    }
+    if (has_acc)
+        for (int k = 0; k < n_ref; k++)
+            acc[L->tracked[k]] += qddr[k];
+    inverse_dynamics(model, x, x + n, acc, tau);
+    int finite = 1;
+    for (int i = 0; i < n; i++) {
+        tau[i] += L->damping[i] * x[n + i];
+        finite &= isfinite(tau[i]) != 0;
+    }
+    if (write_doubles(args[6], n, tau, "u_out") || write_doubles(args[7], nc, z, "rate_out"))
+        goto done;
+    out = PyBool_FromLong(finite);
+done:
+    if (buf != small)
+        free(buf);
+    return out;
+}
+
+/* --------------------------- q̈_des of the Sobolev law in the operation order of Python ---- */
+/*
+ * MechanicalLaw.desired_acceleration_scalar (systems/mechanical_law.py) operation for
+ * operation: the same differences, each row's products summed left to right from zero, so the
+ * result equals the Python floats to the bit (Python < 3.12, whose sum() is not compensated).
+ */
+#define QDD_CAPSULE_NAME "sobolev_drake.native.rnea.DesiredAcceleration"
+
+typedef struct {
+    int n, nc, nr, ns, n_ref;
+    int *index;                  /* tracked (n_ref), controlled (nc), regulated (nr), stabilized (ns) */
+    double *K;                   /* Kc (nc × 3nc), Kr (nr × 2nr), Ks (ns × ns), row-major */
+} DesiredAcceleration;
+
+static void free_qdd(PyObject *capsule)
+{
+    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(capsule, QDD_CAPSULE_NAME);
+    if (D) {
+        free(D->index);
+        free(D->K);
+        free(D);
+    }
+}
+
+static PyObject *make_desired_acceleration(PyObject *self, PyObject *args)
+{
+    PyObject *d;
+    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &d))
+        return NULL;
+    int n, nc, nr, ns;
+    if (law_size(d, "n", 1, MAX_BODIES, &n) || law_size(d, "nc", 1, n, &nc)
+        || law_size(d, "nr", 0, n, &nr) || law_size(d, "ns", 0, n, &ns))
+        return NULL;
+    if (nc + nr + ns != n) {
+        PyErr_Format(PyExc_ValueError, "make_desired_acceleration: nc + nr + ns = %d, n = %d",
+                     nc + nr + ns, n);
+        return NULL;
+    }
+    int n_ref = nc + nr;
+    size_t nk = 3 * (size_t)nc * nc + 2 * (size_t)nr * nr + (size_t)ns * ns;
+    DesiredAcceleration *D = (DesiredAcceleration *)calloc(1, sizeof(DesiredAcceleration));
+    double *scratch = (double *)malloc(sizeof(double) * (nk + (size_t)n + n_ref + 1));
+    if (D) {
+        D->index = (int *)malloc(sizeof(int) * ((size_t)n + n_ref + 1));
+        D->K = (double *)malloc(sizeof(double) * (nk + 1));
+    }
+    if (!D || !scratch || !D->index || !D->K) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    D->n = n, D->nc = nc, D->nr = nr, D->ns = ns, D->n_ref = n_ref;
+    int *tr = D->index, *ic = tr + n_ref, *ir = ic + nc, *is = ir + nr;
+    if (law_ints(d, "tracked", n_ref, n, tr, scratch) || law_ints(d, "controlled", nc, n, ic, scratch)
+        || law_ints(d, "regulated", nr, n, ir, scratch)
+        || law_ints(d, "stabilized", ns, n, is, scratch)
+        || get_doubles(d, "K", (Py_ssize_t)nk, D->K))
+        goto fail;
+    PyObject *cap = PyCapsule_New(D, QDD_CAPSULE_NAME, free_qdd);
+    if (!cap)
+        goto fail;
+    free(scratch);
+    return cap;
+fail:
+    if (D) {
+        free(D->index);
+        free(D->K);
+    }
+    free(D);
+    free(scratch);
+    return NULL;
+}
+
+static PyObject *py_desired_acceleration(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    /* (capsule, q, qdot, e_int, reference) -> list of n floats (NaN nowhere: no uncontrolled DOF) */
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "desired_acceleration takes (law, q, qdot, e_int, reference)");
+        return NULL;
+    }
+    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(args[0], QDD_CAPSULE_NAME);
+    if (!D)
+        return NULL;
+    int n = D->n, nc = D->nc, nr = D->nr, ns = D->ns, n_ref = D->n_ref;
+    double small[16 * 32], *buf = small;
+    /* q, q̇, a (n each), ∫e (nc), reference (3 n_ref), e, ė (n_ref each), z (3 n_ref + nc) */
+    size_t need = 3 * (size_t)n + 2 * (size_t)nc + 8 * (size_t)n_ref;
+    if (need > sizeof(small) / sizeof(double)) {
+        buf = (double *)malloc(sizeof(double) * need);
+        if (!buf)
+            return PyErr_NoMemory();
+    }
+    double *q = buf, *qd = q + n, *eint = qd + n, *ref = eint + nc, *e = ref + 3 * n_ref;
+    double *ed = e + n_ref, *z = ed + n_ref, *acc = z + 3 * (size_t)n_ref + nc;
+    PyObject *out = NULL;
+    if (read_doubles(args[1], n, q, "q") || read_doubles(args[2], n, qd, "qdot")
+        || read_doubles(args[3], nc, eint, "e_int")
+        || read_doubles(args[4], 3 * n_ref, ref, "reference"))
+        goto done;
+    const int *tr = D->index, *ic = tr + n_ref, *ir = ic + nc, *is = ir + nr;
+    const double *Kc = D->K, *Kr = Kc + 3 * (size_t)nc * nc, *Ks = Kr + 2 * (size_t)nr * nr;
+    const double *qddr = ref + 2 * n_ref;
+    for (int k = 0; k < n_ref; k++) {
+        e[k] = q[tr[k]] - ref[k];
+        ed[k] = qd[tr[k]] - ref[n_ref + k];
+    }
+    for (int k = 0; k < nc; k++) {                  /* z = ė_c, e_c, ∫e */
+        z[k] = ed[k];
+        z[nc + k] = e[k];
+        z[2 * nc + k] = eint[k];
+    }
+    for (int k = 0; k < nc; k++) {
+        double s = 0.0;
+        for (int j = 0; j < 3 * nc; j++)
+            s += Kc[(size_t)k * 3 * nc + j] * z[j];
+        acc[ic[k]] = qddr[k] - s;
+    }
+    for (int k = 0; k < nr; k++) {                  /* z = ė_r, e_r */
+        z[k] = ed[nc + k];
+        z[nr + k] = e[nc + k];
+    }
+    for (int k = 0; k < nr; k++) {
+        double s = 0.0;
+        for (int j = 0; j < 2 * nr; j++)
+            s += Kr[(size_t)k * 2 * nr + j] * z[j];
+        acc[ir[k]] = qddr[nc + k] - s;
+    }
+    for (int k = 0; k < ns; k++) {
+        double s = 0.0;
+        for (int j = 0; j < ns; j++)
+            s += Ks[(size_t)k * ns + j] * qd[is[j]];
+        acc[is[k]] = -s;
+    }
+    out = list_of(acc, n);
+done:
+    if (buf != small)
+        free(buf);
+    return out;
+}
+
 /* ---------------------------------------------------------------- Python entry ---- */
 
 static PyObject *py_inverse_dynamics(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -418,6 +751,20 @@ static PyMethodDef methods[] = {
     {"inverse_dynamics", (PyCFunction)(void (*)(void))py_inverse_dynamics, METH_FASTCALL,
      "inverse_dynamics(model, x, vdot) or inverse_dynamics(model, q, v, vdot) -> list of n\n"
      "floats M(q) vdot + C(q, v) v - tau_g(q), in the model's coordinate order."},
+    {"make_tracking_law", (PyCFunction)make_tracking_law, METH_VARARGS,
+     "make_tracking_law(constants: dict) -> capsule of the W2/W∞ law's per-sample constants\n"
+     "(see systems/mechanical_sample.py)."},
+    {"tracking_sample", (PyCFunction)(void (*)(void))py_tracking_sample, METH_FASTCALL,
+     "tracking_sample(model, law, x, desired, qddot_r, e_int, u_out, rate_out) -> bool:\n"
+     "u* = M q_des'' + C q' - tau_g + D q' and d(int e)/dt into u_out, rate_out; False when\n"
+     "u* is not finite."},
+    {"make_desired_acceleration", (PyCFunction)make_desired_acceleration, METH_VARARGS,
+     "make_desired_acceleration(constants: dict) -> capsule of the Sobolev law's gains\n"
+     "(see systems/mechanical_sample.py)."},
+    {"desired_acceleration", (PyCFunction)(void (*)(void))py_desired_acceleration,
+     METH_FASTCALL,
+     "desired_acceleration(law, q, qdot, e_int, reference) -> list of n floats: q_des'' as\n"
+     "MechanicalLaw.desired_acceleration_scalar computes it."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -65,6 +65,27 @@ class DropInPorts:
         reference : ndarray, shape (3 n_ref,)
             [q_r; q̇_r; q̈_r] of the tracked DOF.
         """
+        x, desired, qddot_r = self.read_tracking_parts(context)
+        return x, np.concatenate([desired, np.zeros(self._n_ref) if qddot_r is None else qddot_r])
+
+    def read_tracking_parts(self, context):
+        """:meth:`read_tracking_inputs` without stacking the reference: the per-sample read
+        (one ``Eval`` per input, no copy of the reference).
+
+        Parameters
+        ----------
+        context : Context
+            The system's context.
+
+        Returns
+        -------
+        x : ndarray, shape (2 n,)
+            [q; q̇].
+        desired : ndarray, shape (2 n_ref,)
+            [q_r; q̇_r] of the tracked DOF.
+        qddot_r : ndarray, shape (n_ref,), or None
+            q̈_r of the tracked DOF; None when ``desired_acceleration`` is unconnected (zero).
+        """
         est, alias = self._est.HasValue(context), self._x.HasValue(context)
         if est == alias:
             raise RuntimeError(
@@ -72,20 +93,21 @@ class DropInPorts:
                 f"'x' (its former name) to the plant state [q; q̇] (size {2 * self._n_state}); "
                 f"connected: {'both' if est else 'neither'}")
         x = (self._est if est else self._x).Eval(context)
+        desired, acc = self._des.HasValue(context), self._acc.HasValue(context)
         if self._ref.HasValue(context):
-            if self._des.HasValue(context) or self._acc.HasValue(context):
+            if desired or acc:
                 raise RuntimeError(
                     f"{self.get_name()}: 'reference' ([q_r; q̇_r; q̈_r]) and 'desired_state'/"
                     "'desired_acceleration' are alternatives; connect one form only")
-            return x, self._ref.Eval(context)
-        if not self._des.HasValue(context):
+            ref = self._ref.Eval(context)
+            k = 2 * self._n_ref
+            return x, ref[:k], ref[k:]
+        if not desired:
             raise RuntimeError(
                 f"{self.get_name()}: no reference: connect 'desired_state' ([q_r; q̇_r], size "
                 f"{2 * self._n_ref}, optionally 'desired_acceleration') or 'reference' "
                 f"([q_r; q̇_r; q̈_r], size {3 * self._n_ref})")
-        acc = (self._acc.Eval(context) if self._acc.HasValue(context)
-               else np.zeros(self._n_ref))
-        return x, np.concatenate([self._des.Eval(context), acc])
+        return x, self._des.Eval(context), (self._acc.Eval(context) if acc else None)
 
     def get_input_port_estimated_state(self):
         """The ``estimated_state`` input port, [q; q̇] (Drake's name).

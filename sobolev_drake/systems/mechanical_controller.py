@@ -76,6 +76,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.systems.controller_ports import DropInPorts
 from sobolev_drake.systems.mechanical_law import HinfLaw, MechanicalLaw, SobolevLaw
+from sobolev_drake.systems.mechanical_sample import FloatSample
 from sobolev_drake.systems.partition import Partition
 from sobolev_drake.validation import real_scalar
 
@@ -96,10 +97,17 @@ class _Shared:
     mutated (:meth:`MechanicalLaw.with_inner` makes a new one), so the copies share it, and
     with it the model's plant and context."""
 
-    __slots__ = ("law",)
+    __slots__ = ("law", "_float")
 
     def __init__(self, law):
         self.law = law
+        self._float = False          # not built yet (None: the law has no float path)
+
+    def float_sample(self):
+        """The law's :class:`FloatSample` (built at the first double evaluation), or None."""
+        if self._float is False:
+            self._float = FloatSample.of(self.law)
+        return self._float
 
     def __deepcopy__(self, memo):
         return self
@@ -223,6 +231,7 @@ def MechanicalController_(T):
             self._x0 = (np.zeros(nc) if initial_integral is None
                         else check_vector("initial_integral", initial_integral, nc))
             self.declare_tracking_ports(n, law.n_ref)
+            self._zero_acc = np.zeros(law.n_ref)
             self._law_index = self.DeclareAbstractParameter(AbstractValue.Make(_Shared(law)))
             self._n_gen = nc if law.partition.mode == "reduced" else n
             if period is None:
@@ -238,7 +247,7 @@ def MechanicalController_(T):
                 state_ticket = self.discrete_state_ticket(groups[0])
             self._outputs = self.DeclareCacheEntry(
                 "law outputs (u*, tau)",
-                ValueProducer(allocate=lambda: AbstractValue.Make((None, None)),
+                ValueProducer(allocate=lambda: AbstractValue.Make((None, None, None)),
                               calc=self._calc_outputs),
                 {self.all_input_ports_ticket(), state_ticket, self.all_parameters_ticket()})
             feed = ({self._outputs.ticket()} if period is None
@@ -347,23 +356,26 @@ def MechanicalController_(T):
             return context.get_discrete_state(0).CopyToVector()
 
         def _calc_outputs(self, context, value):
-            law = context.get_abstract_parameter(self._law_index).get_value().law
-            x, ref = self.read_tracking_inputs(context)
+            # u*, τ and d∫e/dt in one evaluation: the outputs, the continuous state's
+            # derivative and the sampled update all read this cache entry
+            shared = context.get_abstract_parameter(self._law_index).get_value()
+            x, desired, qddot_r = self.read_tracking_parts(context)
             e_int = self._integral(context)
-            n = law.n
-            q, qd = x[:n], x[n:]
-            u_star = law.generalized_input(q, qd, e_int, ref)     # Drake scalars: generic law
-            value.set_value((u_star, law.allocate(u_star, q, qd)))
-
-        def _integral_derivative(self, context):
-            law = context.get_abstract_parameter(self._law_index).get_value().law
-            x, ref = self.read_tracking_inputs(context)
-            return law.integral_derivative(x[:law.n], ref)
+            fast = shared.float_sample() if T is float else None
+            out = None if fast is None else fast(x, desired, qddot_r, e_int)
+            if out is None:                      # Drake scalars, or a law without float path
+                law = shared.law
+                n = law.n
+                q, qd = x[:n], x[n:]
+                ref = np.concatenate([desired, self._zero_acc if qddot_r is None else qddot_r])
+                u_star = law.generalized_input(q, qd, e_int, ref)
+                out = (u_star, law.allocate(u_star, q, qd), law.integral_derivative(q, ref))
+            value.set_value(out)
 
         def DoCalcTimeDerivatives(self, context, derivatives):
             if self.period is not None:         # sampled: no continuous state
                 return
-            derivatives.get_mutable_vector().SetFromVector(self._integral_derivative(context))
+            derivatives.get_mutable_vector().SetFromVector(self._outputs.Eval(context)[2])
 
         def _held(self, context, group):
             return context.get_discrete_state(group).CopyToVector()
@@ -385,7 +397,7 @@ def MechanicalController_(T):
 
         # --- sampled form ------------------------------------------------------------------
         def _command(self, context):
-            u_star, tau = self._outputs.Eval(context)
+            u_star, tau, _ = self._outputs.Eval(context)
             return np.concatenate([tau, u_star])
 
         def _initialize(self, context, discrete_state):
@@ -394,8 +406,9 @@ def MechanicalController_(T):
                 discrete_state.get_mutable_vector(group).SetFromVector(command)
 
         def _sample(self, context, discrete_state):
-            command = self._command(context)
-            e_int = self._integral(context) + self.period * self._integral_derivative(context)
+            u_star, tau, rate = self._outputs.Eval(context)
+            command = np.concatenate([tau, u_star])
+            e_int = self._integral(context) + self.period * rate
             discrete_state.get_mutable_vector(0).SetFromVector(e_int)
             if self.computation_delay:
                 discrete_state.get_mutable_vector(1).SetFromVector(self._held(context, 2))

@@ -25,6 +25,7 @@ from sobolev_drake.synthesis.mechanical import HinfMechanicalGains
 from sobolev_drake.systems import scalar_law
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.inner_laws import HinfLaw, SobolevLaw
+from sobolev_drake.systems.mechanical_sample import compiled_desired_acceleration
 from sobolev_drake.systems.partition import Partition, check_actuation
 from sobolev_drake.systems.plant_dynamics import PlantDynamics
 from sobolev_drake.validation import bounds_pair, real_matrix
@@ -269,9 +270,9 @@ class MechanicalLaw:
     def desired_acceleration_scalar(self, q, qdot, e_int, reference) -> list:
         """:meth:`desired_acceleration` of the Sobolev law on lists of Python floats (q, q̇: n,
         ∫e: n_c, reference: 3 n_ref; validated by the caller), as a list: the tilt-rotor law's
-        per-sample path (no kernel).  Only ≈ 1.4× faster than the numpy form
-        (``benchmarks/speed_tiers.py``) but kept: it equals it to rounding (tested), not to the
-        bit, and the tilt-rotor results would move by that rounding.
+        per-sample path, by the compiled kernel when built (the same operations in the same order,
+        :func:`~.mechanical_sample.compiled_desired_acceleration`).  Equal to the numpy form to
+        rounding (tested), not to the bit: the tilt-rotor results would move by that rounding.
 
         Parameters
         ----------
@@ -287,6 +288,11 @@ class MechanicalLaw:
         list of float, length n
             q̈_des (NaN on the uncontrolled DOF).
         """
+        compiled = self._cache.get("qdd_kernel", False)
+        if compiled is False:                # built once per law (with_inner clears the cache)
+            compiled = self._cache["qdd_kernel"] = compiled_desired_acceleration(self)
+        if compiled is not None:
+            return compiled(q, qdot, e_int, reference)
         rows = self._cache.get("K_rows")
         if rows is None:
             lw = self.law

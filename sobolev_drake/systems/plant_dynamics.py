@@ -117,6 +117,21 @@ class PlantDynamics:
         tau = np.array(compiled[0].inverse_dynamics(compiled[1], q, qdot, acc))   # thesis order
         return tau if self.model.frictionless else tau + self.model.friction(qdot)
 
+    def compiled_inverse_dynamics(self):
+        """(kernel module, capsule) of the compiled Newton–Euler pass in thesis order, or None
+        (kernel not built or switched off, a plant it does not cover, no permutation map).
+
+        ``module.inverse_dynamics(capsule, x, acc)`` with x = [q; q̇] returns M q̈ + C q̇ + g as
+        a list (no friction): the per-sample call of a float fast path, bound once.
+
+        Returns
+        -------
+        tuple or None
+        """
+        if self.permutation is None:
+            return None
+        return cached_tree_kernel(self._cache, self.model, self.permutation[0][:self.n])
+
     def recursive_inverse_dynamics_drake(self, q, qdot, acc) -> np.ndarray:
         """:meth:`recursive_inverse_dynamics` by Drake's CalcInverseDynamics (the kernel's
         reference; ``benchmarks/speed_tiers.py``: ≈ 2× faster than :meth:`inverse_dynamics`).
