@@ -122,3 +122,16 @@ def test_intersphinx_inventories_are_committed_and_readable(name, entry):
         inventory = InventoryFile.load(f, "https://example.invalid/", lambda base, uri: base + uri)
     found = [inventory[kind][entry] for kind in ("py:class", "py:function") if entry in inventory.get(kind, {})]
     assert found, f"{entry} not in {path.name}"
+
+
+def test_readme_is_for_a_user_first():
+    """What it is, pip install (not on PyPI), a runnable example and the two make commands come
+    before any maintainer detail; that detail lives in docs/ and is linked."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    order = [readme.index(s) for s in ("weighted Sobolev", "not on PyPI", "pip install .",
+                                       "```python", "make demo", "make test")]
+    assert order == sorted(order), order
+    for moved in ("make lock", "OPENBLAS_CORETYPE", "../shared", "Status and known gaps"):
+        assert moved not in readme, f"{moved!r} belongs in docs/, not the README"
+    for link in re.findall(r"\]\(((?:docs/)?[^)#:]+)\)", readme):
+        assert (ROOT / link).exists(), f"README links to a missing file: {link}"
