@@ -42,10 +42,12 @@ test: $(STAMP)
 bench: $(STAMP)
 	@for b in benchmarks/*.py; do echo "== $$b"; MPLBACKEND=Agg $(PY) $$b || exit 1; done
 
-# HTML API reference from the docstrings into build/docs (offline; any warning fails the build)
+# The documentation site into build/docs: guides, API reference, the gallery (fast diagrams/
+# scripts executed), the tutorial notebook executed (offline; any warning, a module that fails
+# to import or a failing example fails the build; docs/maintainers.md)
 docs: $(STAMP)
-	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -q -b html docs/api build/docs
-	@echo "API reference: build/docs/index.html"
+	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -q -b html docs build/docs
+	@echo "documentation site: build/docs/index.html"
 
 # $(OUT)/REPRODUCTION.md and the repository's ./REPRODUCTION.md (links relative to each); a
 # REPRODUCTION.md that sobolev-drake did not write is never replaced
@@ -62,4 +64,5 @@ wheel-check:
 	PYTHON=$(PYTHON) bash .ci/wheel-check
 
 clean:
-	rm -rf $(VENV) .venv-lock $(OUT) build *.egg-info sobolev_drake/native/*.so
+	rm -rf $(VENV) .venv-lock $(OUT) build *.egg-info sobolev_drake/native/*.so docs/gallery \
+	    docs/sg_execution_times.rst docs/tutorial/_generated docs/tutorial/*.md

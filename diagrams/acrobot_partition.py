@@ -1,4 +1,7 @@
-"""An underactuated partition on Drake's Acrobot (Acrobot.urdf): the actuated elbow tracks a
+"""Acrobot: actuated elbow tracked, passive shoulder free
+======================================================
+
+An underactuated partition on Drake's Acrobot (Acrobot.urdf): the actuated elbow tracks a
 sine while the passive shoulder is left to its own dynamics; Drake's ``PidController`` on the
 elbow is the baseline.
 
@@ -18,7 +21,7 @@ W2 weights Y0..Y3 = 100, 50, 1, 0.01: the elbow error obeys ë = −16.8 ė − 
 projection) and has no model: no gravity, coupling or acceleration feedforward.  Its gains are
 the triple pole ω = 100^(1/3) = 4.64 rad/s of the other examples scaled by M̄ at the start:
 kp = 3ω²M̄ = 12.2 N·m/rad, ki = ω³M̄ = 18.8 N·m/(rad·s), kd = 3ωM̄ = 2.62 N·m·s/rad.  Table
-columns are for the elbow (ISE = ∫e² dt, max and final |e|, ∫u² dt, IADU = Σ|Δu| on the 5 ms
+columns are for the elbow (ISE = ∫e² dt, max and final ``|e|``, ∫u² dt, IADU = Σ|Δu| on the 5 ms
 log grid), plus the shoulder's largest excursion max|q0|.
 
 Examples

@@ -1,4 +1,7 @@
-"""Drake's Acrobot (``AcrobotPlant``) balanced upright by a W∞ output-feedback controller that
+"""Acrobot balanced upright by W∞ output feedback
+==============================================
+
+Drake's Acrobot (``AcrobotPlant``) balanced upright by a W∞ output-feedback controller that
 measures only the two joint angles, beside Drake's LQR on the full state.
 
 The synthesis takes Drake's linearization as it is: ``Linearize`` at the upright equilibrium

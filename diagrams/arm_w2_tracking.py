@@ -1,4 +1,7 @@
-"""Two-link arm tracking Table 5.2 with the nonlinear W2/W∞ controller (thesis 5.3.1).
+"""Two-link arm tracking Table 5.2 (W2/W∞ controller)
+==================================================
+
+Two-link arm tracking Table 5.2 with the nonlinear W2/W∞ controller (thesis 5.3.1).
 
 Plant + reference + controller + disturbance, simulated with a Meshcat recording and scored
 with the thesis indices.  Run:  python diagrams/arm_w2_tracking.py [OUT_DIR]

@@ -1,4 +1,7 @@
-"""Drake's planar gripper (planar_gripper.sdf: three fingers, two damped joints each) tracking
+"""Planar gripper: six damped joints under the W2 controller
+=========================================================
+
+Drake's planar gripper (planar_gripper.sdf: three fingers, two damped joints each) tracking
 a finger wave under the W2 controller, beside Drake's ``InverseDynamicsController``.
 
 ``sd.MechanicalModel.from_plant`` on a 6-DOF plant with joint damping (0.1 N·m·s on every
@@ -15,7 +18,7 @@ Every joint gets the same gains.  W2 weights Y0..Y3 = 100, 50, 1, 0.01: ë = −
 − 100 ∫e, poles −7.7 ± 3.2j and −1.44.  Drake's controller: critically damped triple pole at
 the same mean bandwidth ω = 100^(1/3) = 4.64 rad/s, kp = 3ω² = 64.6, ki = ω³ = 100,
 kd = 3ω = 13.9.  Neither comes near the 75 N·m effort limit.  Table columns (summed over the
-six joints, max over them for the errors): ISE = ∫e² dt, max and final |e|, ∫|u|² dt and
+six joints, max over them for the errors): ISE = ∫e² dt, max and final ``|e|``, ∫|u|² dt and
 IADU = Σ|Δu| on the 5 ms log grid.
 
 Examples

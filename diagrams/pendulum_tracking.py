@@ -1,4 +1,7 @@
-"""Drake's pendulum (Pendulum.urdf) swinging along a sine under the W2 controller, beside
+"""Pendulum tracking a sine: W2 beside InverseDynamicsController
+=============================================================
+
+Drake's pendulum (Pendulum.urdf) swinging along a sine under the W2 controller, beside
 Drake's ``InverseDynamicsController`` on the same task.
 
 Any finalized MultibodyPlant can serve as the controller's model:
@@ -15,7 +18,7 @@ acceleration fed forward) gets a critically damped triple pole at ω = 100^(1/3)
 the same mean bandwidth: kp = 3ω² = 64.6, ki = ω³ = 100, kd = 3ω = 13.9.  On an exact model
 both turn the error into the same kind of linear chain and differ only in the poles; given
 the W2 gains, Drake's controller reproduces the W2 run (tests/examples/test_diagrams.py).  Table
-columns: ISE = ∫e² dt, max and final |e|, control effort ∫u² dt and IADU = Σ|Δu| on the
+columns: ISE = ∫e² dt, max and final ``|e|``, control effort ∫u² dt and IADU = Σ|Δu| on the
 5 ms log grid.
 
 Examples

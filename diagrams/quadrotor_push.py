@@ -1,4 +1,7 @@
-"""Quadrotor at hover thrust pushed by an inertial force at a rotor arm (open loop).
+"""Quadrotor pushed at a rotor arm (disturbance plumbing)
+======================================================
+
+Quadrotor at hover thrust pushed by an inertial force at a rotor arm (open loop).
 
 Shows the disturbance plumbing: a 3-D force profile (TimeProfiledForce) is mapped to
 generalized forces by CartesianForceAtBody (Jacobian transpose, thesis (3.41)) and fed to the

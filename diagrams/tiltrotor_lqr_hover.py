@@ -1,4 +1,7 @@
-"""Drake's ``LinearQuadraticRegulator`` on the tilt-rotor at hover, beside the library's W∞
+"""Tilt-rotor at hover: Drake's LQR beside the W∞ design
+=====================================================
+
+Drake's ``LinearQuadraticRegulator`` on the tilt-rotor at hover, beside the library's W∞
 hover design, both flying the nonlinear plant.
 
 The plant is the library's: MultibodyPlant (from ``TiltrotorParams``) plus ``TiltrotorForces``
@@ -10,7 +13,7 @@ plant: it linearizes through the force systems in AutoDiffXd (``TiltrotorForces_
 and returns the AffineSystem u = u0 − K(x − x0) on the plant's state (Drake's order).  Q and R
 follow Bryson's rule on the thesis-ordered state (tilts 0.2 rad, roll and pitch 0.1 rad, yaw
 0.2 rad, position 0.5 m; rates 1 rad/s, 0.5 rad/s, 1 m/s) and inputs (5 rev/s, 0.5 N m); its
-output is clipped like the W∞ controller's (n ≥ 0, |τs| ≤ 2 N m).
+output is clipped like the W∞ controller's (n ≥ 0, ``|τs|`` ≤ 2 N m).
 
 Beside it: the W∞ state feedback of Table 7.2 (``linear_design.design(linearize(trim), "W∞")``
 with the integral states of (7.57); ``linearize`` is Drake's linearization of the same

@@ -1,5 +1,8 @@
-"""Figures of experiments and examples: matplotlib (Agg backend unless MPLBACKEND is set),
-written as PNG.
+"""Figures of experiments and examples: matplotlib, written as PNG.
+
+The figures are built with :class:`matplotlib.figure.Figure` directly, not through pyplot, so
+drawing and saving them needs no GUI backend and importing the package leaves the user's
+matplotlib backend alone.
 
 :func:`plot_time_series` stacks named signals over time, :func:`compare_plot` overlays several
 logged runs panel by panel, :func:`plot_semilogy` and :func:`plot_paths_3d` draw positive
@@ -9,19 +12,14 @@ Meshcat recordings are in :mod:`sobolev_drake.viz`.
 
 from __future__ import annotations
 
-import os
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-if os.environ.get("MPLBACKEND") is None:  # headless default; users may still choose their own
-    matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from sobolev_drake.validation import (describe, mapping, path_like, real_array,  # noqa: E402
-                                      sequence)
+from sobolev_drake.validation import describe, mapping, path_like, real_array, sequence
 
 __all__ = ["save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d"]
 
@@ -50,7 +48,9 @@ def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
         raise TypeError(f"fig must be a matplotlib Figure, got {type(fig).__name__}")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi, bbox_inches="tight" if tight else None)
-    plt.close(fig)
+    pyplot = sys.modules.get("matplotlib.pyplot")   # a figure of pyplot's own is released too;
+    if pyplot is not None:                          # without pyplot none can be its
+        pyplot.close(fig)
     return path
 
 
@@ -97,8 +97,8 @@ def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Pat
                 or (isinstance(run, Mapping) and "t" not in run):
             raise ValueError(f"runs[{name!r}] must be a run with sample times 't' (e.g. a dict "
                              f"with keys 't' and the logged signals), got {describe(run)}")
-    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.9 * len(panels) + 0.8),
-                             squeeze=False)
+    fig = Figure(figsize=(8, 1.9 * len(panels) + 0.8))
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)
     styles = ["-", "--", ":", "-."]
     for ax, (ylabel, fn, labels) in zip(axes[:, 0], panels):
         for k, (name, run) in enumerate(runs.items()):
@@ -143,7 +143,8 @@ def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
     for name, xy in curves.items():
         if isinstance(xy, (str, bytes)) or not hasattr(xy, "__len__") or len(xy) != 2:
             raise ValueError(f"curves[{name!r}] must be an (x, y) pair of arrays, got {describe(xy)}")
-    fig, ax = plt.subplots(figsize=(8, 2.8))
+    fig = Figure(figsize=(8, 2.8))
+    ax = fig.subplots()
     for k, (name, (x, y)) in enumerate(curves.items()):
         ax.semilogy(x, np.maximum(y, floor), ["-", "--"][k % 2], lw=1.0, label=name)
     ax.set_xlabel(xlabel)
@@ -182,7 +183,7 @@ def plot_paths_3d(path, reference, flown: dict) -> Path:
     ref = _positions("reference", reference)
     flown = {name: _positions(f"flown[{name!r}]", xyz)
              for name, xyz in mapping("flown", flown, "{label: (N, 3) positions}").items()}
-    fig = plt.figure(figsize=(6, 5))
+    fig = Figure(figsize=(6, 5))
     ax = fig.add_subplot(projection="3d")
     ax.plot(ref[:, 0], ref[:, 1], ref[:, 2], "k:", lw=1.0, label="reference")
     for k, (name, xyz) in enumerate(flown.items()):
@@ -243,7 +244,8 @@ def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t
         if y.shape[0] != t.size:
             raise ValueError(f"series[{name!r}] has {y.shape[0]} samples, t has {t.size}")
         checked[name] = y
-    fig, axes = plt.subplots(len(series), 1, sharex=True, figsize=(8, 2.2 * len(series) + 0.6), squeeze=False)
+    fig = Figure(figsize=(8, 2.2 * len(series) + 0.6))
+    axes = fig.subplots(len(series), 1, sharex=True, squeeze=False)
     for ax, (name, y) in zip(axes[:, 0], checked.items()):
         names = labels.get(name) or ([name] if y.shape[1] == 1 else [f"{name}[{i}]" for i in range(y.shape[1])])
         lines = ax.plot(t, y)

@@ -119,3 +119,20 @@ def test_version_option_prints_the_metadata_version(project, capsys):
     assert installed == project["version"] == sobolev_drake.__version__
     assert cli.main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"sobolev-drake {installed}"
+
+
+def test_import_leaves_the_matplotlib_backend_alone(tmp_path):
+    """``import sobolev_drake`` and saving a figure choose no backend for the user (figures are
+    drawn on matplotlib.figure.Figure, which needs none); MPLBACKEND unset as a user has it."""
+    import os
+    import subprocess
+    import sys
+    code = ("import matplotlib, numpy as np, sobolev_drake as sd\n"
+            "before = matplotlib.rcParams._get_backend_or_none()\n"
+            "sd.plots.plot_time_series(np.linspace(0, 1, 5), {'y': np.arange(5.0)}, 'y.png')\n"
+            "print(before, matplotlib.rcParams._get_backend_or_none())\n")
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, check=True,
+                         capture_output=True, text=True).stdout.split()
+    assert out == ["None", "None"]
+    assert (tmp_path / "y.png").stat().st_size > 0

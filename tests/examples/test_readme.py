@@ -12,7 +12,7 @@ BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), 
 
 
 def test_the_readme_has_python_blocks():
-    assert len(BLOCKS) >= 4
+    assert len(BLOCKS) >= 1         # the 30-second example; the guides hold the rest (tests/test_docs_site.py)
 
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)))
