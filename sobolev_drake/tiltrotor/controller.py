@@ -278,6 +278,9 @@ class TiltrotorWInfLaw:
         # Optional fused form of everything after q̈_des (set by make_law with the compiled
         # kernels): used while the four callables are still the ones it was made for.
         self.fused_sample = None
+        # Optional q̈_des of another weighting of the same law (e.g. the envelope gain schedule,
+        # ``tiltrotor.gain_schedule``): ``f(q, q̇, ∫e, tracked, reference, wind) -> list of 8``
+        self.desired_acceleration = None
 
     def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
         """One evaluation of the law.
@@ -314,7 +317,9 @@ class TiltrotorWInfLaw:
                    + r[8:11] + [aldd, aldd, psidd])
         # q̈_des in floats and u* by recursive Newton–Euler: the per-sample path (equal to
         # desired_acceleration / inverse_dynamics to rounding)
-        qdd = np.array(self.mech_law.desired_acceleration_scalar(ql, qdl, iel, tracked))
+        acc = self.desired_acceleration
+        qdd = np.array(self.mech_law.desired_acceleration_scalar(ql, qdl, iel, tracked)
+                       if acc is None else acc(ql, qdl, iel, tracked, r, wl))
         fused = self.fused_sample
         if (fused is not None and fused.parts == (self.input_affine, self.bounds, self.allocate,
                                                   self.thrust_to_speed)):

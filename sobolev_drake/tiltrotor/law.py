@@ -20,10 +20,15 @@ from sobolev_drake.tiltrotor.controller import (N_Q, PARTITION, ControlStep, Til
                                                        checked_vector, thesis_inner_law,
                                                        tilt_schedule_polynomial)
 
-__all__ = ["make_law", "newton_speed_for_thrust", "plant_trim_schedule"]
+__all__ = ["DESIGNS", "make_law", "newton_speed_for_thrust", "plant_trim_schedule",
+           "plant_pitch_schedule"]
+
+#: the law's weightings: the thesis' one tuning for every flight mode, or the envelope schedule
+DESIGNS = {"thesis": "thesis tuning, §7.3.2", "scheduled": "scheduled W∞ over air speed"}
 
 
-def make_law(model, inner=None, *, schedule="plant", allocate=None):
+def make_law(model, inner=None, *, schedule="plant", allocate=None, design="thesis",
+             gain_schedule=None):
     """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
 
     ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
@@ -52,6 +57,12 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     allocate : callable, optional
         ``allocate(B, u, lo, up) -> τ̄``: bounded allocation (7.84)–(7.86) of the desired
         generalized input u (N, N m) over the actuators within [lo, up].
+    design : {"thesis", "scheduled"}, default "thesis"
+        :data:`DESIGNS`: ``"scheduled"`` computes q̈_des with the envelope gain schedule
+        (:class:`~sobolev_drake.tiltrotor.gain_schedule.EnvelopeSchedule`, trim pitch from the
+        plant's level-flight trims) instead of ``inner``'s constant gains.
+    gain_schedule : EnvelopeSchedule, optional
+        With ``design="scheduled"``: this schedule instead of the default one.
 
     Returns
     -------
@@ -65,6 +76,10 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     from sobolev_drake.tiltrotor.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
                                                     input_affine)
 
+    if design not in DESIGNS:
+        raise ValueError(f"design must be one of {tuple(DESIGNS)}, got {design!r}")
+    if gain_schedule is not None and design != "scheduled":
+        raise ValueError(f"gain_schedule is only used with design='scheduled', got design={design!r}")
     prop, aero = cores(model.params)
     if callable(schedule):
         sched = schedule
@@ -144,6 +159,11 @@ def make_law(model, inner=None, *, schedule="plant", allocate=None):
     law = TiltrotorWInfLaw(mech, input_affine=affine, allocate=allocate, bounds=bounds,
                            thrust_to_speed=thrust_to_speed, tilt_schedule=sched)
     law.propulsion, law.aero = prop, aero
+    if design == "scheduled":
+        from sobolev_drake.tiltrotor.gain_schedule import EnvelopeSchedule
+        law.desired_acceleration = (EnvelopeSchedule(plant_pitch_schedule(model))
+                                    if gain_schedule is None else gain_schedule)
+    law.design = design
     if native is not None:
         law.fused_sample = _fused_sample(law, native, speeds,
                                          (affine, bounds, allocate, thrust_to_speed))
@@ -247,6 +267,46 @@ def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9
 
 
 _TRIM_SCHEDULES: dict = {}
+_LEVEL_TRIMS: dict = {}
+
+
+def _level_trims(model):
+    """(V, α, θ) of the plant's level-flight trims, computed once per parameter value."""
+    from sobolev_drake.tiltrotor.tilt_schedule import tilt_schedule
+
+    key = repr(getattr(model, "params", None))      # parameter values, not object identity
+    if key not in _LEVEL_TRIMS:
+        trims = tilt_schedule(model=model)
+        _LEVEL_TRIMS[key] = (np.array([t.V for t in trims]),
+                             np.array([0.5 * (t.q[0] + t.q[1]) for t in trims]),
+                             np.array([t.q[3] for t in trims]))
+    return _LEVEL_TRIMS[key]
+
+
+def plant_pitch_schedule(model=None):
+    """θ_trim(U): pitch of the plant's level-flight trims (0–34 m/s, linear interpolation,
+    clamped), the attitude reference of the envelope gain schedule.
+
+    Parameters
+    ----------
+    model : TiltrotorModel, optional
+        The plant model whose trims are used (None: Table B.1); cached per parameter value.
+
+    Returns
+    -------
+    callable
+        ``f(U) -> θ`` (rad) at forward air speed U (m/s).
+    """
+    V, _, theta = _level_trims(model)
+    xs, ys = V.tolist(), theta.tolist()
+    last = len(xs) - 2
+
+    def pitch(U):
+        U = min(max(float(U), xs[0]), xs[-1])
+        i = min(max(bisect_right(xs, U) - 1, 0), last)
+        w = (U - xs[i]) / (xs[i + 1] - xs[i])
+        return ys[i] + w * (ys[i + 1] - ys[i])
+    return pitch
 
 
 def plant_trim_schedule(model=None):
@@ -268,13 +328,10 @@ def plant_trim_schedule(model=None):
         is clamped and the derivatives are 0.
     """
     from scipy.interpolate import CubicSpline
-    from sobolev_drake.tiltrotor.tilt_schedule import tilt_schedule
 
     key = repr(getattr(model, "params", None))      # parameter values, not object identity
     if key not in _TRIM_SCHEDULES:
-        trims = tilt_schedule(model=model)
-        V = np.array([t.V for t in trims])
-        a = np.array([0.5 * (t.q[0] + t.q[1]) for t in trims])
+        V, a, _ = _level_trims(model)
         _TRIM_SCHEDULES[key] = (CubicSpline(V, a), V[0], V[-1])
     spline, lo, hi = _TRIM_SCHEDULES[key]
     # plain-float evaluation of the spline's pieces (scipy's call costs ~10 µs per derivative)

@@ -143,7 +143,7 @@ def _plant_port(handles, name):
 
 
 def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None,
-                  plant_params=None, wind_gusts=None, force_disturbances=None):
+                  plant_params=None, wind_gusts=None, force_disturbances=None, design="thesis"):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Parameters
@@ -166,6 +166,8 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
         ``params`` (a perturbed truth, e.g. a Monte-Carlo case).
     wind_gusts, force_disturbances : list of dict, optional
         Pulse events (:func:`pulses`) replacing the mission file's.
+    design : {"thesis", "scheduled"}, default "thesis"
+        The law's weighting (:data:`~sobolev_drake.tiltrotor.law.DESIGNS`).
 
     Returns
     -------
@@ -186,7 +188,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
         from sobolev_drake.tiltrotor.trim import tiltrotor_model
         handles = tr.add_tiltrotor(builder, plant_params)
         model = tiltrotor_model(params)
-    law = make_law(model, tc.thesis_inner_law(), schedule=schedule)
+    law = make_law(model, tc.thesis_inner_law(), schedule=schedule, design=design)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
     ref = builder.AddSystem(mission_reference(scenario))
@@ -226,7 +228,8 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 
 def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
                      integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None,
-                     plant_params=None, wind_gusts=None, force_disturbances=None):
+                     plant_params=None, wind_gusts=None, force_disturbances=None,
+                     design="thesis"):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate a mission.
 
     The integrator's maximum step is the controller period (the sampled controller's events
@@ -256,6 +259,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         Parameters of the flown plant only (:func:`build_mission`).
     wind_gusts, force_disturbances : list of dict, optional
         Pulse events replacing the mission file's (:func:`build_mission`).
+    design : {"thesis", "scheduled"}, default "thesis"
+        The law's weighting (:func:`build_mission`).
 
     Returns
     -------
@@ -274,7 +279,7 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         meshcat = viz.start_meshcat()
     built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period,
                           params=params, plant_params=plant_params, wind_gusts=wind_gusts,
-                          force_disturbances=force_disturbances)
+                          force_disturbances=force_disturbances, design=design)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
