@@ -9,8 +9,9 @@ disk-based margins, and the step response of the performance channel.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.figure import Figure
 
-from sobolev_drake.plots import plt, save_figure
+from sobolev_drake.plots import save_figure
 
 __all__ = ["plot_loop_analysis"]
 
@@ -124,7 +125,7 @@ def plot_loop_analysis(analysis, path=None, *, title="", pole_factor=100.0):
     """
     if not hasattr(analysis, "closed_loop") or not hasattr(analysis, "sigma"):
         raise TypeError(f"analysis must be a LoopAnalysis, got {type(analysis).__name__}")
-    fig = plt.figure(figsize=(13, 7.5))
+    fig = Figure(figsize=(13, 7.5))
     grid = fig.add_gridspec(2, 3)
     _poles(fig.add_subplot(grid[0, 0]), analysis, pole_factor)
     _sigmas(fig.add_subplot(grid[0, 1]), analysis)
