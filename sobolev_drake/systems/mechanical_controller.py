@@ -238,10 +238,12 @@ def MechanicalController_(T):
                 self.DeclareContinuousState(BasicVector_[T](self._x0.tolist()))
                 state_ticket = self.xc_ticket()
             else:
-                groups = [self.DeclareDiscreteState(BasicVector_[T](self._x0.tolist()))]  # ∫q̃c
-                held = law.num_inputs + self._n_gen                                  # [τ; u*]
-                for _ in range(2 if computation_delay else 1):                       # (+ pending)
-                    groups.append(self.DeclareDiscreteState(held))
+                # ∫q̃c, then τ and u* held (and pending, with a computation delay): the outputs
+                # are state output ports, copied by Drake without a Python callback
+                groups = [self.DeclareDiscreteState(BasicVector_[T](self._x0.tolist()))]
+                for _ in range(2 if computation_delay else 1):
+                    groups += [self.DeclareDiscreteState(law.num_inputs),
+                               self.DeclareDiscreteState(self._n_gen)]
                 self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
                 self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._sample)
                 state_ticket = self.discrete_state_ticket(groups[0])
@@ -250,13 +252,20 @@ def MechanicalController_(T):
                 ValueProducer(allocate=lambda: AbstractValue.Make((None, None, None)),
                               calc=self._calc_outputs),
                 {self.all_input_ports_ticket(), state_ticket, self.all_parameters_ticket()})
-            feed = ({self._outputs.ticket()} if period is None
-                    else {self.discrete_state_ticket(groups[1])})
-            self.DeclareVectorOutputPort("control", law.num_inputs, self._calc_control, feed)
-            self.DeclareVectorOutputPort("generalized_force", self._n_gen, self._calc_gen, feed)
-            self.DeclareVectorOutputPort("error_integral", nc, self._calc_int, {state_ticket})
-            for alias in ("actuation", "u"):     # InverseDynamicsController's, the former
-                self.DeclareVectorOutputPort(alias, law.num_inputs, self._calc_control, feed)
+            if period is None:
+                feed = {self._outputs.ticket()}
+                self.DeclareVectorOutputPort("control", law.num_inputs, self._calc_control, feed)
+                self.DeclareVectorOutputPort("generalized_force", self._n_gen, self._calc_gen,
+                                             feed)
+                self.DeclareVectorOutputPort("error_integral", nc, self._calc_int, {state_ticket})
+                for alias in ("actuation", "u"):     # InverseDynamicsController's, the former
+                    self.DeclareVectorOutputPort(alias, law.num_inputs, self._calc_control, feed)
+            else:
+                self.DeclareStateOutputPort("control", groups[1])
+                self.DeclareStateOutputPort("generalized_force", groups[2])
+                self.DeclareStateOutputPort("error_integral", groups[0])
+                for alias in ("actuation", "u"):
+                    self.DeclareStateOutputPort(alias, groups[1])
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, law=other.law, initial_integral=other._x0,
@@ -377,44 +386,35 @@ def MechanicalController_(T):
                 return
             derivatives.get_mutable_vector().SetFromVector(self._outputs.Eval(context)[2])
 
-        def _held(self, context, group):
-            return context.get_discrete_state(group).CopyToVector()
-
-        def _calc_control(self, context, output):
-            if self.period is None:
-                output.SetFromVector(self._outputs.Eval(context)[1])
-            else:
-                output.SetFromVector(self._held(context, 1)[:self.law.num_inputs])
+        def _calc_control(self, context, output):      # continuous form only
+            output.SetFromVector(self._outputs.Eval(context)[1])
 
         def _calc_gen(self, context, output):
-            if self.period is None:
-                output.SetFromVector(self._outputs.Eval(context)[0])
-            else:
-                output.SetFromVector(self._held(context, 1)[self.law.num_inputs:])
+            output.SetFromVector(self._outputs.Eval(context)[0])
 
         def _calc_int(self, context, output):
             output.SetFromVector(self._integral(context))
 
         # --- sampled form ------------------------------------------------------------------
-        def _command(self, context):
-            u_star, tau, _ = self._outputs.Eval(context)
-            return np.concatenate([tau, u_star])
-
         def _initialize(self, context, discrete_state):
-            command = self._command(context)
-            for group in range(1, discrete_state.num_groups()):
-                discrete_state.get_mutable_vector(group).SetFromVector(command)
+            u_star, tau, _ = self._outputs.Eval(context)
+            for group in range(1, discrete_state.num_groups(), 2):    # held (and pending)
+                discrete_state.get_mutable_vector(group).SetFromVector(tau)
+                discrete_state.get_mutable_vector(group + 1).SetFromVector(u_star)
 
         def _sample(self, context, discrete_state):
             u_star, tau, rate = self._outputs.Eval(context)
-            command = np.concatenate([tau, u_star])
             e_int = self._integral(context) + self.period * rate
             discrete_state.get_mutable_vector(0).SetFromVector(e_int)
-            if self.computation_delay:
-                discrete_state.get_mutable_vector(1).SetFromVector(self._held(context, 2))
-                discrete_state.get_mutable_vector(2).SetFromVector(command)
+            if self.computation_delay:          # the pending command goes out, this one waits
+                for group in (1, 2):
+                    discrete_state.get_mutable_vector(group).SetFrom(
+                        context.get_discrete_state(group + 2))
+                discrete_state.get_mutable_vector(3).SetFromVector(tau)
+                discrete_state.get_mutable_vector(4).SetFromVector(u_star)
             else:
-                discrete_state.get_mutable_vector(1).SetFromVector(command)
+                discrete_state.get_mutable_vector(1).SetFromVector(tau)
+                discrete_state.get_mutable_vector(2).SetFromVector(u_star)
 
     Impl.__signature__ = _SIGNATURE
     return Impl

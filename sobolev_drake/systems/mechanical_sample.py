@@ -52,6 +52,21 @@ def compiled_desired_acceleration(law):
     Returns
     -------
     callable or None
+
+    Examples
+    --------
+    >>> from sobolev_drake.models.serial_chain import seven_link_arm
+    >>> from sobolev_drake.models.base import MechanicalModel
+    >>> from sobolev_drake.synthesis.mechanical import controlled_gains
+    >>> from sobolev_drake.systems.mechanical_law import MechanicalLaw, SobolevLaw
+    >>> from sobolev_drake.systems.partition import Partition
+    >>> law = MechanicalLaw(MechanicalModel.from_plant(seven_link_arm()),
+    ...                     Partition(controlled=range(7)),
+    ...                     SobolevLaw(controlled_gains(*[[1.0] * 7] * 4)))
+    >>> f = compiled_desired_acceleration(law)      # None without the compiled kernel
+    >>> args = ([0.1] * 7, [0.0] * 7, [0.0] * 7, [0.0] * 21)
+    >>> f is None or f(*args) == law.desired_acceleration_scalar(*args)
+    True
     """
     from sobolev_drake.native import kernel
     module = kernel("rnea")
@@ -80,6 +95,24 @@ class FloatSample:
     ----------
     law : MechanicalLaw
         A law :meth:`of` accepts.
+
+    Examples
+    --------
+    The per-sample path of a controller on a 7-joint arm equals the generic law:
+
+    >>> import numpy as np
+    >>> from sobolev_drake.models.serial_chain import seven_link_arm
+    >>> from sobolev_drake.synthesis.mechanical import controlled_gains
+    >>> from sobolev_drake.systems.mechanical_controller import MechanicalController, SobolevLaw
+    >>> ctrl = MechanicalController.from_plant(seven_link_arm(),
+    ...                                        SobolevLaw(controlled_gains(*[[1.0] * 7] * 4)))
+    >>> fast = FloatSample.of(ctrl.law)
+    >>> x, desired = np.full(14, 0.1), np.zeros(14)
+    >>> u_star, tau, rate = fast(x, desired, None, np.zeros(7))
+    >>> reference = np.concatenate([desired, np.zeros(7)])
+    >>> bool(np.allclose(u_star, ctrl.law.generalized_input(x[:7], x[7:], np.zeros(7), reference),
+    ...                  rtol=0, atol=1e-12))
+    True
     """
 
     def __init__(self, law):

@@ -201,3 +201,24 @@ def test_compiled_desired_acceleration_equals_the_python_floats(name):
         np.testing.assert_allclose(got, law.desired_acceleration(
             np.array(q), np.array(qd), np.array(e_int), np.array(ref)), rtol=0,
             atol=REL * (1 + np.abs(want).max()))
+
+
+@pytest.mark.parametrize("delay", [False, True])
+def test_sampled_controller_holds_tau_and_u_star_in_state_output_ports(delay):
+    law = laws()["seven-link"]
+    ctrl = MechanicalController(law=law, period=1e-3, computation_delay=delay)
+    context = ctrl.CreateDefaultContext()
+    rng = np.random.default_rng(5)
+    x, ref = rng.normal(size=14), rng.normal(size=21)
+    ctrl.get_input_port_estimated_state().FixValue(context, x)
+    ctrl.get_input_port_reference().FixValue(context, ref)
+    ctrl.ExecuteInitializationEvents(context)
+    u_star, tau, rate = generic(law, x, ref[:14], ref[14:], np.zeros(7))
+    for port, want in (("control", tau), ("actuation", tau), ("u", tau),
+                       ("generalized_force", u_star)):
+        np.testing.assert_allclose(ctrl.GetOutputPort(port).Eval(context), want, rtol=0,
+                                   atol=REL * (1 + np.abs(want).max()), err_msg=port)
+    context.SetDiscreteState(ctrl.EvalUniquePeriodicDiscreteUpdate(context))
+    np.testing.assert_array_equal(ctrl.get_output_port_error_integral().Eval(context), 1e-3 * rate)
+    np.testing.assert_allclose(ctrl.get_output_port_control().Eval(context), tau, rtol=0,
+                               atol=REL * (1 + np.abs(tau).max()))   # same inputs, same command
