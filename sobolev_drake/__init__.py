@@ -19,7 +19,7 @@ follows python-control's signature and return value.  Sign convention everywhere
 __version__ = "0.1.0"
 
 from sobolev_drake import norms, plots, recording_html, viz
-from sobolev_drake.models import MechanicalModel, PlantHandles
+from sobolev_drake.models import FloatingBaseModel, MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
 from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
@@ -29,17 +29,19 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      hinf_state_feedback_qr, hinfsyn, regions, regulated_gains,
                                      stabilized_gains, to_statespace, winf_output_feedback,
                                      winf_plant, winf_state_feedback)
-from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
-                                   MechanicalController, MechanicalLaw, Partition,
+from sobolev_drake.systems import (FloatingBaseState, HinfLaw, LinearDynamicOutputFeedback,
+                                   LinearStateFeedback, MechanicalController, MechanicalLaw,
+                                   MultirotorController, Partition,
                                    PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
                                    TrajectoryReference, const, controller_system, poly, sine)
 
 __all__ = [
     "__version__", "norms", "plots", "recording_html", "viz",
     # models
-    "MechanicalModel", "PlantModel", "PlantHandles",
+    "MechanicalModel", "PlantModel", "PlantHandles", "FloatingBaseModel", "FloatingBaseState",
     # nonlinear mechanical controllers
     "Partition", "MechanicalLaw", "MechanicalController", "SobolevLaw", "HinfLaw",
+    "MultirotorController",
     "controlled_gains", "regulated_gains", "stabilized_gains", "hinf_mechanical_gains",
     # references, disturbances, simulation
     "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "TimeProfiledForce",
