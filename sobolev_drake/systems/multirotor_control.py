@@ -51,7 +51,7 @@ class MultirotorLaw:
     inner : SobolevLaw
         ``controlled`` gains of size 4 ([ψ x y z]) and ``regulated`` gains of size 2 ([ϕ θ]).
     lower, upper : array_like, optional
-        Command bounds (default the model's ``input_lower``/``input_upper``).
+        Command bounds (default the model's ``input_lower``/``input_upper``, else 0 and +inf).
     max_tilt : float, default 0.6
         Largest attitude tilt asked of the regulated law (rad).
     """
@@ -65,8 +65,9 @@ class MultirotorLaw:
         self.model = model
         self.law = MechanicalLaw(model, MULTIROTOR_PARTITION, inner, allocation=self._allocate)
         m = self.law.num_inputs
-        self.lower = check_vector("lower", np.asarray(model.input_lower if lower is None else lower,
-                                                      float) * np.ones(m), m)
+        # a model without input bounds (e.g. the thesis QuadrotorModel, inputs Ω²) gets [0, ∞)
+        self.lower = check_vector("lower", np.asarray(getattr(model, "input_lower", np.zeros(m))
+                                                      if lower is None else lower, float) * np.ones(m), m)
         up = np.asarray(getattr(model, "input_upper", np.full(m, np.inf)) if upper is None else upper,
                         float) * np.ones(m)
         if np.any(np.isnan(up)) or np.any(up < self.lower):
