@@ -101,8 +101,12 @@ def test_rpy_floating_joint_and_hexarotor_hover_trim():
     assert u0.shape == (6,) and np.all(u0 >= 0) and np.all(model.input_upper == 20.0)
     # the RPY joint's positions are the Euler angles themselves
     q = np.array([0.2, -0.1, 0.4, 1, 2, 3.0])
-    qd, vd = model.to_drake_state(q, np.ones(6))
+    qdot = np.array([0.4, 0.1, -0.7, 1.0, 2.0, 3.0])
+    qd, vd = model.to_drake_state(q, qdot)
     np.testing.assert_allclose(qd, q)
+    context = plant.CreateDefaultContext()       # and Drake maps v back to the same rates
+    plant.SetPositions(context, qd)
+    np.testing.assert_allclose(plant.MapVelocityToQDot(context, vd), qdot, atol=1e-12)
     with pytest.raises(ValueError, match="cannot hold"):
         model.hover_input(upper=np.full(6, 0.1))
 
