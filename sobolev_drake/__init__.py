@@ -21,7 +21,7 @@ __version__ = "0.1.0"
 from sobolev_drake import norms, plots, recording_html, viz
 from sobolev_drake.errors import (CampaignError, ModelError, SimulationError, SobolevDrakeError,
                                   SobolevDrakeWarning)
-from sobolev_drake.models import MechanicalModel, PlantHandles
+from sobolev_drake.models import FloatingBaseModel, MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
 from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
@@ -36,8 +36,9 @@ from sobolev_drake.synthesis.weights import winf_weights
 from sobolev_drake.synthesis.discrete import (DiscreteSynthesisResult, hinf_discrete,
                                               sampled_data_plant)
 from sobolev_drake.analysis_plots import plot_loop_analysis
-from sobolev_drake.systems import (HinfLaw, LinearDynamicOutputFeedback, LinearStateFeedback,
-                                   MechanicalController, MechanicalLaw, Partition,
+from sobolev_drake.systems import (FloatingBaseState, HinfLaw, LinearDynamicOutputFeedback,
+                                   LinearStateFeedback, MechanicalController, MechanicalLaw,
+                                   MultirotorController, Partition,
                                    PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
                                    TrajectoryReference, const, controller_system, poly, sine)
 
@@ -46,9 +47,10 @@ __all__ = [
     # the exception hierarchy (sobolev_drake.errors)
     "SobolevDrakeError", "SobolevDrakeWarning", "ModelError", "SimulationError", "CampaignError",
     # models
-    "MechanicalModel", "PlantModel", "PlantHandles",
+    "MechanicalModel", "PlantModel", "PlantHandles", "FloatingBaseModel", "FloatingBaseState",
     # nonlinear mechanical controllers
     "Partition", "MechanicalLaw", "MechanicalController", "SobolevLaw", "HinfLaw",
+    "MultirotorController",
     "controlled_gains", "regulated_gains", "stabilized_gains", "hinf_mechanical_gains",
     # references, disturbances, simulation
     "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "TimeProfiledForce",

@@ -8,6 +8,8 @@ a linear state feedback designed at hover (e.g. Drake's LQR), one diagram per fl
 * :func:`linearize_hover` linearizes plant + propellers at hover with Drake's ``Linearize``
   and moves the result to the minimal Euler chart (12 states, no quaternion redundancy);
 * :func:`add_w_controller` / :func:`add_state_feedback` close the loop;
+  :func:`add_hover_winf` is the linear path in one call (linearize, ``winf_state_feedback``,
+  state feedback on the plant's ports);
 * :func:`fly_multirotor` builds, flies and logs one closed loop.
 """
 
@@ -26,11 +28,13 @@ from pydrake.systems.primitives import (AffineSystem, ConstantVectorSource, LogV
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.euler_chart import euler_to_quaternion
+from sobolev_drake.synthesis import winf_state_feedback
 from sobolev_drake.systems.floating_state import FloatingBaseState
 from sobolev_drake.systems.multirotor_control import MultirotorController
 
 __all__ = ["MultirotorHandles", "HoverLinearization", "add_multirotor", "linearize_hover",
-           "add_w_controller", "add_state_feedback", "reference_state_selector", "fly_multirotor"]
+           "add_w_controller", "add_state_feedback", "add_hover_winf", "reference_state_selector",
+           "fly_multirotor"]
 
 
 @dataclass
@@ -244,6 +248,41 @@ def add_state_feedback(builder, handles: MultirotorHandles, K, u0, reference_por
     builder.Connect(law.get_output_port(0), sat.get_input_port(0))
     builder.Connect(sat.get_output_port(0), handles.command)
     return sat
+
+
+def add_hover_winf(builder, handles: MultirotorHandles, reference_port, Gamma0, Gamma1, *,
+                   disturbance=None, **options):
+    """The linear path in one call: :func:`linearize_hover` (minimal Euler chart),
+    ``sd.winf_state_feedback`` on it, and the gain acting on the plant's ports through
+    :func:`add_state_feedback` (u = sat(u0 + K (x_e − x_ref)), the synthesis' u = +K x).
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        The builder holding ``handles``.
+    handles : MultirotorHandles
+        The vehicle.
+    reference_port : OutputPort or None
+        [q_r; q̇_r; q̈_r] of [ψ x y z] (None: hover at the origin).
+    Gamma0, Gamma1 : array_like
+        Sobolev weights of the 12 chart states and of their rates (6.7).
+    disturbance : array_like, shape (12, k), optional
+        D of ẋ = A x + B u + D w (default: a generalized force on each of the 6 DOF,
+        [0; M⁻¹] at hover).
+    **options
+        Passed to ``winf_state_feedback`` (``gamma``, ``method``, ...).
+
+    Returns
+    -------
+    (System, SynthesisResult)
+        The saturated command system and the certified design.
+    """
+    lin = linearize_hover(handles)
+    D = disturbance
+    if D is None:
+        D = np.vstack([np.zeros((6, 6)), np.linalg.inv(handles.model.M(lin.x0[:6]))])
+    result = winf_state_feedback(lin.A, lin.B, D, Gamma0=Gamma0, Gamma1=Gamma1, **options)
+    return add_state_feedback(builder, handles, -result.K, lin.u0, reference_port), result
 
 
 def add_w_controller(builder, handles: MultirotorHandles, inner, reference_port, **kwargs):

@@ -6,10 +6,12 @@ The names below are the general-purpose systems; vehicle-specific ones stay in t
 """
 
 from sobolev_drake.systems.disturbances import TimeProfiledForce
+from sobolev_drake.systems.floating_state import FloatingBaseState
 from sobolev_drake.systems.linear_controllers import (LinearDynamicOutputFeedback,
                                                       LinearStateFeedback, controller_system)
 from sobolev_drake.systems.mechanical_controller import (HinfLaw, MechanicalController,
                                                          MechanicalLaw, SobolevLaw)
+from sobolev_drake.systems.multirotor_control import MultirotorController
 from sobolev_drake.systems.partition import Partition, check_actuation
 from sobolev_drake.systems.references import (Coordinate, PiecewiseTrajectory, TrajectoryReference,
                                               const, poly, sine)
@@ -18,6 +20,6 @@ __all__ = [
     "TimeProfiledForce",
     "LinearDynamicOutputFeedback", "LinearStateFeedback", "controller_system",
     "HinfLaw", "MechanicalController", "MechanicalLaw", "SobolevLaw",
-    "Partition", "check_actuation",
+    "Partition", "check_actuation", "FloatingBaseState", "MultirotorController",
     "Coordinate", "PiecewiseTrajectory", "TrajectoryReference", "const", "poly", "sine",
 ]

@@ -13,7 +13,7 @@ partition q = [ϕ θ ψ x y z] → controlled [ψ x y z] (integral action), regu
    (tilt limited to ``max_tilt``), tracked by the regulated law (7.81) with zero reference
    rates;
 3. u* of the full q̈_des is allocated to the rotors by bounded least squares
-   (:func:`~sobolev_drake.systems.bounded_ls.bounded_least_squares`, (7.84)–(7.86)) within the
+   (:func:`~sobolev_drake.systems.rotor_allocation.allocate`, (7.84)–(7.86)) within the
    model's command bounds: the torque rows are met and the thrust is the projection of F on
    the body z axis (for rotors along body z the column space of B is the product of the
    torques and that axis).
@@ -28,13 +28,12 @@ from __future__ import annotations
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
-from scipy.optimize import lsq_linear
 
 from sobolev_drake.models.base import check_vector
-from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.mechanical_law import MechanicalLaw
 from sobolev_drake.systems.inner_laws import SobolevLaw
 from sobolev_drake.systems.partition import Partition
+from sobolev_drake.systems.rotor_allocation import allocate
 
 __all__ = ["MULTIROTOR_PARTITION", "MultirotorLaw", "MultirotorController"]
 
@@ -52,7 +51,7 @@ class MultirotorLaw:
     inner : SobolevLaw
         ``controlled`` gains of size 4 ([ψ x y z]) and ``regulated`` gains of size 2 ([ϕ θ]).
     lower, upper : array_like, optional
-        Command bounds (default the model's ``input_lower``/``input_upper``).
+        Command bounds (default the model's ``input_lower``/``input_upper``, else 0 and +inf).
     max_tilt : float, default 0.6
         Largest attitude tilt asked of the regulated law (rad).
     """
@@ -66,25 +65,21 @@ class MultirotorLaw:
         self.model = model
         self.law = MechanicalLaw(model, MULTIROTOR_PARTITION, inner, allocation=self._allocate)
         m = self.law.num_inputs
-        self.lower = check_vector("lower", np.asarray(model.input_lower if lower is None else lower,
-                                                      float) * np.ones(m), m)
+        # a model without input bounds (e.g. the thesis QuadrotorModel, inputs Ω²) gets [0, ∞)
+        self.lower = check_vector("lower", np.asarray(getattr(model, "input_lower", np.zeros(m))
+                                                      if lower is None else lower, float) * np.ones(m), m)
         up = np.asarray(getattr(model, "input_upper", np.full(m, np.inf)) if upper is None else upper,
                         float) * np.ones(m)
         if np.any(np.isnan(up)) or np.any(up < self.lower):
             raise ValueError(f"upper must be ≥ lower = {self.lower}, got {up}")
         self.upper = up
-        self._finite = bool(np.all(np.isfinite(self.lower)) and np.all(np.isfinite(up)))
         self.max_tilt = float(max_tilt)
         if not 0.0 < self.max_tilt < 0.5 * np.pi:
             raise ValueError(f"max_tilt must be in (0, π/2) rad, got {max_tilt}")
         self.num_inputs, self.n = m, 6
 
     def _allocate(self, u_star, q, qdot):
-        B = self.law.dynamics.input_matrix(q)
-        if self._finite:
-            return bounded_least_squares(B, u_star, self.lower, self.upper)
-        # the active-set solver scales by the box widths: an open box goes to scipy's BVLS
-        return lsq_linear(B, u_star, bounds=(self.lower, self.upper), method="bvls").x
+        return allocate(self.law.dynamics.input_matrix(q), u_star, self.lower, self.upper)
 
     def attitude_reference(self, force, psi) -> np.ndarray:
         """[ϕ_d, θ_d] pointing the body z axis along ``force`` at yaw ``psi`` (tilt limited).

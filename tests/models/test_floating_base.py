@@ -101,8 +101,12 @@ def test_rpy_floating_joint_and_hexarotor_hover_trim():
     assert u0.shape == (6,) and np.all(u0 >= 0) and np.all(model.input_upper == 20.0)
     # the RPY joint's positions are the Euler angles themselves
     q = np.array([0.2, -0.1, 0.4, 1, 2, 3.0])
-    qd, vd = model.to_drake_state(q, np.ones(6))
+    qdot = np.array([0.4, 0.1, -0.7, 1.0, 2.0, 3.0])
+    qd, vd = model.to_drake_state(q, qdot)
     np.testing.assert_allclose(qd, q)
+    context = plant.CreateDefaultContext()       # and Drake maps v back to the same rates
+    plant.SetPositions(context, qd)
+    np.testing.assert_allclose(plant.MapVelocityToQDot(context, vd), qdot, atol=1e-12)
     with pytest.raises(ValueError, match="cannot hold"):
         model.hover_input(upper=np.full(6, 0.1))
 
@@ -137,3 +141,45 @@ def test_chart_functions_match_drake_and_invert():
         # η̇ from ω_F agrees with Drake's RollPitchYaw rate map
         rates = RollPitchYaw(eta).CalcRpyDtFromAngularVelocityInParent(w_F)
         np.testing.assert_allclose(euler_rates(eta, w_F), rates, rtol=1e-9, atol=1e-9)
+
+
+def test_propeller_on_a_tilting_mount_follows_the_mount_joint():
+    """A tilt-rotor-like vehicle: a propeller on a nacelle hinged to the floating base (a joint
+    with an actuator); B(q) = Jᵀ [propeller wrench, joint actuation] reproduces Drake's
+    accelerations with the Propeller system and the actuation port in the diagram."""
+    from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint
+
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(0.0))
+    base = plant.AddRigidBody("body", SpatialInertia(1.0, np.zeros(3), UnitInertia(0.02, 0.03, 0.04)))
+    nacelle = plant.AddRigidBody("nacelle", SpatialInertia(0.2, [0.0, 0.0, 0.05],
+                                                           UnitInertia(0.01, 0.01, 0.005)))
+    X = RigidTransform([0.3, 0.0, 0.0])
+    mount = plant.AddFrame(FixedOffsetFrame("mount", base.body_frame(), X))
+    plant.AddJoint(RevoluteJoint("tilt", mount, nacelle.body_frame(), [0.0, 1.0, 0.0]))
+    plant.AddJointActuator("tilt_servo", plant.GetJointByName("tilt"))
+    plant.Finalize()
+    infos = [PropellerInfo(nacelle.index(), RigidTransform([0.0, 0.0, 0.1]), 2.0, 0.05)]
+    prop = builder.AddSystem(Propeller(infos))
+    builder.Connect(plant.get_body_poses_output_port(), prop.get_body_poses_input_port())
+    builder.Connect(prop.get_spatial_forces_output_port(), plant.get_applied_spatial_force_input_port())
+    builder.ExportInput(prop.get_command_input_port(), "command")
+    builder.ExportInput(plant.get_actuation_input_port(), "servo")
+    diagram = builder.Build()
+    model = MechanicalModel.from_plant(plant, propellers=infos)
+    assert model.n == 7 and model.num_inputs == 2 and model.dof_names[6] == "tilt"
+    context = diagram.CreateDefaultContext()
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        q, qdot, u = rng.uniform(-1, 1, 7), rng.uniform(-1, 1, 7), rng.uniform(0, 5, 2)
+        qd, vd = model.to_drake_state(q, qdot)
+        plant.SetPositionsAndVelocities(plant.GetMyMutableContextFromRoot(context), np.r_[qd, vd])
+        diagram.get_input_port(0).FixValue(context, u[:1])
+        diagram.get_input_port(1).FixValue(context, u[1:])
+        vdot = diagram.EvalTimeDerivatives(context).CopyToVector()[plant.num_positions():]
+        M = model.M(q)
+        qddot = np.linalg.solve(M, model.B(q) @ u - model.Cqdot(q, qdot) - model.g(q))
+        h = 1e-6     # J̇ q̇ by central differences of J along q̇ (error ≈ 1e-10 ≪ tol)
+        jdot_qdot = (model.velocity_jacobian(q + h * qdot) - model.velocity_jacobian(q - h * qdot)) @ qdot / (2 * h)
+        tol = 1e-8 * np.linalg.cond(M)
+        np.testing.assert_allclose(model.velocity_jacobian(q) @ qddot + jdot_qdot, vdot, atol=tol)

@@ -159,7 +159,7 @@ def test_a_context_of_another_system_is_refused_naming_the_argument():
 
 def test_a_plant_without_actuators_is_refused_naming_the_fix():
     with pytest.raises(ValueError, match=r"no joint actuators.*plant\.AddJointActuator.*"
-                                         r"<transmission>.*not supported yet"):
+                                         r"<transmission>.*Propeller.*propellers="):
         MechanicalModel.from_plant(pendulum(actuated=False))
 
 
@@ -224,7 +224,7 @@ def test_unfinalized_non_double_and_diagram_plants_are_refused_naming_the_fix():
         MechanicalModel.from_plant(diagram)
 
 
-def test_a_floating_base_built_in_code_is_still_refused_by_name():
+def test_a_floating_base_built_in_code_is_converted_to_euler_angles():
     plant = MultibodyPlant(0.0)
     base = plant.AddRigidBody("base", SpatialInertia.SolidBoxWithMass(2.0, 0.3, 0.3, 0.1))
     arm = plant.AddRigidBody("arm", SpatialInertia.SolidCylinderWithMassAboutEnd(
@@ -232,6 +232,10 @@ def test_a_floating_base_built_in_code_is_still_refused_by_name():
     plant.AddJointActuator("motor", plant.AddJoint(RevoluteJoint(
         "shoulder", base.body_frame(), arm.body_frame(), [0.0, 1.0, 0.0])))
     plant.Finalize()
-    with pytest.raises(ValueError, match=r"joint 'base' \(quaternion_floating\).*q̇ = v.*"
-                                         "prismatic and revolute"):
-        MechanicalModel.from_plant(plant)
+    # issue #32: the quaternion base becomes [ϕ θ ψ x y z], the arm joint follows, the
+    # joint actuator is the one input (its column of Drake's actuation matrix, mapped by Jᵀ)
+    model = MechanicalModel.from_plant(plant)
+    assert model.n == 7 and model.num_inputs == 1
+    assert model.dof_names == ["phi", "theta", "psi", "x", "y", "z", "shoulder"]
+    q = np.array([0.1, -0.2, 0.3, 0.0, 0.0, 1.0, 0.4])
+    np.testing.assert_allclose(model.B(q), model.velocity_jacobian(q).T @ plant.MakeActuationMatrix())

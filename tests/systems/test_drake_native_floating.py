@@ -77,3 +77,32 @@ def test_multirotor_controller_is_double_only_and_says_what_to_use_instead(model
             convert()
     with pytest.raises(ValueError, match="gains are for 1 DOF"):
         MultirotorController(model, inner)
+
+
+def test_force_allocation_is_double_only_inverts_speeds_and_holds_a_hexarotor():
+    from pydrake.math import RigidTransform
+    from sobolev_drake.systems.rotor_allocation import ForceAllocation
+
+    plant = MultibodyPlant(0.0)
+    Parser(plant).AddModelsFromString(SDF, "sdf")
+    plant.Finalize()
+    body = plant.GetBodyByName("body").index()
+    infos = [PropellerInfo(body, RigidTransform([0.2 * np.cos(a), 0.2 * np.sin(a), 0.0]), 1.0,
+                           0.02 * (-1) ** i) for i, a in enumerate(np.arange(6) * np.pi / 3)]
+    hexa = MechanicalModel.from_plant(plant, propellers=infos, command_upper=5.0)
+    q = np.zeros(6)
+    system = ForceAllocation(hexa, speed_constants=2.0)
+    ctx = system.CreateDefaultContext()
+    system.get_input_port(0).FixValue(ctx, hexa.g(q))
+    system.get_input_port(1).FixValue(ctx, np.zeros(12))
+    speeds = system.get_output_port(0).Eval(ctx)
+    # the six thrusts 2 Ω² hold the weight with no torque (residual at solver rounding)
+    np.testing.assert_allclose(hexa.B(q) @ (2.0 * speeds ** 2), hexa.g(q), atol=1e-9)
+    assert system.get_output_port(1).Eval(ctx)[0] < 1e-9
+    system.get_input_port(0).FixValue(ctx, 10 * hexa.g(q))          # beyond 6 × 5 N: saturated
+    np.testing.assert_allclose(2.0 * system.get_output_port(0).Eval(ctx) ** 2, np.full(6, 5.0))
+    for convert, scalar in ((system.ToAutoDiffXd, "AutoDiffXd"), (system.ToSymbolic, "Expression")):
+        with pytest.raises(RuntimeError, match=rf"ForceAllocation does not convert to {scalar}: .*instead"):
+            convert()
+    with pytest.raises(ValueError, match="speed_constants must be > 0"):
+        ForceAllocation(hexa, speed_constants=-1.0)
