@@ -72,6 +72,13 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
         md3, js3, text3 = tables.schedule_table(out_dir)
         res.outputs.update({"schedule_md": md3, "schedule_json": js3})
         res.table_markdown += (f"\ntilt reference used: {schedule!r} schedule\n\n" + text3)
+        from sobolev_drake.tiltrotor.envelope_analysis import FROZEN_COLUMNS, frozen_point_rows
+        md5, js5, text5 = write_table(out_dir, f"{name}_frozen_points", FROZEN_COLUMNS,
+                                      frozen_point_rows(),
+                                      title="closed loop linearized at level-flight trims "
+                                            "(plant by Drake, law by central differences)")
+        res.outputs.update({"frozen_md": md5, "frozen_json": js5})
+        res.table_markdown += "\n" + text5
     report = out_dir / f"{name}_report.md"
     report.write_text(f"# {name}\n\n" + res.table_markdown)
     (out_dir / f"{name}_metrics.json").write_text(json.dumps(metrics, indent=1))

@@ -22,6 +22,7 @@ See docs/experiments/tiltrotor-hover-linear.md and docs/experiments/tiltrotor-en
 from __future__ import annotations
 
 import functools
+import math
 import re
 from dataclasses import replace
 
@@ -30,7 +31,7 @@ import numpy as np
 __all__ = ["HOVER_INDICES", "HOVER_PARAMETERS", "HOVER_RANDOMIZES", "HOVER_SMOKE_DURATION",
            "ENVELOPE_INDICES", "ENVELOPE_PARAMETERS", "ENVELOPE_RANDOMIZES",
            "ENVELOPE_SMOKE_DURATION", "ENVELOPE_DESIGNS", "ENVELOPE_PHASES", "MASS_INERTIA",
-           "WIND_SPEED", "envelope_wind",
+           "WIND_SPEED", "envelope_wind", "envelope_percentiles",
            "plant_params", "hover_design", "hover_turbulence", "hover_linear_case",
            "envelope_disturbances", "envelope_case"]
 
@@ -362,3 +363,47 @@ def envelope_case(case) -> dict:
     failure = "" if flown else "; ".join([f"max |φ|,|θ| {attitude:.1f}° (≥ 60° or state not finite)",
                                            *missed])
     return {"indices": dict(zip(ENVELOPE_INDICES, values)), "success": flown, "failure": failure}
+
+
+def envelope_percentiles(records, design, q=0.95, *, confidence=0.95, seed=0):
+    """Per index, the ``q`` quantile of ``design``'s successful cases with a bootstrap interval
+    (``campaign.stats.bootstrap_interval``): the tail the envelope goals are stated on.
+
+    Parameters
+    ----------
+    records : sequence of dict
+        Campaign records (``design``, ``success``, ``indices``).
+    design : str
+        The design summarized.
+    q : float, default 0.95
+        Quantile in (0, 1).
+    confidence : float, default 0.95
+        Coverage of the bootstrap interval.
+    seed : int, default 0
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    dict
+        index -> {"n", "quantile", "interval" [low, high]} (NaN values dropped).
+
+    Examples
+    --------
+    >>> recs = [{"design": "a", "success": True, "indices": {"e [m]": float(v)}} for v in range(101)]
+    >>> envelope_percentiles(recs, "a")["e [m]"]["quantile"]
+    95.0
+    """
+    from sobolev_drake.campaign.stats import bootstrap_interval
+
+    if not 0 < q < 1:
+        raise ValueError(f"q must be in (0, 1), got {q!r}")
+    ok = [r for r in records if r.get("design") == design and r.get("success")]
+    names = list(dict.fromkeys(k for r in ok for k in (r.get("indices") or {})))
+    out = {}
+    for name in names:
+        v = np.array([r["indices"].get(name, np.nan) for r in ok], dtype=float)
+        v = v[np.isfinite(v)]
+        stat = (lambda x: float(np.quantile(x, q)))
+        out[name] = {"n": int(v.size), "quantile": float(np.quantile(v, q)) if v.size else math.nan,
+                     "interval": list(bootstrap_interval(v, stat, confidence=confidence, seed=seed))}
+    return out
