@@ -24,7 +24,8 @@ from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.report import write_table
 from sobolev_drake.tiltrotor import campaigns, tables
 from sobolev_drake.tiltrotor.mission import DURATIONS, simulate_mission
-from sobolev_drake.tiltrotor.mission_metrics import GOAL_LANDING, score_mission
+from sobolev_drake.tiltrotor.law import DESIGNS as DESIGN_LABELS
+from sobolev_drake.tiltrotor.mission_metrics import score_mission
 from sobolev_drake.tiltrotor.plots import plot_mission
 
 SMOKE_DURATION = 10.0
@@ -32,19 +33,22 @@ NAMES = {1: "tiltrotor-hover", 2: "tiltrotor-envelope"}
 
 
 def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
-                schedule="plant"):
+                schedule="plant", design="thesis", compare=()):
     """Fly mission ``scenario`` (1 or 2), score it, write figures, tables and metrics, check
-    the claims; ``schedule``: tilt references (:func:`~sobolev_drake.tiltrotor.mission.build_mission`)."""
+    the claims; ``schedule``: tilt references, ``design``: the law's weighting
+    (:func:`~sobolev_drake.tiltrotor.mission.build_mission`); ``compare``: other designs flown
+    on the same mission for the designs table (not claimed)."""
     name = NAMES[scenario]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     if duration is None:
         duration = SMOKE_DURATION if smoke else DURATIONS[scenario]
     built, data = simulate_mission(scenario, duration, schedule=schedule, record=record,
-                                   progress=not smoke)
+                                   progress=not smoke, design=design)
     metrics = score_mission(data, scenario, duration)
+    metrics["design"] = DESIGN_LABELS[design]
     res = ExperimentResult(name=name, metrics=metrics)
-    res.outputs.update(plot_mission(data, out_dir, name))
+    res.outputs.update(plot_mission(data, out_dir, name, scenario=scenario, duration=duration))
     md, js, text = write_table(out_dir, f"{name}_phases", tables.PHASE_COLUMNS,
                                tables.phase_rows(metrics["phases"]),
                                title=f"{name}: position tracking per phase (duration {duration:g} s)")
@@ -52,10 +56,29 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
                                   tables.effort_rows(metrics["effort"]),
                                   title=f"{name}: control effort and time on actuator bounds")
     res.table_markdown = text + "\n" + text2 + tables.mission_summary(metrics)
+    if compare:
+        rows = [tables.design_row(DESIGN_LABELS[design] + " (claimed)", metrics)]
+        for other in compare:
+            _, d2 = simulate_mission(scenario, duration, schedule=schedule, design=other,
+                                     progress=not smoke)
+            m2 = score_mission(d2, scenario, duration)
+            metrics.setdefault("compared", {})[DESIGN_LABELS[other]] = m2
+            rows.append(tables.design_row(DESIGN_LABELS[other], m2))
+        md4, js4, text4 = write_table(out_dir, f"{name}_designs", tables.design_columns(metrics),
+                                      rows, title=f"{name}: the law's designs on the same mission")
+        res.outputs.update({"designs_md": md4, "designs_json": js4})
+        res.table_markdown += "\n" + text4
     if scenario == 2 and not smoke:
         md3, js3, text3 = tables.schedule_table(out_dir)
         res.outputs.update({"schedule_md": md3, "schedule_json": js3})
         res.table_markdown += (f"\ntilt reference used: {schedule!r} schedule\n\n" + text3)
+        from sobolev_drake.tiltrotor.envelope_analysis import FROZEN_COLUMNS, frozen_point_rows
+        md5, js5, text5 = write_table(out_dir, f"{name}_frozen_points", FROZEN_COLUMNS,
+                                      frozen_point_rows(),
+                                      title="closed loop linearized at level-flight trims "
+                                            "(plant by Drake, law by central differences)")
+        res.outputs.update({"frozen_md": md5, "frozen_json": js5})
+        res.table_markdown += "\n" + text5
     report = out_dir / f"{name}_report.md"
     report.write_text(f"# {name}\n\n" + res.table_markdown)
     (out_dir / f"{name}_metrics.json").write_text(json.dumps(metrics, indent=1))
@@ -67,8 +90,9 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
                                     f"{r['goal_rms_m']:g} m", r["goal_met"],
                                     f"{r['rms_m']:.2f} m"))
     if not smoke and duration >= DURATIONS[scenario]:
-        res.claims.append(Claim(f"final point reached within {GOAL_LANDING} m",
-                                metrics["final_position_error_m"] < GOAL_LANDING,
+        goal = metrics["goal_landing_m"]
+        res.claims.append(Claim(f"final point reached within {goal} m",
+                                metrics["final_position_error_m"] < goal,
                                 f"{metrics['final_position_error_m']:.2f} m"))
     res.claims.append(Claim("attitude within ±60° and state finite",
                             metrics["finite"] and max(metrics["max_abs_roll_deg"],
@@ -94,15 +118,20 @@ def run_hover(out_dir, *, duration=None, record=False, smoke=False):
 @register("tiltrotor-envelope", "Tilt-rotor full flight envelope: take-off, transition, 33 m/s "
           "cruise, turn, transition, landing; nonlinear W∞ + allocation with wind gusts",
           default_duration=250.0, flagship=10, thesis_ref="7.3.2 scenario 2, Figs 7.21-7.27")
-def run_envelope(out_dir, *, duration=None, record=False, smoke=False, schedule="plant"):
+def run_envelope(out_dir, *, duration=None, record=False, smoke=False, schedule="plant",
+                 design="scheduled"):
     """``schedule``: "plant" (our level-flight trims, default) or "data" (mission-file
-    polynomial, as the thesis author's simulator) for the tilt references."""
+    polynomial, as the thesis author's simulator) for the tilt references; ``design``:
+    "scheduled" (the envelope gain schedule, default, claimed) or "thesis" (the thesis tuning
+    of §7.3.2).  A full run also flies the other design for the designs table."""
+    compare = () if smoke else tuple(d for d in DESIGN_LABELS if d != design)
     return run_mission(2, out_dir, duration=duration, record=record, smoke=smoke,
-                       schedule=schedule)
+                       schedule=schedule, design=design, compare=compare)
 
 
-# the nonlinear W∞ law (one design) under drawn gusts and force pulses: distributions of the
-# mission's scores, the share of flights flown through, and the goals missed
+# the nonlinear W∞ law (scheduled and thesis tuning, paired) under drawn gusts, force pulses
+# and constant wind: distributions of the mission's scores, the share of flights flown
+# through, the goals missed and the paired comparison
 register_campaign("tiltrotor-envelope", CampaignDefinition(
     designs=tuple(campaigns.ENVELOPE_DESIGNS), indices=campaigns.ENVELOPE_INDICES,
     randomizes=campaigns.ENVELOPE_RANDOMIZES, run=campaigns.envelope_case, parameters=campaigns.ENVELOPE_PARAMETERS,

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FrozenPoint", "frozen_point", "ANALYSIS_SPEEDS"]
+__all__ = ["FrozenPoint", "frozen_point", "ANALYSIS_SPEEDS", "FROZEN_COLUMNS", "frozen_point_rows"]
 
 #: forward speeds (m/s) of the frozen points the experiment and the tests analyse
 ANALYSIS_SPEEDS = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0)
@@ -117,3 +117,32 @@ def frozen_point(speed, design="thesis", *, model=None, step=1e-6, gain_schedule
     B = lin.B[keep]
     poles = np.linalg.eigvals(A + B @ K)
     return FrozenPoint(speed, design, poles[np.argsort(-poles.real)], K)
+
+
+#: columns of the frozen-point table (units in every header)
+FROZEN_COLUMNS = ["V [m/s]", "design", "max Re(pole) [1/s]", "min damping ratio [-]",
+                  "slowest poles [1/s]"]
+
+
+def frozen_point_rows(speeds=ANALYSIS_SPEEDS, designs=("scheduled", "thesis")):
+    """Rows of the frozen-point table (:data:`FROZEN_COLUMNS`): every design at every speed.
+
+    Parameters
+    ----------
+    speeds : sequence of float, default :data:`ANALYSIS_SPEEDS`
+        Forward speeds of the level-flight trims (m/s).
+    designs : sequence of str
+        Designs of :data:`~sobolev_drake.tiltrotor.law.DESIGNS`.
+
+    Returns
+    -------
+    list of list
+    """
+    rows = []
+    for V in speeds:
+        for d in designs:
+            fp = frozen_point(V, d)
+            slow = ", ".join(f"{p.real:.3g}{p.imag:+.3g}j" if abs(p.imag) > 1e-9 else f"{p.real:.3g}"
+                             for p in fp.poles[:3])
+            rows.append([f"{V:g}", d, f"{fp.spectral_abscissa:.4f}", f"{fp.min_damping:.3f}", slow])
+    return rows

@@ -68,7 +68,20 @@ class ChannelTarget:
 
 @dataclass(frozen=True)
 class Regime:
-    """Targets of one flight regime: controlled x = y, z; regulated tilt, ψ; attitude φ, θ."""
+    """Targets of one flight regime.
+
+    Parameters
+    ----------
+    name : str
+        The regime ("hover", "cruise", or a blend's label).
+    xy, z : ChannelTarget
+        Controlled DOF (order 3, with integral): x and y share one target (a turn rotates the
+        flight direction through both), z.
+    tilt, yaw : ChannelTarget
+        Regulated DOF (order 2): both tilt angles αR, αL, and ψ.
+    roll, pitch : ChannelTarget
+        Attitude φ, θ (order 2) towards the coordinated bank and the trim pitch.
+    """
 
     name: str
     xy: ChannelTarget
@@ -245,22 +258,71 @@ class EnvelopeSchedule:
     cascade: bool = True
 
     def regime(self, U) -> Regime:
-        """The blended targets at forward air speed U (m/s)."""
+        """The blended targets at forward air speed U.
+
+        Parameters
+        ----------
+        U : float
+            Forward air speed of the reference (m/s).
+
+        Returns
+        -------
+        Regime
+            (ω, ζ, integral ratio) of every channel blended by :func:`blend_factor`.
+        """
         s = blend_factor(U, self.speeds)
         h, c = self.hover, self.cruise
         return Regime(f"blend {s:.3f}", *(_mix(getattr(h, k), getattr(c, k), s)
                                           for k in ("xy", "z", "tilt", "yaw", "roll", "pitch")))
 
     def gains(self, U) -> dict:
-        """Gains at U: "controlled" (3, 3) rows [k_ė k_e k_∫e] of x y z, "regulated" (3, 2)
-        of αR αL ψ, "attitude" (2, 2) of φ θ."""
-        r = self.regime(U)
-        return {"controlled": np.array([target_gains(t, 3) for t in (r.xy, r.xy, r.z)]),
-                "regulated": np.array([target_gains(t, 2) for t in (r.tilt, r.tilt, r.yaw)]),
-                "attitude": np.array([target_gains(t, 2) for t in (r.roll, r.pitch)])}
+        """Gains of the blended targets at U (the coefficients of :func:`target_polynomial`
+        written out: per sample, numpy's small-array calls would cost more than the arithmetic).
+
+        Parameters
+        ----------
+        U : float
+            Forward air speed of the reference (m/s).
+
+        Returns
+        -------
+        dict
+            "controlled": 3 rows [k_ė k_e k_∫e] of x y z (1/s, 1/s², 1/s³); "regulated": 3
+            rows [k_ė k_e] of αR αL ψ; "attitude": 2 rows [k_ė k_e] of φ θ (lists of floats).
+        """
+        s = blend_factor(U, self.speeds)
+        out = {}
+        for group, names in (("controlled", ("xy", "xy", "z")), ("regulated", ("tilt", "tilt", "yaw")),
+                             ("attitude", ("roll", "pitch"))):
+            rows = []
+            for name in names:
+                a, b = getattr(self.hover, name), getattr(self.cruise, name)
+                w = a.omega + s * (b.omega - a.omega)
+                z = a.zeta + s * (b.zeta - a.zeta)
+                if group == "controlled":
+                    wi = (a.integral + s * (b.integral - a.integral)) * w
+                    rows.append([2 * z * w + wi, w * w + 2 * z * w * wi, w * w * wi])
+                else:
+                    rows.append([2 * z * w, w * w])
+            out[group] = rows
+        return out
 
     def attitude_reference(self, U, reference):
-        """(φ_r, θ_r) in rad: coordinated bank of the reference and the trim pitch at U."""
+        """Attitude reference without the cascade: the reference's coordinated bank and the
+        trim pitch.
+
+        Parameters
+        ----------
+        U : float
+            Forward air speed of the reference (m/s).
+        reference : sequence of 12 floats
+            The mission reference [x y z ψ | rates | accelerations].
+
+        Returns
+        -------
+        (float, float)
+            (φ_r, θ_r) in rad.
+        """
         psi = reference[3]
         a_lat = -math.sin(psi) * reference[8] + math.cos(psi) * reference[9]
         # the body's φ is positive right wing down about the forward axis: a left turn
@@ -282,6 +344,11 @@ class EnvelopeSchedule:
             The mission reference [x y z ψ | rates | accelerations].
         wind : list of float, length 3
             Measured wind (m/s).
+
+        Returns
+        -------
+        list of float, length 8
+            q̈_des [αR αL φ θ ψ x y z] (rad/s², m/s²).
         """
         from sobolev_drake.tiltrotor.controller import forward_air_speed
 

@@ -19,6 +19,7 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource, TrajectorySo
 from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.data import load
+from sobolev_drake.models.base import check_vector
 from sobolev_drake.harness import add_log_sinks
 from sobolev_drake.systems.reference_catalogue import tiltrotor_mission_reference as mission_reference
 
@@ -143,7 +144,8 @@ def _plant_port(handles, name):
 
 
 def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None,
-                  plant_params=None, wind_gusts=None, force_disturbances=None, design="thesis"):
+                  plant_params=None, wind_gusts=None, force_disturbances=None, design="thesis",
+                  constant_wind=None):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Parameters
@@ -168,6 +170,8 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
         Pulse events (:func:`pulses`) replacing the mission file's.
     design : {"thesis", "scheduled"}, default "thesis"
         The law's weighting (:data:`~sobolev_drake.tiltrotor.law.DESIGNS`).
+    constant_wind : array_like, shape (3,), optional
+        Constant (measured) wind, inertial m/s, replacing the mission file's.
 
     Returns
     -------
@@ -195,7 +199,9 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     ref.set_name("mission_reference")
     # wind: measured constant part (Assumption 19) + unmeasured gusts (footnote 8); C++
     # primitives so the plant's every-stage wind evaluation stays cheap.
-    const = builder.AddSystem(ConstantVectorSource(np.asarray(spec["constant_wind"], float)))
+    if constant_wind is None:
+        constant_wind = spec["constant_wind"]
+    const = builder.AddSystem(ConstantVectorSource(check_vector("constant_wind", constant_wind, 3)))
     tg, vg = pulses(spec.get("wind_gusts", []) if wind_gusts is None else wind_gusts, duration)
     gust = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(tg, vg)))
     wind = builder.AddSystem(Adder(2, 3))
@@ -229,7 +235,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
                      integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None,
                      plant_params=None, wind_gusts=None, force_disturbances=None,
-                     design="thesis"):
+                     design="thesis", constant_wind=None):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate a mission.
 
     The integrator's maximum step is the controller period (the sampled controller's events
@@ -261,6 +267,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         Pulse events replacing the mission file's (:func:`build_mission`).
     design : {"thesis", "scheduled"}, default "thesis"
         The law's weighting (:func:`build_mission`).
+    constant_wind : array_like, shape (3,), optional
+        Constant measured wind replacing the mission file's (:func:`build_mission`).
 
     Returns
     -------
@@ -279,7 +287,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         meshcat = viz.start_meshcat()
     built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period,
                           params=params, plant_params=plant_params, wind_gusts=wind_gusts,
-                          force_disturbances=force_disturbances, design=design)
+                          force_disturbances=force_disturbances, design=design,
+                          constant_wind=constant_wind)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()

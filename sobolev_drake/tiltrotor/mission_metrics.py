@@ -12,15 +12,24 @@ import numpy as np
 
 from sobolev_drake.tiltrotor.mission import CRUISE, HOVER, TRANSITION, mission_phases
 
-__all__ = ["GOAL_RMS", "GOAL_LANDING", "ACTUATORS", "phase_metrics", "effort_metrics",
-           "score_mission"]
+__all__ = ["GOAL_RMS", "GOAL_LANDING", "GOAL_LANDING_BY_SCENARIO", "ACTUATORS", "ACTUATOR_LABELS",
+           "phase_metrics", "effort_metrics", "score_mission"]
 
-#: goal on the RMS position error per phase kind (m)
-GOAL_RMS = {HOVER: 1.0, TRANSITION: 3.0, CRUISE: 3.0}
-#: goal on the final position error (m)
-GOAL_LANDING = 0.5
+#: goal on the RMS position error per phase kind (m); transition and cruise were 3 m while
+#: the thesis tuning was the only design (it misses them), 1 m since the envelope schedule
+GOAL_RMS = {HOVER: 1.0, TRANSITION: 1.0, CRUISE: 1.0}
+#: goal on the final position error (m), per scenario (hover mission, full envelope)
+GOAL_LANDING_BY_SCENARIO = {1: 0.5, 2: 0.25}
+#: the hover mission's (scenario 1) landing goal (m)
+GOAL_LANDING = GOAL_LANDING_BY_SCENARIO[1]
 #: names of the allocated inputs τ̄ (7.62), in order
 ACTUATORS = ["fPR", "fPL", "tauSR", "tauSL", "dWR", "dWL", "dTR", "dTL"]
+#: one display name and the SI unit of every actuator key (tables and figures use these):
+#: thrusts, servo torques, the four surfaces (wing / tail right / left), propeller speeds
+ACTUATOR_LABELS = {"fPR": ("f_PR", "N"), "fPL": ("f_PL", "N"), "tauSR": ("τ_sR", "N m"),
+                   "tauSL": ("τ_sL", "N m"), "dWR": ("δ_WR", "rad"), "dWL": ("δ_WL", "rad"),
+                   "dTR": ("δ_TR", "rad"), "dTL": ("δ_TL", "rad"), "nPR": ("n_R", "rev/s"),
+                   "nPL": ("n_L", "rev/s")}
 
 
 def phase_metrics(t, pos, pos_ref, phases):
@@ -110,7 +119,8 @@ def score_mission(data, scenario, duration):
     Returns
     -------
     dict
-        ``phases``, ``effort``, ``final_position_error_m``, ``max_abs_roll_deg``,
+        ``phases``, ``effort``, ``final_position_error_m``, ``goal_landing_m``
+        (:data:`GOAL_LANDING_BY_SCENARIO`), ``max_abs_roll_deg``,
         ``max_abs_pitch_deg``, ``tilt_range_deg``, ``max_allocation_residual``,
         ``rms_allocation_residual``, ``finite``, ``duration_s``, ``bounds_check``.
     """
@@ -128,6 +138,7 @@ def score_mission(data, scenario, duration):
         "speeds_nonnegative": bool(np.all(data["propeller_speed"] >= 0)),
         "max_speed_rev_s": float(np.max(data["propeller_speed"]))}
     return {"phases": rows, "effort": effort, "final_position_error_m": land,
+            "goal_landing_m": GOAL_LANDING_BY_SCENARIO[scenario],
             "max_abs_roll_deg": float(np.degrees(np.max(np.abs(q[2])))),
             "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(q[3])))),
             "tilt_range_deg": [float(np.degrees(np.min(q[:2]))), float(np.degrees(np.max(q[:2])))],

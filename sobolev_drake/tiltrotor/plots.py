@@ -13,9 +13,24 @@ import numpy as np
 __all__ = ["plot_mission", "plot_hover_flights"]
 
 
-def plot_mission(data, out_dir, stem):
-    """PNG figures of a mission flight: 3-D path, positions, attitude, tilt angles, propeller
-    speeds, servo torques, δe/δr, wind, tracking errors and allocation residual.
+def _shade_phases(axis, phases, label=False):
+    """Alternate light bands over the mission phases (names on top when ``label``)."""
+    for k, (name, a, b, _kind) in enumerate(phases):
+        axis.axvspan(a, b, color="0.85" if k % 2 else "0.93", lw=0, zorder=0)
+        if label:
+            axis.text(0.5 * (a + b), 1.02, name.replace("_", " "), transform=axis.get_xaxis_transform(),
+                      ha="center", va="bottom", fontsize=6.5)
+
+
+def plot_mission(data, out_dir, stem, *, scenario=None, duration=None):
+    """PNG figures of a mission flight: 3-D path, positions, attitude, tilt angles, actuators
+    with their bounds, time on bounds per actuator, wind, tracking errors and allocation
+    residual; the mission's phases shaded on every time axis.
+
+    Actuators carry one name each (:data:`~sobolev_drake.tiltrotor.mission_metrics.
+    ACTUATOR_LABELS`, as in the effort table): the four surfaces are δ_WR, δ_WL (wings) and
+    δ_TR, δ_TL (tail), each drawn with its full deflection range (the air-speed dependent bound
+    (7.87)–(7.89) is at most that; samples on a bound are marked).
 
     Parameters
     ----------
@@ -25,6 +40,10 @@ def plot_mission(data, out_dir, stem):
         Folder of the PNG files.
     stem : str
         File-name prefix.
+    scenario : {1, 2}, optional
+        The mission, for the phase bands (none without it).
+    duration : float, optional
+        Mission duration (s) of the phases (default: the last log time).
 
     Returns
     -------
@@ -36,10 +55,14 @@ def plot_mission(data, out_dir, stem):
     import matplotlib.pyplot as plt
 
     from sobolev_drake.plots import save_figure
+    from sobolev_drake.tiltrotor.allocation import thesis_bounds_constants
+    from sobolev_drake.tiltrotor.mission import mission_phases
+    from sobolev_drake.tiltrotor.mission_metrics import ACTUATOR_LABELS, ACTUATORS, effort_metrics
 
     t, x, ref = data["t"], data["x"], data["reference"]
     q, pr = x[:8], ref[0:4]
-    tau = data["tau_bar"]
+    tau, sat = data["tau_bar"], data["saturation"]
+    phases = [] if scenario is None else mission_phases(scenario, duration or float(t[-1]))
     out = {}
     fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
@@ -50,17 +73,22 @@ def plot_mission(data, out_dir, stem):
     out["path_3d"] = save_figure(fig, Path(out_dir) / f"{stem}_path3d.png")
 
     def panel(rows, title, fname):
-        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.6), sharex=True)
+        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.8), sharex=True)
         axes = np.atleast_1d(axes)
-        for axis, (lab, curves) in zip(axes, rows):
+        for k, (axis, (lab, curves)) in enumerate(zip(axes, rows)):
+            _shade_phases(axis, phases, label=k == 0)
             for y, style, name in curves:
-                axis.plot(t, y, style, lw=1, label=name)
+                if style == "bound":          # a bound: dashed red, no legend entry
+                    axis.axhline(y, color="C3", ls=":", lw=0.9)
+                else:
+                    axis.plot(t, y, style, lw=1, label=name)
             axis.set_ylabel(lab)
             axis.grid(alpha=0.3)
-            if len(curves) > 1:
+            if sum(s != "bound" for _, s, _ in curves) > 1:
                 axis.legend(fontsize=7, loc="upper right")
         axes[-1].set_xlabel("time [s]")
-        fig.suptitle(title)
+        axes[-1].set_xlim(t[0], t[-1])
+        fig.suptitle(title + ("  (phases shaded)" if phases else ""))
         fig.tight_layout()
         return save_figure(fig, Path(out_dir) / f"{stem}_{fname}.png")
 
@@ -74,20 +102,43 @@ def plot_mission(data, out_dir, stem):
                             "attitude", "attitude")
     out["tilt"] = panel([("αR [deg]", [(q[0] * deg, "C0", "αR")]),
                          ("αL [deg]", [(q[1] * deg, "C1", "αL")])], "tilt angles", "tilt")
+    _s, _c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi = thesis_bounds_constants()
+    name = {k: v[0] for k, v in ACTUATOR_LABELS.items()}
+
+    def on_bound(i, scale=1.0):      # the actuator's value where it sat on a bound, else NaN
+        return np.where(np.abs(sat[i]) > 0.5, tau[i] * scale, np.nan)
+
     sp = data["propeller_speed"]
-    out["actuators"] = panel([("n [rev/s]", [(sp[0], "C0", "nR"), (sp[1], "C1", "nL")]),
-                              ("τs [N m]", [(tau[2], "C0", "τsR"), (tau[3], "C1", "τsL")]),
-                              ("δ [deg]", [(0.5 * (tau[6] + tau[7]) * deg, "C0", "δe"),
-                                           (0.5 * (tau[6] - tau[7]) * deg, "C1", "δr"),
-                                           (tau[4] * deg, "C2", "δWR"), (tau[5] * deg, "C3", "δWL")])],
-                             "actuators", "actuators")
+    rows = [("n [rev/s]", [(sp[0], "C0", name["nPR"]), (sp[1], "C1", name["nPL"])]),
+            ("f [N]", [(tau[0], "C0", name["fPR"]), (tau[1], "C1", name["fPL"]),
+                       (f_lo, "bound", ""), (f_hi, "bound", "")]),
+            ("τs [N m]", [(tau[2], "C0", name["tauSR"]), (tau[3], "C1", name["tauSL"]),
+                          (t_lo, "bound", ""), (t_hi, "bound", "")])]
+    for pair in (("dWR", "dWL"), ("dTR", "dTL")):
+        curves = []
+        for j, key in enumerate(pair):
+            i = ACTUATORS.index(key)
+            curves += [(tau[i] * deg, f"C{j}", name[key]),
+                       (on_bound(i, deg), f"C{j}.", f"{name[key]} on bound")]
+        rows.append(("δ [deg]", curves + [(d_lo * deg, "bound", ""), (d_hi * deg, "bound", "")]))
+    out["actuators"] = panel(rows, "actuators (dotted red: bounds)", "actuators")
+    eff = effort_metrics(t, tau, sp, sat)
+    fig, ax = plt.subplots(figsize=(7, 3))
+    secs = [eff[k]["time_on_bound_s"] for k in ACTUATORS]
+    ax.bar([name[k] for k in ACTUATORS], secs, color="C3")
+    for k, v in enumerate(secs):
+        ax.text(k, v, f"{v:.0f}", ha="center", va="bottom", fontsize=7)
+    ax.set_ylabel("time on a bound [s]")
+    ax.set_title(f"saturation time per actuator (of {t[-1] - t[0]:.0f} s)")
+    fig.tight_layout()
+    out["saturation"] = save_figure(fig, Path(out_dir) / f"{stem}_saturation.png")
     w, f = data["wind"], data["force"]
     out["disturbances"] = panel([("wind [m/s]", [(w[i], f"C{i}", f"ζ{a}") for i, a in enumerate("xyz")]),
                                  ("force [N]", [(f[i], f"C{i}", f"f{a}") for i, a in enumerate("xyz")])],
                                 "wind and force disturbances", "disturbances")
     err = q[5:8] - pr[:3]
     out["errors"] = panel([("e [m]", [(err[i], f"C{i}", f"e{a}") for i, a in enumerate("xyz")]),
-                           ("‖u*−Bτ̄‖", [(data["allocation_residual"][0], "C3", "residual")])],
+                           ("‖u*−Bτ̄‖ [N, N m]", [(data["allocation_residual"][0], "C3", "residual")])],
                           "tracking error and allocation residual", "errors")
     return out
 

@@ -12,12 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from sobolev_drake.report import write_table
-from sobolev_drake.tiltrotor.mission_metrics import GOAL_LANDING
 
 __all__ = ["THESIS_TABLE_7_2", "TABLE_7_2_COLUMNS", "table_7_2_title", "thesis_cells",
            "gamma_cell", "design_cells", "flight_row", "synthesis_failed_row", "sim_failed_row",
            "LITERAL_NOISE_COLUMNS", "literal_noise_row", "PHASE_COLUMNS", "phase_rows",
-           "EFFORT_COLUMNS", "effort_rows", "mission_summary", "schedule_table"]
+           "EFFORT_COLUMNS", "effort_rows", "mission_summary", "schedule_table",
+           "design_columns", "design_row"]
 
 #: Table 7.2: Table 7.2 column -> (ISE, IADU)
 THESIS_TABLE_7_2 = {"W∞": (21.4, 2182.0), "W∞-D": (10.9, 1541.8), "W∞-O.F.": (60.7, 1376.2),
@@ -205,7 +205,7 @@ def phase_rows(phases):
              _fmt(r["max_m"]), _fmt(r["goal_rms_m"], 1), _fmt(r["goal_met"])] for r in phases]
 
 
-EFFORT_COLUMNS = ["actuator", "RMS", "IADU", "time on bound [s]"]
+EFFORT_COLUMNS = ["actuator", "unit", "RMS [unit]", "IADU ∫|du| [unit]", "time on bound [s]"]
 
 
 def effort_rows(effort):
@@ -220,8 +220,46 @@ def effort_rows(effort):
     -------
     list of list
     """
-    return [[k, _fmt(v["rms"], 3), _fmt(v["iadu"], 2), _fmt(v.get("time_on_bound_s"), 2)]
-            for k, v in effort.items()]
+    from sobolev_drake.tiltrotor.mission_metrics import ACTUATOR_LABELS
+    return [[*ACTUATOR_LABELS.get(k, (k, "-")), _fmt(v["rms"], 3), _fmt(v["iadu"], 2),
+             _fmt(v.get("time_on_bound_s"), 2)] for k, v in effort.items()]
+
+
+def design_columns(metrics):
+    """Columns of the designs table: one RMS per phase of ``metrics``, final error, time on
+    bounds, attitude (units in every header).
+
+    Parameters
+    ----------
+    metrics : dict
+        :func:`~sobolev_drake.tiltrotor.mission_metrics.score_mission` of the claimed design.
+
+    Returns
+    -------
+    list of str
+    """
+    return (["design"] + [f"RMS {r['phase']} [m]" for r in metrics["phases"]]
+            + ["final error [m]", "time on bounds, all actuators [s]", "max |φ|,|θ| [°]"])
+
+
+def design_row(label, metrics):
+    """Row of the designs table (:func:`design_columns`).
+
+    Parameters
+    ----------
+    label : str
+        The design.
+    metrics : dict
+        Its :func:`~sobolev_drake.tiltrotor.mission_metrics.score_mission`.
+
+    Returns
+    -------
+    list
+    """
+    bounds = sum(v.get("time_on_bound_s", 0.0) for v in metrics["effort"].values())
+    return ([label] + [_fmt(r["rms_m"]) for r in metrics["phases"]]
+            + [_fmt(metrics["final_position_error_m"]), _fmt(bounds, 1),
+               _fmt(max(metrics["max_abs_roll_deg"], metrics["max_abs_pitch_deg"]), 1)])
 
 
 def mission_summary(metrics):
@@ -238,7 +276,7 @@ def mission_summary(metrics):
     str
     """
     return (f"\nfinal position error {metrics['final_position_error_m']:.3f} m "
-            f"(goal < {GOAL_LANDING} m); max |φ| {metrics['max_abs_roll_deg']:.1f}°, "
+            f"(goal < {metrics['goal_landing_m']} m); max |φ| {metrics['max_abs_roll_deg']:.1f}°, "
             f"max |θ| {metrics['max_abs_pitch_deg']:.1f}°, allocation residual RMS "
             f"{metrics['rms_allocation_residual']:.3g} (max {metrics['max_allocation_residual']:.3g})\n")
 

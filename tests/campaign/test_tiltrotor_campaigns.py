@@ -32,7 +32,8 @@ def test_campaigns_are_declared():
     from sobolev_drake.tiltrotor.linear_design import DESIGNS
     assert hover.designs == DESIGNS and hover.default_perturb == {}
     assert {"m1", "I_C1", "sigma"} <= set(hover.parameters)
-    assert envelope.designs == ("nonlinear W∞",) and "sigma" not in envelope.parameters
+    assert envelope.designs == ("scheduled W∞", "thesis tuning, §7.3.2")
+    assert "sigma" not in envelope.parameters
     # one RMS index per mission phase, in the mission file's order
     assert campaigns.ENVELOPE_PHASES == tuple(p[0] for p in scenario_2_phases())
 
@@ -91,10 +92,14 @@ def test_a_failed_synthesis_is_a_failed_record_solved_once(monkeypatch):
 
 
 def test_envelope_disturbances_depend_on_the_seed_only():
-    a, b = Case(ENVELOPE, "nonlinear W∞", 2), Case(ENVELOPE, "another design", 2, smoke=True)
+    a, b = Case(ENVELOPE, "scheduled W∞", 2), Case(ENVELOPE, "another design", 2, smoke=True)
     gusts, forces = campaigns.envelope_disturbances(a)
     assert (gusts, forces) == campaigns.envelope_disturbances(b)
-    assert (gusts, forces) != campaigns.envelope_disturbances(Case(ENVELOPE, "nonlinear W∞", 3))
+    assert (gusts, forces) != campaigns.envelope_disturbances(Case(ENVELOPE, "scheduled W∞", 3))
+    wind = campaigns.envelope_wind(a)
+    assert (wind == campaigns.envelope_wind(b)).all() and wind[2] == 0.0
+    assert campaigns.WIND_SPEED[0] <= math.hypot(wind[0], wind[1]) <= campaigns.WIND_SPEED[1]
+    assert (wind != campaigns.envelope_wind(Case(ENVELOPE, "scheduled W∞", 3))).any()
     assert len(gusts) == 5 and len(forces) == 4
     # durations kept; amplitudes and times drawn around the mission file's
     assert all(e["to"] - e["from"] == pytest.approx(3.0) for e in gusts)
@@ -103,7 +108,8 @@ def test_envelope_disturbances_depend_on_the_seed_only():
 
 
 def test_envelope_smoke_case_runs_and_is_reproducible():
-    (case,) = make_cases(ENVELOPE, 1, first_seed=1, smoke=True, perturb={"m1": 0.1, "I_C1": 0.1})
+    (case,) = make_cases(ENVELOPE, 1, first_seed=1, smoke=True, perturb={"m1": 0.1, "I_C1": 0.1},
+                         designs=["scheduled W∞"])
     first, second = run_case(case), run_case(case)
     assert first["success"], first["failure"]
     assert tuple(first["indices"]) == campaigns.ENVELOPE_INDICES

@@ -116,9 +116,9 @@ def test_phase_bookkeeping_and_pulses():
     tt = np.linspace(0, 10, 101)
     pos = np.zeros((3, 101))
     ref = np.zeros((3, 101))
-    pos[0, tt >= 5] = 2.0
+    pos[0, tt >= 5] = 0.5
     rows = phase_metrics(tt, pos, ref, [("a", 0, 5, "hover"), ("b", 5, 10, "cruise")])
-    assert rows[0]["rms_m"] == 0 and rows[1]["rms_m"] == pytest.approx(2.0)
+    assert rows[0]["rms_m"] == 0 and rows[1]["rms_m"] == pytest.approx(0.5)
     assert rows[0]["goal_met"] and rows[1]["goal_met"]
 
 
