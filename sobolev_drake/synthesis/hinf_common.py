@@ -37,7 +37,8 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
     if not isinstance(plant, GeneralizedPlant):
         raise TypeError("plant must be a GeneralizedPlant (GeneralizedPlant.make, winf_plant, "
                         f"hinf_plant), got {type(plant).__name__}")
-    real_scalar("delta", delta, low=0.0, low_open=True)
+    if delta is not None:
+        real_scalar("delta", delta, low=0.0, low_open=True)
     real_scalar("rtol", rtol, low=0.0, low_open=True)
     if margin is not None:
         real_scalar("margin", margin, low=0.0)

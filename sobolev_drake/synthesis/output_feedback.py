@@ -20,6 +20,7 @@ from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_requ
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
 from .problem import DynamicController, SynthesisResult, check_initial_states, transient_bound
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
+from .hinf_riccati import REGULARIZE_DELTA
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
@@ -139,7 +140,7 @@ def singular_problem(plant, tol=1e-9):
 
 
 def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
-                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
+                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
                     rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
                     scaling=True, initial_states=None, transient_gain_weight=0.0):
     """Full-order dynamic output-feedback H∞ synthesis, certified.
@@ -209,7 +210,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
     def lmi(regularize, verify, deadline):
         return _lmi_output_feedback(plant, region=region, backend=backend,
                                     solver_options=solver_options, gamma=gamma,
-                                    regularize=regularize, delta=delta, rtol=rtol, verify=verify,
+                                    regularize=regularize, delta=REGULARIZE_DELTA if delta is None else delta, rtol=rtol, verify=verify,
                                     input_weight=input_weight, strictly_proper=strictly_proper,
                                     margin=margin, scaling=scaling, initial_states=initial_states,
                                     transient_gain_weight=transient_gain_weight, deadline=deadline)

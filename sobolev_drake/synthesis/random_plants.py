@@ -22,7 +22,8 @@ import numpy as np
 from ..validation import one_of
 from .problem import GeneralizedPlant
 
-__all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family"]
+__all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family", "SINGULAR_VARIANTS",
+           "SingularCase", "singular_family"]
 
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough",
             "singular")
@@ -97,4 +98,71 @@ def plant_family(count, sizes=(10, 40), *, seed=0, families=FAMILIES):
         rng = np.random.default_rng([seed, i])
         n = lo + (i * 7) % (hi - lo + 1)
         out.append(random_plant(rng, n, families[i % len(families)], seed=i))
+    return out
+
+
+#: singular variants of :func:`singular_family`: which matrix is rank deficient, and the kind
+SINGULAR_VARIANTS = ("D21=0", "rank-1 D21", "D12 column 0 (OF)", "D12 column 0 (SF)")
+
+
+@dataclass
+class SingularCase:
+    """One singular problem of :func:`singular_family`: the plant, the variant and the kind."""
+
+    variant: str
+    seed: int
+    plant: GeneralizedPlant
+    output_feedback: bool
+
+    def __str__(self):
+        p = self.plant
+        return f"{self.variant}[seed {self.seed}] n={p.n} nu={p.nu} ny={p.ny}"
+
+
+def singular_family(count, sizes=(2, 20), *, seed=0):
+    """``count`` singular problems (D12 or D21 rank deficient) cycling through
+    ``SINGULAR_VARIANTS``, sizes spread over ``sizes`` (inclusive), from unstable plants (one to
+    three right-half-plane modes; ``"stable"`` below 3 states).  Case i uses the generator
+    seeded (seed, i).
+
+    Parameters
+    ----------
+    count : int
+        Number of problems.
+    sizes : (int, int)
+        Smallest and largest number of states.
+    seed : int
+        Family seed.
+
+    Returns
+    -------
+    list of SingularCase
+
+    Examples
+    --------
+    >>> from sobolev_drake.synthesis.random_plants import singular_family
+    >>> [(c.variant, c.plant.n) for c in singular_family(2)]
+    [('D21=0', 2), ('rank-1 D21', 9)]
+    """
+    lo, hi = sizes
+    out = []
+    for i in range(count):
+        rng = np.random.default_rng([seed, 1000 + i])
+        n = lo + (i * 7) % (hi - lo + 1)
+        variant = SINGULAR_VARIANTS[i % len(SINGULAR_VARIANTS)]
+        ny = 1 if variant == "D21=0" else 2
+        nu = 2 if variant.startswith("D12") else None
+        base = random_plant(rng, n, "unstable" if n >= 3 else "stable", ny=ny, nu=nu, seed=i)
+        A, B1, B2, C1, D11, D12, C2, D21 = base.plant.as_tuple()
+        if variant == "D21=0":
+            D21 = np.zeros_like(D21)
+        elif variant == "rank-1 D21":  # one measurement noise-free direction
+            D21 = np.outer(rng.normal(size=ny), rng.normal(size=D21.shape[1]))
+        else:  # the second input reaches z only through the state: cheap
+            D12 = D12.copy()
+            D12[:, 1] = 0.0
+        plant = GeneralizedPlant.make(A, B1, B2, C1, D11, D12, C2, D21)
+        if variant == "D12 column 0 (SF)":
+            plant = GeneralizedPlant.make(A, B1, B2, C1, D11, D12)
+        out.append(SingularCase(variant, i, plant, variant != "D12 column 0 (SF)"))
     return out

@@ -25,7 +25,8 @@ import numpy as np
 
 from ..validation import one_of, real_scalar
 from .hinf_common import certify_result, publish_result
-from .hinf_riccati import BudgetExceeded, GammaNotReachable, riccati_synthesis
+from .hinf_riccati import (REGULARIZE_DELTA, BudgetExceeded, GammaNotReachable,
+                           riccati_synthesis)
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
 
@@ -111,7 +112,7 @@ def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_er
     except (SynthesisError, BudgetExceeded):
         return None
     base = free.gamma_opt
-    for factor in ((1 + delta),) + REGION_LEVELS:
+    for factor in ((1 + (REGULARIZE_DELTA if delta is None else delta)),) + REGION_LEVELS:
         try:
             res, warns = riccati_synthesis(plant, of, gamma=factor * base, delta=delta,
                                            rtol=rtol, scaling=scaling, deadline=deadline)
@@ -176,8 +177,12 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
         return publish_result(res, warns, t0, [plant], None, rtol, verify, recertify=False)
     except GammaNotReachable:
         raise  # a mathematical answer, not a numerical failure: no fallback
-    except (SynthesisError, BudgetExceeded) as e:
-        log.add("Riccati", t, str(e))
+    except (SynthesisError, np.linalg.LinAlgError) as e:
+        # a SynthesisError includes RiccatiInfeasible ("no reachable level up to gamma =
+        # 1e+16": the bisection's numerics, not a proof) and BudgetExceeded; a LinAlgError is a
+        # raw "Singular matrix" from a solve on the way: the LMI path answers either
+        log.add("Riccati", t, f"{type(e).__name__}: {e}" if isinstance(e, np.linalg.LinAlgError)
+                else str(e))
     if method == "riccati" or (deadline is not None and time.perf_counter() > deadline):
         log.fail(kind, deadline)
     t = time.perf_counter()
