@@ -260,7 +260,7 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
         warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
                      f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
     if X0 is not None:
-        res.transient_bound = transient_bound(res, X0)
+        res = res.replace(transient_bound=transient_bound(res, X0))
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
     return publish_result(res, warns, t0, plants, region, rtol, verify)

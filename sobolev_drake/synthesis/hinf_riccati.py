@@ -173,25 +173,20 @@ def _result(problem, gain, level, gamma_opt, status, timings, rtol):
     kind = "output_feedback" if problem.of else "state_feedback"
     res = SynthesisResult(kind, float(level) * (1 + 1e-6), gamma_opt=float(gamma_opt),
                           feedthrough_bound=float(problem.bound), solver="scipy CARE",
-                          backend="riccati", status=status, timings=timings, method="riccati")
-    if problem.of:
-        res.controller = gain
-    else:
-        res.K = gain
-    certify_result(res, [p], None, rtol, False, status)
+                          backend="riccati", status=status, timings=timings, method="riccati",
+                          **({"controller": gain} if problem.of else {"K": gain}))
+    res = certify_result(res, [p], None, rtol, False, status)
     if res.certificate.ok:
         P = _closed_loop_lyapunov(*res.closed_loop(p), res.gamma, level)
         if P is not None:
-            res.P = P
             try:  # P^-1 where P is positive definite (Cholesky: independent of the scaling)
                 Pi = sla.cho_solve(sla.cho_factor(P), np.eye(P.shape[0]))
             except np.linalg.LinAlgError:
                 Pi = None
             if problem.of:
-                res.Y = P[:p.n, :p.n]
-                res.X = None if Pi is None else Pi[:p.n, :p.n]
+                res = res.replace(P=P, Y=P[:p.n, :p.n], X=None if Pi is None else Pi[:p.n, :p.n])
             else:
-                res.X = Pi
+                res = res.replace(P=P, X=Pi)
     return res
 
 
@@ -261,7 +256,7 @@ def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadli
         raise SynthesisError(f"Riccati controllers near the optimum {hi:.6g} fail their "
                              f"certificates ({why})")
     if on_bound or regularize is True:
-        res.regularized = True
+        res = res.replace(regularized=True)
         warns.append((f"optimal gamma {hi:.6g} sits on the feedthrough bound "
                       f"{problem.bound:.6g} (the infimum needs unbounded gains); " if on_bound
                       else "") +
@@ -317,7 +312,7 @@ def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadli
         raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder reaches "
                              f"gamma {targets[-1]:.6g} with a certified controller ({last})")
     res, eps, ratio = found
-    res.regularized = True
+    res = res.replace(regularized=True)
     level = "" if gamma is not None else f" = (1+{res.gamma / base - 1:.1e}) x {ref} {base:.6g}"
     note = (f"singular problem ({what}): regularized, certified gamma {res.gamma:.6g}{level}"
             + ("" if converged or not estimated else

@@ -296,7 +296,7 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
                          "and the controller of the LMI optimum depends on where the solver stops; "
                          "regularize=True gives the least-gain controller at (1+delta) gamma_opt")
     if X0 is not None:
-        res.transient_bound = transient_bound(res, X0)
+        res = res.replace(transient_bound=transient_bound(res, X0))
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")

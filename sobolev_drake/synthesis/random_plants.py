@@ -23,7 +23,7 @@ from ..validation import one_of
 from .problem import GeneralizedPlant
 
 __all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family", "SINGULAR_VARIANTS",
-           "SingularCase", "singular_family"]
+           "SingularCase", "singular_family", "reference_infimum"]
 
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough",
             "singular")
@@ -166,3 +166,48 @@ def singular_family(count, sizes=(2, 20), *, seed=0):
             plant = GeneralizedPlant.make(A, B1, B2, C1, D11, D12)
         out.append(SingularCase(variant, i, plant, variant != "D12 column 0 (SF)"))
     return out
+
+
+def reference_infimum(plant, output_feedback):
+    """Upper estimate of a singular problem's infimum apart from the synthesis' own ladder, for
+    tests and benchmarks: the upper end of a Riccati bisection (1e-7 relative) on the regular
+    problem made by a perturbation of relative size 1e-7 (cost on u, noise on y), or 1e-6, 1e-5
+    where the Riccati tests refuse every level at the smaller one.  It tends to the infimum from
+    above as the perturbation shrinks.
+
+    Parameters
+    ----------
+    plant : GeneralizedPlant
+        The (singular) plant.
+    output_feedback : bool
+        Output feedback (else state feedback).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    RiccatiInfeasible
+        The Riccati tests refuse every level at all three perturbations.
+    """
+    from .certificates import parrott_bound
+    from .hinf_riccati import perturbed_plant
+    from .riccati import (RiccatiInfeasible, bisect_gamma, normalize, output_feedback_test,
+                          state_feedback_test)
+    p = plant
+    scale = max(1.0, np.abs(np.hstack([p.C1, p.D12])).max(), np.abs(np.vstack([p.B1, p.D21])).max())
+    last = None
+    for rel in (1e-7, 1e-6, 1e-5):
+        q = perturbed_plant(p, rel * scale, rel * scale if output_feedback else 0.0)
+        if output_feedback:
+            nrm = normalize(q)
+            test = lambda g, nrm=nrm: output_feedback_test(nrm.plant, g)  # noqa: E731
+            lower = parrott_bound(q.D11, q.D12, q.D21)
+        else:
+            test, lower = (lambda g, q=q: state_feedback_test(q, g)), np.linalg.norm(q.D11, 2)
+        try:
+            return bisect_gamma(test, lower, rtol=1e-7)[1]
+        except RiccatiInfeasible as exc:
+            last = exc
+    raise last

@@ -443,8 +443,7 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
         raise InfeasibleLMIError(f"strict LMI not satisfiable: (d, v) block has eigenvalue {worst:.3g} "
                                  f">= 0 (solver returned status {r.status}); {rep.message}", "infeasible")
     r = fn(plant, input_weight=Wt, regularize=False, verify=False, margin=0.0, **kw)
-    r.warnings.append(rep.message)
-    return r, rep
+    return r.replace(warnings=r.warnings + [rep.message]), rep
 
 
 def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):

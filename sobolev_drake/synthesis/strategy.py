@@ -90,8 +90,8 @@ def _lmi_only(lmi, regularize, verify, t0, deadline):
         e.args = (f"{e.args[0] if e.args else e} [LMI path: {time.perf_counter() - t0:.3g} s"
                   + (", time budget exhausted" if late else "") + "]",) + e.args[1:]
         raise
-    res.attempts = [f"LMI: {time.perf_counter() - t0:.3g} s, certified gamma {res.gamma:.6g}"]
-    return res
+    return res.replace(attempts=[f"LMI: {time.perf_counter() - t0:.3g} s, certified gamma "
+                                 f"{res.gamma:.6g}"])
 
 
 #: LMI-only options under which a Riccati controller may still answer a region problem
@@ -118,9 +118,9 @@ def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_er
                                            rtol=rtol, scaling=scaling, deadline=deadline)
         except (SynthesisError, BudgetExceeded):
             continue
-        certify_result(res, [plant], region, rtol, False, res.status)
+        res = certify_result(res, [plant], region, rtol, False, res.status)
         if res.certificate.ok:
-            res.region, res.gamma_opt, res.regularized = region, base, True
+            res = res.replace(region=region, gamma_opt=base, regularized=True)
             return res, warns + [
                 f"the LMI path failed ({lmi_error}); returned the Riccati controller at gamma "
                 f"= {factor:g} x {base:.6g}, the optimum without the region (a lower bound of "
@@ -157,9 +157,9 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
             if found is None:
                 raise
             res, warns = found
-            res.attempts = [f"LMI: failed ({e})",
-                            f"Riccati in the region: certified gamma {res.gamma:.6g}"]
-            res.fallback = "the LMI path failed"
+            res = res.replace(attempts=[f"LMI: failed ({e})",
+                                        f"Riccati in the region: certified gamma {res.gamma:.6g}"],
+                              fallback="the LMI path failed")
             return publish_result(res, warns, t0, [plant], region, rtol, verify,
                                   recertify=False)
     if method == "lmi" or (method == "auto" and lmi_features):
@@ -173,7 +173,7 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
         res, warns = riccati_synthesis(plant, of, gamma=gamma, delta=delta, rtol=rtol,
                                        scaling=scaling, regularize=regularize, deadline=deadline)
         log.add("Riccati", t, f"certified gamma {res.gamma:.6g}")
-        res.attempts = log.entries
+        res = res.replace(attempts=log.entries)
         return publish_result(res, warns, t0, [plant], None, rtol, verify, recertify=False)
     except GammaNotReachable:
         raise  # a mathematical answer, not a numerical failure: no fallback
@@ -191,7 +191,7 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
     except SynthesisError as e:
         log.add("LMI", t, str(e))
         log.fail(kind, deadline)
-    res.attempts = log.entries + [f"LMI: {time.perf_counter() - t:.3g} s, certified gamma "
-                                  f"{res.gamma:.6g}"]
-    res.fallback = "; ".join(x for x in (res.fallback, "the Riccati path failed") if x)
-    return res
+    return res.replace(
+        attempts=log.entries + [f"LMI: {time.perf_counter() - t:.3g} s, certified gamma "
+                                f"{res.gamma:.6g}"],
+        fallback="; ".join(x for x in (res.fallback, "the Riccati path failed") if x))

@@ -11,36 +11,12 @@ import pytest
 from sobolev_drake.synthesis import strategy
 from sobolev_drake.synthesis.certificates import hinf_norm
 from sobolev_drake.synthesis.hinf import output_feedback, state_feedback
-from sobolev_drake.synthesis.hinf_riccati import (POLE_LIMIT, SINGULAR_LEVELS, perturbed_plant,
-                                                  pole_ratio)
-from sobolev_drake.synthesis.random_plants import random_plant, singular_family
-from sobolev_drake.synthesis.certificates import parrott_bound
-from sobolev_drake.synthesis.riccati import (RiccatiInfeasible, bisect_gamma, normalize,
-                                             output_feedback_test, state_feedback_test)
+from sobolev_drake.synthesis.hinf_riccati import POLE_LIMIT, SINGULAR_LEVELS, pole_ratio
+from sobolev_drake.synthesis.random_plants import (random_plant, reference_infimum,
+                                                   singular_family)
+from sobolev_drake.synthesis.riccati import RiccatiInfeasible
 
 CASES = singular_family(12, sizes=(2, 11), seed=3)
-
-
-def reference_infimum(case):
-    """Upper estimate of the infimum apart from the default's singular ladder: the upper end
-    of a Riccati bisection (1e-7 relative) on the regular problem made by a perturbation of
-    1e-7 (cost on u, noise on y) -- or 1e-6, 1e-5 where the Riccati tests fail numerically at
-    the smaller one -- which tends to the infimum from above as the perturbation shrinks."""
-    p = case.plant
-    scale = max(1.0, np.abs(np.hstack([p.C1, p.D12])).max(), np.abs(np.vstack([p.B1, p.D21])).max())
-    for rel in (1e-7, 1e-6, 1e-5):
-        q = perturbed_plant(p, rel * scale, rel * scale if case.output_feedback else 0.0)
-        if case.output_feedback:
-            nrm = normalize(q)
-            test = lambda g, nrm=nrm: output_feedback_test(nrm.plant, g)  # noqa: E731
-            lower = parrott_bound(q.D11, q.D12, q.D21)
-        else:
-            test, lower = (lambda g, q=q: state_feedback_test(q, g)), np.linalg.norm(q.D11, 2)
-        try:
-            return bisect_gamma(test, lower, rtol=1e-7)[1]
-        except RiccatiInfeasible:
-            continue
-    raise AssertionError(f"no reference for {case}")
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +27,8 @@ def outcomes():
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             res = synth(case.plant)
-        out.append((case, res, [str(w.message) for w in caught], reference_infimum(case)))
+        out.append((case, res, [str(w.message) for w in caught],
+                    reference_infimum(case.plant, case.output_feedback)))
     return out
 
 
