@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,  # noqa: F401
-                          compress_performance, first_lmi_attempt, publish_result,
+                          compress_performance, first_lmi_attempt, note_regularized, publish_result,
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
 from .problem import (DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning,  # noqa: F401
                       check_initial_states, transient_bound)
@@ -257,8 +257,9 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
             return certify_result(r, plants, region, rtol, False, r.status)
         res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = "the transient bound from initial_states" if X0 is not None else "a bound on the gain"
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
+        note_regularized(warns, on_bound,
+                         f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
+                         f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
     if X0 is not None:
         res = res.replace(transient_bound=transient_bound(res, X0))
     if np.linalg.norm(res.K, 2) > 1e6:

@@ -203,6 +203,15 @@ def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
     return res, steps[-1]
 
 
+def note_regularized(warns, on_bound, text):
+    """Append ``text`` to ``warns``; on a feedthrough-bound optimum, on the line of
+    :func:`first_lmi_attempt`'s on-bound warning (one line says what was done)."""
+    if on_bound and warns and "sits on the feedthrough bound" in warns[-1]:
+        warns[-1] = f"{warns[-1]}; {text}"
+    else:
+        warns.append(text)
+
+
 def compress_performance(p):
     """Same plant with z replaced by U^T z, U an orthonormal basis of range [C1 D11 D12].
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,
-                          compress_performance, first_lmi_attempt, publish_result,
+                          compress_performance, first_lmi_attempt, note_regularized, publish_result,
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
 from .problem import DynamicController, SynthesisResult, check_initial_states, transient_bound
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
@@ -287,8 +287,9 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
         res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = ("the transient bound from initial_states" if X0 is not None
                 else "a bound on the (scaled) controller matrices")
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     f"minimizing {what}")
+        note_regularized(warns, on_bound,
+                         f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
+                         f"minimizing {what}")
     if not need and gamma is None:
         sing = singular_problem(p)
         if sing:
