@@ -28,7 +28,8 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      SynthesisResult, controlled_gains, generalized_plant,
                                      hinf_mechanical_gains, hinf_output_feedback,
                                      hinf_output_feedback_qr, hinf_plant, hinf_state_feedback,
-                                     hinf_state_feedback_qr, hinfsyn, regions, regulated_gains,
+                                     hinf_state_feedback_qr, hinfsyn, load_result, regions,
+                                     regulated_gains, save_result,
                                      stabilized_gains, to_statespace, winf_output_feedback,
                                      winf_plant, winf_state_feedback)
 from sobolev_drake.synthesis.loop_analysis import LoopAnalysis, loop_analysis
@@ -59,7 +60,7 @@ __all__ = [
     "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
     "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisError",
-    "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace",
+    "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace", "save_result", "load_result",
     # analysis of a designed loop, weights from bandwidth and damping
     "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
     # discrete-time and sampled-data synthesis

@@ -32,12 +32,13 @@ import time
 import numpy as np
 
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,  # noqa: F401
-                          compress_performance, first_lmi_attempt, publish_result,
+                          compress_performance, first_lmi_attempt, note_regularized, publish_result,
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
 from .problem import (DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning,  # noqa: F401
                       check_initial_states, transient_bound)
 from .lmi import LMIProgram, SynthesisError, bmat
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
+from .hinf_riccati import REGULARIZE_DELTA
 from .regions import region_lmi
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 from .scaling import balance_scaling, resolve_scaling, scale_plant, unscale_gain  # noqa: F401
@@ -97,7 +98,7 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, 
 
 
 def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
-                   backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
+                   backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
                    rtol=1e-4, verify=True, input_weight=None, vertices=None, margin=EPS,
                    scaling=True, initial_states=None):
     """H∞ state feedback u = K x, certified (sign convention: u = +K x).
@@ -120,8 +121,14 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
         Relax gamma to (1 + delta) gamma_opt for bounded gains: "auto" when the optimum sits on
         the feedthrough bound, the problem is singular or the optimum's controller fails its
         certificate; True always; False never.
-    delta, rtol : float
-        Relaxation of a regularized gamma; relative tolerance of the certificate.
+    delta : float, optional
+        Relaxation of a regularized gamma to (1 + delta) x the optimum.  None (default): 1e-2
+        where the optimum sits on the feedthrough bound or the LMI path regularizes; on singular
+        problems (D12 rank deficient) the Riccati path's levels 5e-4, 9e-4, 3e-3, 1e-2, 5e-2
+        above the estimated infimum, the first whose controller has no pole faster than 1e4 x
+        the plant's fastest mode (``hinf_riccati.SINGULAR_LEVELS``, ``POLE_LIMIT``).
+    rtol : float
+        Relative tolerance of the certificate.
     verify : bool
         Raise :class:`SynthesisError` if the final certificate fails (default True).
     scaling : bool or tuple
@@ -178,7 +185,7 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
     def lmi(regularize, verify, deadline):
         return _lmi_state_feedback(plant, region=region, backend=backend,
                                    solver_options=solver_options, gamma=gamma,
-                                   regularize=regularize, delta=delta, rtol=rtol, verify=verify,
+                                   regularize=regularize, delta=REGULARIZE_DELTA if delta is None else delta, rtol=rtol, verify=verify,
                                    input_weight=input_weight, vertices=vertices, margin=margin,
                                    scaling=scaling, initial_states=initial_states,
                                    deadline=deadline)
@@ -250,10 +257,11 @@ def _lmi_state_feedback(plant, *, region, backend, solver_options, gamma, regula
             return certify_result(r, plants, region, rtol, False, r.status)
         res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = "the transient bound from initial_states" if X0 is not None else "a bound on the gain"
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
+        note_regularized(warns, on_bound,
+                         f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
+                         f"minimizing {what} (|K| = {np.linalg.norm(res.K, 2):.4g})")
     if X0 is not None:
-        res.transient_bound = transient_bound(res, X0)
+        res = res.replace(transient_bound=transient_bound(res, X0))
     if np.linalg.norm(res.K, 2) > 1e6:
         warns.append(f"very large gain |K| = {np.linalg.norm(res.K, 2):.3g}")
     return publish_result(res, warns, t0, plants, region, rtol, verify)

@@ -37,7 +37,8 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
     if not isinstance(plant, GeneralizedPlant):
         raise TypeError("plant must be a GeneralizedPlant (GeneralizedPlant.make, winf_plant, "
                         f"hinf_plant), got {type(plant).__name__}")
-    real_scalar("delta", delta, low=0.0, low_open=True)
+    if delta is not None:
+        real_scalar("delta", delta, low=0.0, low_open=True)
     real_scalar("rtol", rtol, low=0.0, low_open=True)
     if margin is not None:
         real_scalar("margin", margin, low=0.0)
@@ -166,7 +167,7 @@ def strict_check(res, plants, region, rtol, status):
     gamma^2-form bounded-real inequality of every closed loop (``brl_residual`` <= BRL_TOL).
     Used to accept a result of the automatic chain's first (own IPM) backend: its norm can
     pass while P, on degenerate problems (uncontrollable disturbance-model states), does not."""
-    certify_result(res, plants, region, rtol, False, status)
+    res = certify_result(res, plants, region, rtol, False, status)
     if res.P is not None and res.certificate.ok:
         for p in plants:
             r = brl_residual(*res.closed_loop(p), res.P, res.gamma)
@@ -194,12 +195,21 @@ def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
         except SynthesisError as e:
             last = e
             continue
-        r.regularized = True
+        r = r.replace(regularized=True)
         if r.certificate.ok or d == steps[-1]:
             return r, d
     if last is not None:
         raise last
     return res, steps[-1]
+
+
+def note_regularized(warns, on_bound, text):
+    """Append ``text`` to ``warns``; on a feedthrough-bound optimum, on the line of
+    :func:`first_lmi_attempt`'s on-bound warning (one line says what was done)."""
+    if on_bound and warns and "sits on the feedthrough bound" in warns[-1]:
+        warns[-1] = f"{warns[-1]}; {text}"
+    else:
+        warns.append(text)
 
 
 def compress_performance(p):
@@ -221,8 +231,8 @@ def certify_result(res, plants, region, rtol, verify, status):
     certs = []
     for p in plants:
         certs.append(certify_closed_loop(*res.closed_loop(p), res.gamma, region=region, rtol=rtol, solver_status=status))
-    res.certificates = certs
-    res.certificate = max(certs, key=lambda c: c.achieved) if certs else None
+    res = res.replace(certificates=certs,
+                      certificate=max(certs, key=lambda c: c.achieved) if certs else None)
     if verify:
         _raise_failed(res, status)
     return res
@@ -253,9 +263,10 @@ def _raise_to_achieved(res, g_opt, delta, plants, region, rtol, status):
     if not near:
         return res
     # hinf_norm returns a lower bound lb with no singular value above (1 + 2e-7) lb; 1e-6 covers it
-    res.gamma = float(c.achieved) * (1 + 1e-6)
-    res.status = (f"{res.status}; gamma raised to the certified norm {res.gamma:.6g} (the LMI "
-                  f"optimum {g_opt:.6g} was below it by {c.achieved / g_opt - 1:.1e})")
+    gamma = float(c.achieved) * (1 + 1e-6)
+    res = res.replace(gamma=gamma, status=(
+        f"{res.status}; gamma raised to the certified norm {gamma:.6g} (the LMI optimum "
+        f"{g_opt:.6g} was below it by {c.achieved / g_opt - 1:.1e})"))
     return certify_result(res, plants, region, rtol, False, status)
 
 
@@ -273,7 +284,7 @@ def first_lmi_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, reg
     first_error = None
     try:
         res = build(out, g_opt * (1 + 1e-6) if gamma is None else g_opt)
-        certify_result(res, plants, region, rtol, False, out.status)
+        res = certify_result(res, plants, region, rtol, False, out.status)
         if gamma is None and not res.certificate.ok:
             res = _raise_to_achieved(res, g_opt, delta, plants, region, rtol, out.status)
     except SynthesisError as e:
@@ -292,19 +303,19 @@ def first_lmi_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, reg
 def publish_result(res, warns, t0, plants, region, rtol, verify, recertify=True):
     """Attach and emit the warnings, total time, and run the final certificate check
     (``recertify=False``: keep the certificates already computed for this gamma)."""
-    res.warnings = warns
+    res = res.replace(warnings=list(warns))
     for w in warns:
         warnings.warn(w, SynthesisWarning, stacklevel=3)  # at the caller of the public function
     if recertify or not res.certificates:
-        certify_result(res, plants, region, rtol, verify, res.status)
+        res = certify_result(res, plants, region, rtol, verify, res.status)
     elif verify:
         _raise_failed(res, res.status)
     achieved = max((c.achieved for c in res.certificates), default=np.nan)
     if np.isfinite(achieved) and achieved * NORM_BRACKET > res.gamma:
         # within the certificate's rtol but below the closed loop's norm (an LMI solver's
         # gamma): publish the upper end of the norm's bracket, never less than the norm
-        res.gamma = float(achieved * NORM_BRACKET)
-        certify_result(res, plants, region, rtol, verify, res.status)
+        res = certify_result(res.replace(gamma=float(achieved * NORM_BRACKET)), plants, region,
+                             rtol, verify, res.status)
     res.timings["total"] = time.perf_counter() - t0
     return res
 

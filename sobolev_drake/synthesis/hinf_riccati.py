@@ -11,7 +11,12 @@ eps |u|^2 and/or a measurement noise eps v (:func:`perturbed_plant`); both only 
 the original closed-loop norm is at most the perturbed one.  For a target level gamma_t the
 largest eps of a decade ladder at which gamma_t is reachable gives the controller with the
 smallest gains.  The target is (1 + delta) x a reference optimum: the LMI optimum when the
-caller has it, else the Riccati optimum of the smallest perturbation tried.
+caller has it, else the Riccati optimum of the smallest perturbation tried.  By default
+(``delta=None``) the target climbs ``SINGULAR_LEVELS`` -- from 5e-4 above the estimate, so within
+1e-3 of the infimum -- and stops at the first level whose controller has no pole faster than
+``POLE_LIMIT`` x the plant's fastest mode (a controller near an unattained infimum has gains and
+poles growing without bound; measured on ``benchmarks/synthesis_singular.py``); the result's
+one warning line says which level, perturbation and pole ratio were taken.
 
 Every controller is certified on the original plant (``hinf_common.certify_result``) before it
 is returned; the Lyapunov matrix P reported is the stabilizing solution of the closed loop's
@@ -42,6 +47,26 @@ OPTIMUM_GAP = 2e-5
 #: levels tried when the controller at the first level fails its certificate (numerically)
 BACKOFF = (5e-5, 1e-4, 1e-3, 1e-2)
 EPS_LADDER = tuple(10.0 ** -k for k in range(1, 9))
+#: relaxation of gamma used where the infimum needs unbounded gains and ``delta`` is not given
+REGULARIZE_DELTA = 1e-2
+#: default levels above the estimated infimum of a singular problem, tightest first
+SINGULAR_LEVELS = (5e-4, 9e-4, 3e-3, 1e-2, 5e-2)
+#: fastest controller / closed-loop pole allowed by the default, times the plant's fastest mode
+POLE_LIMIT = 1e4
+
+
+def plant_speed(A):
+    """The plant's fastest mode (rad/s): max |eig A|, at least 1e-6 ‖A‖ and 1e-12."""
+    A = np.asarray(A, float)
+    return max(float(np.abs(np.linalg.eigvals(A)).max()), 1e-6 * np.linalg.norm(A, 2), 1e-12)
+
+
+def pole_ratio(res, plant):
+    """Fastest pole of the controller and of the closed loop / the plant's fastest mode."""
+    fast = np.abs(np.linalg.eigvals(res.closed_loop(plant)[0])).max()
+    if res.controller is not None and res.controller.AK.size:
+        fast = max(fast, np.abs(np.linalg.eigvals(res.controller.AK)).max())
+    return float(fast) / plant_speed(plant.A)
 
 
 class GammaNotReachable(InfeasibleLMIError):
@@ -148,25 +173,20 @@ def _result(problem, gain, level, gamma_opt, status, timings, rtol):
     kind = "output_feedback" if problem.of else "state_feedback"
     res = SynthesisResult(kind, float(level) * (1 + 1e-6), gamma_opt=float(gamma_opt),
                           feedthrough_bound=float(problem.bound), solver="scipy CARE",
-                          backend="riccati", status=status, timings=timings, method="riccati")
-    if problem.of:
-        res.controller = gain
-    else:
-        res.K = gain
-    certify_result(res, [p], None, rtol, False, status)
+                          backend="riccati", status=status, timings=timings, method="riccati",
+                          **({"controller": gain} if problem.of else {"K": gain}))
+    res = certify_result(res, [p], None, rtol, False, status)
     if res.certificate.ok:
         P = _closed_loop_lyapunov(*res.closed_loop(p), res.gamma, level)
         if P is not None:
-            res.P = P
             try:  # P^-1 where P is positive definite (Cholesky: independent of the scaling)
                 Pi = sla.cho_solve(sla.cho_factor(P), np.eye(P.shape[0]))
             except np.linalg.LinAlgError:
                 Pi = None
             if problem.of:
-                res.Y = P[:p.n, :p.n]
-                res.X = None if Pi is None else Pi[:p.n, :p.n]
+                res = res.replace(P=P, Y=P[:p.n, :p.n], X=None if Pi is None else Pi[:p.n, :p.n])
             else:
-                res.X = Pi
+                res = res.replace(P=P, X=Pi)
     return res
 
 
@@ -189,7 +209,7 @@ def _certified_at(problem, eps, levels, gamma_opt, status, timings, rtol):
     return None, last
 
 
-def riccati_synthesis(plant, output_feedback, *, gamma=None, delta=1e-2, rtol=1e-4,
+def riccati_synthesis(plant, output_feedback, *, gamma=None, delta=None, rtol=1e-4,
                       scaling=True, regularize="auto", reference=None, deadline=None):
     """Certified Riccati controller for ``plant`` (not yet published: no warnings emitted).
 
@@ -226,11 +246,9 @@ def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadli
     timings["riccati_bisection"] = time.perf_counter() - t0
     status = (f"Riccati bisection: {count} levels, optimum in [{lo:.7g}, {hi:.7g}]")
     on_bound = problem.bound > 0 and hi <= problem.bound * (1 + 1e-3)
+    delta = REGULARIZE_DELTA if delta is None else delta
     if on_bound or regularize is True:
         levels = [(1 + delta) * hi, (1 + 5 * delta) * hi]
-        if on_bound:
-            warns.append(f"optimal gamma {hi:.6g} sits on the feedthrough bound "
-                         f"{problem.bound:.6g}: the infimum needs unbounded gains")
     else:
         levels = [(1 + OPTIMUM_GAP) * hi] + [(1 + b) * hi for b in BACKOFF]
     res, why = _certified_at(problem, 0.0, levels, hi, status, timings, rtol)
@@ -238,8 +256,11 @@ def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadli
         raise SynthesisError(f"Riccati controllers near the optimum {hi:.6g} fail their "
                              f"certificates ({why})")
     if on_bound or regularize is True:
-        res.regularized = True
-        warns.append(f"regularized: gamma relaxed to {res.gamma / hi:.4g} x {hi:.6g} = "
+        res = res.replace(regularized=True)
+        warns.append((f"optimal gamma {hi:.6g} sits on the feedthrough bound "
+                      f"{problem.bound:.6g} (the infimum needs unbounded gains); " if on_bound
+                      else "") +
+                     f"regularized: gamma relaxed to {res.gamma / hi:.4g} x {hi:.6g} = "
                      f"{res.gamma:.6g} (Riccati controller away from the optimum)")
     elif res.gamma > (1 + 1e-4) * hi:
         warns.append(f"the Riccati controller at (1+{OPTIMUM_GAP:g}) x the optimum {hi:.6g} "
@@ -251,33 +272,66 @@ def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadli
 def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadline):
     what = problem.deficiency
     estimated = converged = False
+    auto = gamma is None and delta is None
+    gaps = SINGULAR_LEVELS if auto else (REGULARIZE_DELTA if delta is None else delta,)
+    settle = 0.1 * gaps[0]  # the estimate settles well inside the tightest gap
     if gamma is not None:
-        target, base = gamma / (1 + 1e-6), np.nan
+        base = np.nan
     elif reference is not None and np.isfinite(reference):
         base = reference
-        target = (1 + delta) * base
     else:  # optimum of shrinking perturbations until it settles (upper bounds, decreasing)
         estimated = True
         prev = hi = None
         for eps in EPS_LADDER[1:]:
             try:
                 _, g, _, _ = bisect_gamma(problem.variant(eps)[1], problem.bound,
-                                          rtol=0.01 * delta, start=hi, deadline=deadline)
+                                          rtol=0.1 * settle, start=hi, deadline=deadline)
             except RiccatiInfeasible:
                 continue
             prev, hi = hi, g
-            if prev is not None and hi >= prev * (1 - 0.1 * delta):
+            if prev is not None and hi >= prev * (1 - settle):
                 break
         if hi is None:
             raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder "
                                  "has a Riccati solution")
-        converged = prev is not None and hi >= prev * (1 - 0.1 * delta)
-        if not converged:
-            warns.append(f"singular problem ({what}): the Riccati optimum was still decreasing "
-                         f"at the smallest perturbation ({EPS_LADDER[-1]:g}): the infimum may "
-                         f"be well below {hi:.6g}")
+        converged = prev is not None and hi >= prev * (1 - settle)
         base = hi if prev is None else min(prev, hi)
-        target = (1 + delta) * base
+    targets = [gamma / (1 + 1e-6)] if gamma is not None else [(1 + d) * base for d in gaps]
+    ref = ("the estimated infimum" if estimated else
+           "the requested gamma" if gamma is not None else "the LMI optimum")
+    found, last = None, None
+    for target in targets:
+        res, eps, why = _ladder(problem, target, base, what, timings, rtol, deadline)
+        if res is None:
+            last = why
+            continue
+        found = res, eps, pole_ratio(res, problem.plant)
+        if not auto or found[2] <= POLE_LIMIT:
+            break
+    if found is None:
+        raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder reaches "
+                             f"gamma {targets[-1]:.6g} with a certified controller ({last})")
+    res, eps, ratio = found
+    res = res.replace(regularized=True)
+    level = "" if gamma is not None else f" = (1+{res.gamma / base - 1:.1e}) x {ref} {base:.6g}"
+    note = (f"singular problem ({what}): regularized, certified gamma {res.gamma:.6g}{level}"
+            + ("" if converged or not estimated else
+               f" (the estimate was still decreasing at the smallest perturbation "
+               f"{EPS_LADDER[-1]:g}: the infimum may be well below it)")
+            + f", plant perturbed by {eps:g} (cost on u / noise on y); fastest pole "
+              f"{ratio:.3g} x the plant's fastest mode")
+    if auto:
+        note += (f" (limit {POLE_LIMIT:g})" if ratio <= POLE_LIMIT else
+                 f", above the limit {POLE_LIMIT:g} at every level up to "
+                 f"(1+{gaps[-1]:g}) x {ref}: give a region (e.g. regions.disk) to bound it")
+    warns.append(note)
+    timings["riccati"] = time.perf_counter() - t0
+    return res, warns
+
+
+def _ladder(problem, target, base, what, timings, rtol, deadline):
+    """(result, eps, None) for the largest perturbation of ``EPS_LADDER`` (smallest gains)
+    whose controller certifies at ``target``, or (None, None, last failure)."""
     status = f"singular problem ({what}): Riccati on the perturbed plant at gamma {target:.6g}"
     last = None
     for eps in EPS_LADDER:  # largest perturbation first: smallest gains
@@ -286,16 +340,6 @@ def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadli
         res, why = _certified_at(problem, eps, [target], base, f"{status}, eps {eps:g}",
                                  timings, rtol)
         if res is not None:
-            res.regularized = True
-            ref = ("the estimated optimum" if estimated else
-                   "the requested gamma" if gamma is not None else "the LMI optimum")
-            warns.append(f"singular problem ({what}): regularized by a perturbation of relative "
-                         f"size {eps:g} (cost on u / noise on y); certified gamma {res.gamma:.6g}"
-                         + ("" if gamma is not None else f" = (1+{delta:g}) x {ref} {base:.6g}")
-                         + (" (an upper bound of the infimum: decreasing the perturbation "
-                            f"further changed it by < {0.1 * delta:g})" if converged else ""))
-            timings["riccati"] = time.perf_counter() - t0
-            return res, warns
+            return res, eps, None
         last = why
-    raise SynthesisError(f"singular problem ({what}): no perturbation of the ladder reaches "
-                         f"gamma {target:.6g} with a certified controller ({last})")
+    return None, None, last

@@ -512,7 +512,7 @@ def hinfsyn(P, nmeas, ncon, **options):
                f"{res.gamma:.8g} by {cert.achieved / res.gamma - 1:.2e} (relative; floating-point "
                f"error of the loop shift or of the norm estimates on an ill-conditioned loop, "
                f"see hinfsyn's Notes); gamma published: {cert.gamma:.8g}")
-        res.warnings.append(msg)
+        res = res.replace(warnings=res.warnings + [msg])
         warnings.warn(msg, SynthesisWarning, stacklevel=2)
     CL = control.ss(*closed)
     X, Y = res.X, res.Y

@@ -16,10 +16,11 @@ import numpy as np
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,
-                          compress_performance, first_lmi_attempt, publish_result,
+                          compress_performance, first_lmi_attempt, note_regularized, publish_result,
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
 from .problem import DynamicController, SynthesisResult, check_initial_states, transient_bound
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
+from .hinf_riccati import REGULARIZE_DELTA
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
@@ -139,7 +140,7 @@ def singular_problem(plant, tol=1e-9):
 
 
 def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
-                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=1e-2,
+                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
                     rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
                     scaling=True, initial_states=None, transient_gain_weight=0.0):
     """Full-order dynamic output-feedback H∞ synthesis, certified.
@@ -209,7 +210,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
     def lmi(regularize, verify, deadline):
         return _lmi_output_feedback(plant, region=region, backend=backend,
                                     solver_options=solver_options, gamma=gamma,
-                                    regularize=regularize, delta=delta, rtol=rtol, verify=verify,
+                                    regularize=regularize, delta=REGULARIZE_DELTA if delta is None else delta, rtol=rtol, verify=verify,
                                     input_weight=input_weight, strictly_proper=strictly_proper,
                                     margin=margin, scaling=scaling, initial_states=initial_states,
                                     transient_gain_weight=transient_gain_weight, deadline=deadline)
@@ -286,8 +287,9 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
         res, d = regularization_ladder(solve_at, g_opt, delta, on_bound or regularize is True, res)
         what = ("the transient bound from initial_states" if X0 is not None
                 else "a bound on the (scaled) controller matrices")
-        warns.append(f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
-                     f"minimizing {what}")
+        note_regularized(warns, on_bound,
+                         f"regularized: gamma relaxed to (1+{d:g}) x {g_opt:.6g} = {res.gamma:.6g} "
+                         f"minimizing {what}")
     if not need and gamma is None:
         sing = singular_problem(p)
         if sing:
@@ -295,7 +297,7 @@ def _lmi_output_feedback(plant, *, region, backend, solver_options, gamma, regul
                          "and the controller of the LMI optimum depends on where the solver stops; "
                          "regularize=True gives the least-gain controller at (1+delta) gamma_opt")
     if X0 is not None:
-        res.transient_bound = transient_bound(res, X0)
+        res = res.replace(transient_bound=transient_bound(res, X0))
     if res.controller.AK.shape[0] < p.n:
         warns.append(f"I - XY numerically rank deficient: controller order reduced to "
                      f"{res.controller.AK.shape[0]} (of {p.n})")

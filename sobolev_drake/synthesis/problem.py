@@ -7,7 +7,7 @@ and :class:`SynthesisWarning`; the pipeline that produces them is in ``hinf_comm
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -197,7 +197,7 @@ class DynamicController:
         return iter((self.AK, self.BK, self.CK, self.DK))
 
 
-@dataclass
+@dataclass(frozen=True)
 class SynthesisResult:
     """Result of :func:`state_feedback` / :func:`output_feedback` (certified before return).
 
@@ -224,6 +224,9 @@ class SynthesisResult:
 
     Riccati results: ``P`` is the stabilizing solution of the closed loop's bounded-real
     Riccati equation at the design level, ``gamma`` = level x (1 + 1e-6).
+
+    Frozen: a result is what the synthesis certified; :meth:`replace` (``dataclasses.replace``)
+    makes a modified copy, e.g. to test a certificate against a changed ``P``.
 
     Attributes
     ----------
@@ -305,6 +308,21 @@ class SynthesisResult:
     method: str = "lmi"  # "riccati" | "lmi": which characterization produced the controller
     #: what the call tried before this result, in order: "<what>: <seconds> s, <outcome>"
     attempts: list = field(default_factory=list)
+
+    def replace(self, **changes):
+        """A copy with ``changes`` applied (``dataclasses.replace``; the copy is not
+        re-certified).
+
+        Parameters
+        ----------
+        **changes
+            Field values of the copy.
+
+        Returns
+        -------
+        SynthesisResult
+        """
+        return replace(self, **changes)
 
     @property
     def well_posed(self):

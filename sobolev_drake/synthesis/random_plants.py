@@ -22,7 +22,8 @@ import numpy as np
 from ..validation import one_of
 from .problem import GeneralizedPlant
 
-__all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family"]
+__all__ = ["FAMILIES", "PlantCase", "random_plant", "plant_family", "SINGULAR_VARIANTS",
+           "SingularCase", "singular_family", "reference_infimum"]
 
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough",
             "singular")
@@ -98,3 +99,115 @@ def plant_family(count, sizes=(10, 40), *, seed=0, families=FAMILIES):
         n = lo + (i * 7) % (hi - lo + 1)
         out.append(random_plant(rng, n, families[i % len(families)], seed=i))
     return out
+
+
+#: singular variants of :func:`singular_family`: which matrix is rank deficient, and the kind
+SINGULAR_VARIANTS = ("D21=0", "rank-1 D21", "D12 column 0 (OF)", "D12 column 0 (SF)")
+
+
+@dataclass
+class SingularCase:
+    """One singular problem of :func:`singular_family`: the plant, the variant and the kind."""
+
+    variant: str
+    seed: int
+    plant: GeneralizedPlant
+    output_feedback: bool
+
+    def __str__(self):
+        p = self.plant
+        return f"{self.variant}[seed {self.seed}] n={p.n} nu={p.nu} ny={p.ny}"
+
+
+def singular_family(count, sizes=(2, 20), *, seed=0):
+    """``count`` singular problems (D12 or D21 rank deficient) cycling through
+    ``SINGULAR_VARIANTS``, sizes spread over ``sizes`` (inclusive), from unstable plants (one to
+    three right-half-plane modes; ``"stable"`` below 3 states).  Case i uses the generator
+    seeded (seed, i).
+
+    Parameters
+    ----------
+    count : int
+        Number of problems.
+    sizes : (int, int)
+        Smallest and largest number of states.
+    seed : int
+        Family seed.
+
+    Returns
+    -------
+    list of SingularCase
+
+    Examples
+    --------
+    >>> from sobolev_drake.synthesis.random_plants import singular_family
+    >>> [(c.variant, c.plant.n) for c in singular_family(2)]
+    [('D21=0', 2), ('rank-1 D21', 9)]
+    """
+    lo, hi = sizes
+    out = []
+    for i in range(count):
+        rng = np.random.default_rng([seed, 1000 + i])
+        n = lo + (i * 7) % (hi - lo + 1)
+        variant = SINGULAR_VARIANTS[i % len(SINGULAR_VARIANTS)]
+        ny = 1 if variant == "D21=0" else 2
+        nu = 2 if variant.startswith("D12") else None
+        base = random_plant(rng, n, "unstable" if n >= 3 else "stable", ny=ny, nu=nu, seed=i)
+        A, B1, B2, C1, D11, D12, C2, D21 = base.plant.as_tuple()
+        if variant == "D21=0":
+            D21 = np.zeros_like(D21)
+        elif variant == "rank-1 D21":  # one measurement noise-free direction
+            D21 = np.outer(rng.normal(size=ny), rng.normal(size=D21.shape[1]))
+        else:  # the second input reaches z only through the state: cheap
+            D12 = D12.copy()
+            D12[:, 1] = 0.0
+        plant = GeneralizedPlant.make(A, B1, B2, C1, D11, D12, C2, D21)
+        if variant == "D12 column 0 (SF)":
+            plant = GeneralizedPlant.make(A, B1, B2, C1, D11, D12)
+        out.append(SingularCase(variant, i, plant, variant != "D12 column 0 (SF)"))
+    return out
+
+
+def reference_infimum(plant, output_feedback):
+    """Upper estimate of a singular problem's infimum apart from the synthesis' own ladder, for
+    tests and benchmarks: the upper end of a Riccati bisection (1e-7 relative) on the regular
+    problem made by a perturbation of relative size 1e-7 (cost on u, noise on y), or 1e-6, 1e-5
+    where the Riccati tests refuse every level at the smaller one.  It tends to the infimum from
+    above as the perturbation shrinks.
+
+    Parameters
+    ----------
+    plant : GeneralizedPlant
+        The (singular) plant.
+    output_feedback : bool
+        Output feedback (else state feedback).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    RiccatiInfeasible
+        The Riccati tests refuse every level at all three perturbations.
+    """
+    from .certificates import parrott_bound
+    from .hinf_riccati import perturbed_plant
+    from .riccati import (RiccatiInfeasible, bisect_gamma, normalize, output_feedback_test,
+                          state_feedback_test)
+    p = plant
+    scale = max(1.0, np.abs(np.hstack([p.C1, p.D12])).max(), np.abs(np.vstack([p.B1, p.D21])).max())
+    last = None
+    for rel in (1e-7, 1e-6, 1e-5):
+        q = perturbed_plant(p, rel * scale, rel * scale if output_feedback else 0.0)
+        if output_feedback:
+            nrm = normalize(q)
+            test = lambda g, nrm=nrm: output_feedback_test(nrm.plant, g)  # noqa: E731
+            lower = parrott_bound(q.D11, q.D12, q.D21)
+        else:
+            test, lower = (lambda g, q=q: state_feedback_test(q, g)), np.linalg.norm(q.D11, 2)
+        try:
+            return bisect_gamma(test, lower, rtol=1e-7)[1]
+        except RiccatiInfeasible as exc:
+            last = exc
+    raise last

@@ -237,7 +237,7 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     ...     warnings.simplefilter("ignore", SynthesisWarning)
     ...     res = sd.winf_output_feedback(A, B, C, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
     >>> round(res.gamma, 2), res.certificate.ok, res.regularized
-    (1.1, True, True)
+    (1.09, True, True)
     >>> res.warnings[0].split(":")[0]
     'singular problem (rank D21 = 0 < 1)'
     >>> [M.shape for M in res.controller]           # (A_K, B_K, C_K, D_K), full order
@@ -310,7 +310,7 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
     ...     warnings.simplefilter("ignore", SynthesisWarning)
     ...     res = sd.hinf_output_feedback_qr(A, B, C, D, Q=[1, 1], R=[1])
     >>> round(res.gamma, 2), res.certificate.ok, res.regularized
-    (1.58, True, True)
+    (1.56, True, True)
     """
     _require_weights("Q", Q, "R", R)
     A, B, D, C = _measured_plant(A, B, D, C)
@@ -443,8 +443,7 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
         raise InfeasibleLMIError(f"strict LMI not satisfiable: (d, v) block has eigenvalue {worst:.3g} "
                                  f">= 0 (solver returned status {r.status}); {rep.message}", "infeasible")
     r = fn(plant, input_weight=Wt, regularize=False, verify=False, margin=0.0, **kw)
-    r.warnings.append(rep.message)
-    return r, rep
+    return r.replace(warnings=r.warnings + [rep.message]), rep
 
 
 def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):

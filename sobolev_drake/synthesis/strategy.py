@@ -25,7 +25,8 @@ import numpy as np
 
 from ..validation import one_of, real_scalar
 from .hinf_common import certify_result, publish_result
-from .hinf_riccati import BudgetExceeded, GammaNotReachable, riccati_synthesis
+from .hinf_riccati import (REGULARIZE_DELTA, BudgetExceeded, GammaNotReachable,
+                           riccati_synthesis)
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
 
@@ -89,8 +90,8 @@ def _lmi_only(lmi, regularize, verify, t0, deadline):
         e.args = (f"{e.args[0] if e.args else e} [LMI path: {time.perf_counter() - t0:.3g} s"
                   + (", time budget exhausted" if late else "") + "]",) + e.args[1:]
         raise
-    res.attempts = [f"LMI: {time.perf_counter() - t0:.3g} s, certified gamma {res.gamma:.6g}"]
-    return res
+    return res.replace(attempts=[f"LMI: {time.perf_counter() - t0:.3g} s, certified gamma "
+                                 f"{res.gamma:.6g}"])
 
 
 #: LMI-only options under which a Riccati controller may still answer a region problem
@@ -111,15 +112,15 @@ def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_er
     except (SynthesisError, BudgetExceeded):
         return None
     base = free.gamma_opt
-    for factor in ((1 + delta),) + REGION_LEVELS:
+    for factor in ((1 + (REGULARIZE_DELTA if delta is None else delta)),) + REGION_LEVELS:
         try:
             res, warns = riccati_synthesis(plant, of, gamma=factor * base, delta=delta,
                                            rtol=rtol, scaling=scaling, deadline=deadline)
         except (SynthesisError, BudgetExceeded):
             continue
-        certify_result(res, [plant], region, rtol, False, res.status)
+        res = certify_result(res, [plant], region, rtol, False, res.status)
         if res.certificate.ok:
-            res.region, res.gamma_opt, res.regularized = region, base, True
+            res = res.replace(region=region, gamma_opt=base, regularized=True)
             return res, warns + [
                 f"the LMI path failed ({lmi_error}); returned the Riccati controller at gamma "
                 f"= {factor:g} x {base:.6g}, the optimum without the region (a lower bound of "
@@ -156,9 +157,9 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
             if found is None:
                 raise
             res, warns = found
-            res.attempts = [f"LMI: failed ({e})",
-                            f"Riccati in the region: certified gamma {res.gamma:.6g}"]
-            res.fallback = "the LMI path failed"
+            res = res.replace(attempts=[f"LMI: failed ({e})",
+                                        f"Riccati in the region: certified gamma {res.gamma:.6g}"],
+                              fallback="the LMI path failed")
             return publish_result(res, warns, t0, [plant], region, rtol, verify,
                                   recertify=False)
     if method == "lmi" or (method == "auto" and lmi_features):
@@ -172,12 +173,16 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
         res, warns = riccati_synthesis(plant, of, gamma=gamma, delta=delta, rtol=rtol,
                                        scaling=scaling, regularize=regularize, deadline=deadline)
         log.add("Riccati", t, f"certified gamma {res.gamma:.6g}")
-        res.attempts = log.entries
+        res = res.replace(attempts=log.entries)
         return publish_result(res, warns, t0, [plant], None, rtol, verify, recertify=False)
     except GammaNotReachable:
         raise  # a mathematical answer, not a numerical failure: no fallback
-    except (SynthesisError, BudgetExceeded) as e:
-        log.add("Riccati", t, str(e))
+    except (SynthesisError, np.linalg.LinAlgError) as e:
+        # a SynthesisError includes RiccatiInfeasible ("no reachable level up to gamma =
+        # 1e+16": the bisection's numerics, not a proof) and BudgetExceeded; a LinAlgError is a
+        # raw "Singular matrix" from a solve on the way: the LMI path answers either
+        log.add("Riccati", t, f"{type(e).__name__}: {e}" if isinstance(e, np.linalg.LinAlgError)
+                else str(e))
     if method == "riccati" or (deadline is not None and time.perf_counter() > deadline):
         log.fail(kind, deadline)
     t = time.perf_counter()
@@ -186,7 +191,7 @@ def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, del
     except SynthesisError as e:
         log.add("LMI", t, str(e))
         log.fail(kind, deadline)
-    res.attempts = log.entries + [f"LMI: {time.perf_counter() - t:.3g} s, certified gamma "
-                                  f"{res.gamma:.6g}"]
-    res.fallback = "; ".join(x for x in (res.fallback, "the Riccati path failed") if x)
-    return res
+    return res.replace(
+        attempts=log.entries + [f"LMI: {time.perf_counter() - t:.3g} s, certified gamma "
+                                f"{res.gamma:.6g}"],
+        fallback="; ".join(x for x in (res.fallback, "the Riccati path failed") if x))

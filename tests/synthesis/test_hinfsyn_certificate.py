@@ -142,8 +142,8 @@ def test_controller_that_does_not_stabilize_p_is_refused(monkeypatch):
     def idle_controller(plant, **options):
         res = synthesize(plant, **options)
         AK, BK, CK, DK = res.controller
-        res.controller = DynamicController(-np.eye(AK.shape[0]), 0 * BK, 0 * CK, 0 * DK)
-        return res
+        return res.replace(controller=DynamicController(-np.eye(AK.shape[0]), 0 * BK, 0 * CK,
+                                                        0 * DK))
     monkeypatch.setattr(interop, "output_feedback", idle_controller)
     with pytest.raises(SynthesisError, match="closed loop of P with the returned controller is "
                                              "unstable"):

@@ -7,6 +7,7 @@ import pytest
 
 from sobolev_drake.synthesis.certificates import hinf_norm, hinf_norm_sweep
 from sobolev_drake.synthesis.hinf import GeneralizedPlant, output_feedback, state_feedback
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.synthesis.interop import hinf_state_feedback
 from sobolev_drake.synthesis.lmi import InfeasibleLMIError, LMIProgram, SynthesisError, bmat, kron
 from sobolev_drake.synthesis.regions import disk, half_plane, sector, strip
@@ -331,7 +332,7 @@ def test_strict_check_rejects_a_wrong_lyapunov_matrix():
     p = sgc_example7()
     r = state_feedback(p, region=disk(50.0))
     assert strict_check(r, [p], r.region, 1e-4, "").certificate.ok
-    r.P = 0.2 * r.P  # same controller and norm, P no longer a bounded-real certificate
+    r = r.replace(P=0.2 * r.P)  # same controller and norm, P no longer a bounded-real certificate
     c = strict_check(r, [p], r.region, 1e-4, "").certificate
     assert not c.ok and "bounded-real" in c.failures[-1]
 
@@ -400,7 +401,7 @@ def test_deliberate_regularization_escalates_once():
         tried.append(g)
         if g < fail_below:
             raise SynthesisError(f"rejected at {g}")
-        return SimpleNamespace(gamma=g, certificate=SimpleNamespace(ok=True), regularized=False)
+        return SynthesisResult("state_feedback", g, certificate=SimpleNamespace(ok=True))
 
     r, d = regularization_ladder(lambda g: solve_at(g, 1.02), 1.0, 0.01, True, None)
     assert d == pytest.approx(0.05) and r.gamma == pytest.approx(1.05) and r.regularized
