@@ -65,7 +65,17 @@ class PoleSummary:
 
     @classmethod
     def of(cls, A):
-        """Summary of the eigenvalues of ``A`` (empty: NaN extremes)."""
+        """Summary of the eigenvalues of ``A`` (empty: NaN extremes).
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+            The matrix (a system's state matrix).
+
+        Returns
+        -------
+        PoleSummary
+        """
         lam = np.linalg.eigvals(np.atleast_2d(A)) if np.size(A) else np.zeros(0, complex)
         lam = lam[np.argsort(np.abs(lam))]
         if lam.size == 0:

@@ -130,3 +130,16 @@ def test_sampled_data_design_on_the_arm_meets_gamma_in_hybrid_simulation(delay):
         assert r == pytest.approx(np.linalg.norm(zd) / np.linalg.norm(W[:, :N - 1]), rel=1e-6)
         assert r <= res.gamma
     assert r >= 0.95 * res.norm_ab13dd       # the peak input is worst-case-ish indeed
+
+
+def test_discrete_controller_system_refuses_a_continuous_result_and_checks_shapes():
+    A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
+    cont = sd.winf_state_feedback(A, B, B, Gamma0=[1, 1], Gamma1=[0, 1], gamma=10.0)
+    with pytest.raises(TypeError, match="DiscreteSynthesisResult"):
+        sd.discrete_controller_system(cont)
+    res = sd.hinf_discrete(control.c2d(OSCILLATOR, 0.01), 1, 1)
+    with pytest.raises(ValueError, match="y_op"):
+        sd.discrete_controller_system(res, y_op=[0.0, 1.0])
+    # with an operating point the held command is u_op + u_k
+    K = sd.discrete_controller_system(res, y_op=[2.0], u_op=[3.0])
+    assert K.y0()[0] == 3.0 and K.time_period() == 0.01
