@@ -37,6 +37,7 @@ from sobolev_drake.synthesis.weights import winf_weights
 from sobolev_drake.synthesis.discrete import (DiscreteSynthesisResult, hinf_discrete,
                                               sampled_data_plant)
 from sobolev_drake.analysis_plots import plot_loop_analysis
+from sobolev_drake.systems.discrete_controller import discrete_controller_system
 from sobolev_drake.systems import (FloatingBaseState, HinfLaw, LinearDynamicOutputFeedback,
                                    LinearStateFeedback, MechanicalController, MechanicalLaw,
                                    MultirotorController, Partition,
@@ -64,7 +65,7 @@ __all__ = [
     # analysis of a designed loop, weights from bandwidth and damping
     "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
     # discrete-time and sampled-data synthesis
-    "hinf_discrete", "sampled_data_plant", "DiscreteSynthesisResult",
+    "hinf_discrete", "sampled_data_plant", "DiscreteSynthesisResult", "discrete_controller_system",
     # linear controllers as Drake systems
     "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
 ]

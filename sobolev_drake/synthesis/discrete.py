@@ -38,6 +38,7 @@ from ..validation import positive_scalar
 from .certificates import as_matrix
 from .interop import hinfsyn
 from .problem import DynamicController, GeneralizedPlant, SynthesisResult
+from .riccati import RiccatiInfeasible
 
 __all__ = ["DiscreteSynthesisResult", "bilinear_to_continuous", "bilinear_to_discrete",
            "discrete_state_space", "sampled_data_plant", "hinf_discrete", "discrete_hinf_norm"]
@@ -72,6 +73,8 @@ class DiscreteSynthesisResult:
     computation_delay : bool
         True when the plant was a sampled-data plant with a one-sample delay (the controller
         then runs as in ``controller_system(..., computation_delay=True)``).
+    notes : tuple of str
+        What the call did beyond the default path (e.g. an LMI fallback).
     """
 
     dt: float
@@ -83,6 +86,7 @@ class DiscreteSynthesisResult:
     spectral_radius: float
     continuous: SynthesisResult
     computation_delay: bool = False
+    notes: tuple = ()
 
 
 def _abcd(A, B, C, D):
@@ -225,7 +229,29 @@ def sampled_data_plant(plant, dt, *, computation_delay=False):
     -------
     tuple
         ((A, B, C, D), nmeas, ncon): the discrete plant with inputs [w; u] and outputs
-        [z; y] (python-control's partition), for :func:`hinf_discrete`.
+        [z; y] (python-control's partition), for :func:`hinf_discrete` (with ``dt``).
+
+    Raises
+    ------
+    TypeError
+        When ``plant`` is not a GeneralizedPlant.
+
+    Examples
+    --------
+    A double integrator pushed by a force, its position measured with noise (w = [force;
+    noise]), z = [position; u], run at 100 Hz with a one-sample computation delay:
+
+    >>> import sobolev_drake as sd
+    >>> P = sd.GeneralizedPlant.make([[0, 1], [0, 0]], B1=[[0, 0], [1, 0]], B2=[[0], [1]],
+    ...                              C1=[[1, 0], [0, 0]], D12=[[0], [1]], C2=[[1, 0]],
+    ...                              D21=[[0, 0.1]])
+    >>> (A, B, C, D), nmeas, ncon = sd.sampled_data_plant(P, 0.01, computation_delay=True)
+    >>> A.round(5).tolist()                         # state [x; u_prev]
+    [[1.0, 0.01, 5e-05], [0.0, 1.0, 0.01], [0.0, 0.0, 0.0]]
+    >>> res = sd.hinf_discrete(((A, B, C, D), nmeas, ncon), None, None, dt=0.01,
+    ...                        computation_delay=True)
+    >>> bool(res.norm_ab13dd <= res.gamma), res.computation_delay
+    (True, True)
     """
     if not isinstance(plant, GeneralizedPlant):
         raise TypeError(f"plant must be a GeneralizedPlant, got {type(plant).__name__}")
@@ -331,7 +357,17 @@ def hinf_discrete(plant, nmeas, ncon, *, dt=None, computation_delay=False, **opt
         ncon = nu if ncon is None else ncon
     A, B, C, D, dt = discrete_state_space(plant, dt)
     Pc = ct.ss(*bilinear_to_continuous(A, B, C, D, dt))
-    out = hinfsyn(Pc, nmeas, ncon, **options)
+    notes = ()
+    try:
+        out = hinfsyn(Pc, nmeas, ncon, **options)
+    except RiccatiInfeasible as exc:
+        # the Riccati path of the default chain can give up on the bilinear image (seen on a
+        # sampled double integrator, whose tiny D11 ~ dt² stops the bisection at once); the
+        # LMI path answers the same problem, certified the same way
+        if "method" in options:
+            raise
+        out = hinfsyn(Pc, nmeas, ncon, method="lmi", **options)
+        notes = (f"Riccati path gave up ({exc}); solved by the LMI path",)
     Kc = out[0]
     AK, BK, CK, DK = bilinear_to_discrete(Kc.A, Kc.B, Kc.C, Kc.D, dt)
     cl = ct.ss(A, B, C, D, dt).lft(ct.ss(AK, BK, CK, DK, dt))
@@ -345,4 +381,4 @@ def hinf_discrete(plant, nmeas, ncon, *, dt=None, computation_delay=False, **opt
     gamma = max(float(out[2]), n_ab * (1 + CERTIFICATE_MARGIN), n_sw * (1 + CERTIFICATE_MARGIN))
     return DiscreteSynthesisResult(float(dt), gamma, DynamicController(AK, BK, CK, DK),
                                    (Acl, Bcl, Ccl, Dcl), n_ab, n_sw, rho, out.result,
-                                   bool(computation_delay))
+                                   bool(computation_delay), notes)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..validation import positive_scalar
 from .certificates import as_matrix
-from .interop import is_linear_system, state_space_matrices
+from .interop import generalized_plant, is_linear_system, state_space_matrices
 from .problem import GeneralizedPlant
 
 __all__ = ["PoleSummary", "LoopMargins", "LoopAnalysis", "loop_analysis", "POLE_FACTOR"]
@@ -47,7 +47,7 @@ class PoleSummary:
     Attributes
     ----------
     poles : ndarray
-        Eigenvalues (rad/s), sorted by modulus.
+        Eigenvalues (rad/s), sorted by modulus (discrete systems: s = ln(z)/dt).
     fastest, slowest : float
         Largest and smallest modulus |λ| (rad/s; natural frequencies).
     min_damping : float
@@ -64,9 +64,24 @@ class PoleSummary:
     max_real: float
 
     @classmethod
-    def of(cls, A):
-        """Summary of the eigenvalues of ``A`` (empty: NaN extremes)."""
+    def of(cls, A, dt=None):
+        """Summary of the eigenvalues of ``A`` (empty: NaN extremes).
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+            The matrix (a system's state matrix).
+        dt : float, optional
+            Sample period of a discrete system: its eigenvalues z are reported as the
+            equivalent s = ln(z)/dt; deadbeat poles (z = 0) are left out.
+
+        Returns
+        -------
+        PoleSummary
+        """
         lam = np.linalg.eigvals(np.atleast_2d(A)) if np.size(A) else np.zeros(0, complex)
+        if dt:
+            lam = np.log(lam[np.abs(lam) > 1e-9].astype(complex)) / dt
         lam = lam[np.argsort(np.abs(lam))]
         if lam.size == 0:
             return cls(lam, np.nan, np.nan, np.nan, np.nan)
@@ -140,6 +155,9 @@ class LoopAnalysis:
         The plant's reference frequency (rad/s) the pole warning compares with.
     warnings : tuple of str
         What looks wrong and the fix (empty when nothing does).
+    dt : float or None
+        Sample period of a discrete-time loop (None: continuous); its frequency responses are
+        evaluated at z = exp(jω dt), ω up to the Nyquist frequency π/dt.
     """
 
     plant: PoleSummary
@@ -158,6 +176,7 @@ class LoopAnalysis:
     max_gain: float
     reference_frequency: float
     warnings: tuple
+    dt: float | None = None
 
     @property
     def stable(self):
@@ -198,6 +217,14 @@ class LoopAnalysis:
 
 def _loop_pieces(result, plant, C):
     """(A, B2, C2, GeneralizedPlant or None) from a GeneralizedPlant or a linear system."""
+    if hasattr(result, "dt"):      # discrete: ((A, B, C, D), nmeas, ncon) as sampled_data_plant
+        if not (isinstance(plant, tuple) and len(plant) == 3 and isinstance(plant[0], tuple)):
+            raise TypeError("plant of a discrete result must be ((A, B, C, D), nmeas, ncon), as "
+                            f"sd.sampled_data_plant returns; got {type(plant).__name__}")
+        gp, D22 = generalized_plant(plant[0], *plant[1:])
+        if np.any(D22):
+            raise ValueError("plant: D22 (feedthrough of u to y) must be zero")
+        return gp.A, gp.B2, gp.C2, gp
     if isinstance(plant, GeneralizedPlant):
         if C is not None:
             raise TypeError("C: a GeneralizedPlant carries its measurement C2; do not pass C")
@@ -217,19 +244,24 @@ def _loop_pieces(result, plant, C):
     return A, B, Cm, None
 
 
-def _controller_ss(result, ny, nu):
-    if result.K is not None:
+def _controller_ss(result, ny, nu, dt):
+    if getattr(result, "K", None) is not None:
         K = as_matrix("result.K", result.K, (nu, ny))
-        return ct.ss(np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((nu, 0)), K), K
+        return ct.ss(np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((nu, 0)), K, dt), K
     AK, BK, CK, DK = (np.asarray(M, float) for M in result.controller)
     if BK.shape[1] != ny or CK.shape[0] != nu:
         raise ValueError(f"result: the controller maps {BK.shape[1]} measurements to "
                          f"{CK.shape[0]} inputs, the plant has ny = {ny}, nu = {nu}")
-    return ct.ss(AK, BK, CK, DK), AK
+    return ct.ss(AK, BK, CK, DK, dt), AK
+
+
+def _response(sys, omega):
+    """Frequency response at s = jω, or at z = exp(jω dt) for a discrete system."""
+    return np.asarray(sys(np.exp(1j * omega * sys.dt) if sys.isdtime(strict=True) else 1j * omega))
 
 
 def _sigma(sys, omega):
-    resp = np.asarray(sys(1j * omega))
+    resp = _response(sys, omega)
     if resp.ndim == 1:
         resp = resp[None, None, :]
     return np.linalg.svd(np.moveaxis(resp, -1, 0), compute_uv=False).T, resp
@@ -247,9 +279,9 @@ def _disk_from_alpha(alpha):
 def _margins(where, L, omega):
     """Loop-at-a-time and multivariable margins of the negative-feedback loop L (m x m)."""
     m = L.ninputs
-    eye = ct.ss(np.zeros((0, 0)), np.zeros((0, m)), np.zeros((m, 0)), np.eye(m))
+    eye = ct.ss(np.zeros((0, 0)), np.zeros((0, m)), np.zeros((m, 0)), np.eye(m), L.dt)
     S = eye.feedback(L)
-    Sjw = np.asarray(S(1j * omega)).reshape(m, m, -1)
+    Sjw = _response(S, omega).reshape(m, m, -1)
     # S_ii = 1/(1 + L_i) with L_i the loop i broken, the others closed (docstring)
     Lii = 1.0 / Sjw[np.arange(m), np.arange(m), :] - 1.0
     disk = 1.0 / np.max(np.abs(Sjw[np.arange(m), np.arange(m), :] - 0.5), axis=1)
@@ -269,37 +301,51 @@ def _margins(where, L, omega):
     return LoopMargins(where, disk, dgm, dpm, gm, pm, mdm, mgm, mpm), Lii
 
 
-def _reference_frequency(A, bandwidth):
+def _reference_frequency(fastest, bandwidth):
     if bandwidth is not None:
         return positive_scalar("bandwidth", bandwidth)
-    lam = np.linalg.eigvals(A)
-    return float(max(np.abs(lam).max(initial=0.0), 1.0))
+    return float(max(0.0 if np.isnan(fastest) else fastest, 1.0))
 
 
-def _warnings(cl, k_poles, ref, pole_factor, max_gain, gain_limit, plant_given):
+def _speed(summary, dt):
+    """Fastest pole of a summary; discrete: the fastest oscillation |Im s| (a decay near z = 0
+    is bounded by the sample rate and harmless)."""
+    if summary is None or summary.poles.size == 0:
+        return 0.0
+    return float(np.abs(summary.poles.imag).max() if dt else summary.fastest)
+
+
+def _warnings(cl, k_poles, ref, pole_factor, max_gain, gain_limit, dt):
     out = []
     limit = pole_factor * ref
-    worst = max(cl.fastest, k_poles.fastest if k_poles is not None else 0.0)
+    cl_speed, k_speed = _speed(cl, dt), _speed(k_poles, dt)
+    worst = max(cl_speed, k_speed)
     if cl.max_real >= 0:
         out.append(f"the closed loop is unstable (pole with real part {cl.max_real:.3g}); "
                    "the controller does not belong to this plant")
+    if dt:   # a disk R of the bilinear image s = (2/dt)(z - 1)/(z + 1) keeps z away from -1
+        R = 2 / dt * np.tan(min(limit, 0.9 * np.pi / dt) * dt / 2)
+        fix = (f"redesign with sd.hinf_discrete(..., region=sd.regions.disk({R:.3g})) (a disk "
+               f"of the bilinear image s = (2/dt)(z - 1)/(z + 1): oscillations below about "
+               f"{min(limit, 0.9 * np.pi / dt):.3g} rad/s)")
+    else:
+        fix = (f"redesign with region=sd.regions.disk({limit:.3g}) (poles within {limit:.3g} "
+               "rad/s, LMI path) or weight the rates more (larger Gamma1)")
     if worst > limit:
-        what = ("controller" if k_poles is not None and k_poles.fastest >= cl.fastest
-                else "closed-loop")
-        out.append(f"{what} poles up to {worst:.3g} rad/s, {worst / ref:.3g} x the plant's "
-                   f"reference frequency {ref:.3g} rad/s (limit {pole_factor:g} x = {limit:.3g} "
-                   f"rad/s): such a loop needs a sample rate and actuators far beyond the "
-                   f"plant's; redesign with region=sd.regions.disk({limit:.3g}) (poles within "
-                   f"{limit:.3g} rad/s, LMI path) or weight the rates more (larger Gamma1)")
+        what = "controller" if k_speed >= cl_speed else "closed-loop"
+        kind = "oscillating" if dt else "poles up to"
+        out.append(f"{what} {kind} {'poles at ' if dt else ''}{worst:.3g} rad/s, "
+                   f"{worst / ref:.3g} x the plant's reference frequency {ref:.3g} rad/s (limit "
+                   f"{pole_factor:g} x = {limit:.3g} rad/s): such a loop needs a sample rate "
+                   f"and actuators far beyond the plant's; {fix}")
     if gain_limit is not None and max_gain > gain_limit:
         out.append(f"controller gains up to {max_gain:.3g} exceed the bound {gain_limit:.3g}; "
                    f"redesign with a requested gamma above the optimum (gamma=...), a pole "
-                   f"region (region=sd.regions.disk({limit:.3g})) or an input weight "
-                   "(input_weight=...)")
+                   f"region ({fix.split('with ', 1)[1]}) or an input weight (input_weight=...)")
     return tuple(out)
 
 
-def _grid(poles, omega):
+def _grid(poles, omega, dt):
     if omega is not None:
         omega = np.asarray(omega, float)
         if omega.ndim != 1 or omega.size < 2 or np.any(omega <= 0) or not np.all(np.isfinite(omega)):
@@ -310,13 +356,17 @@ def _grid(poles, omega):
     mod = mod[mod > 1e-9]
     lo = mod.min() if mod.size else 1.0
     hi = mod.max() if mod.size else 1.0
+    if dt:   # up to just below the Nyquist frequency
+        return np.logspace(np.log10(lo) - 2, np.log10(np.pi / dt * (1 - 1e-6)), POINTS)
     return np.logspace(np.log10(lo) - 2, np.log10(hi) + 2, POINTS)
 
 
 def _responses(cl_sys, slow, fast):
     """Step and impulse responses on [0, t_final], t_final from the slowest decay rate."""
     t_final = min(8.0 / max(slow, 1e-6), 2000.0 * 2 * np.pi / max(fast, 1e-6), 1e4)
-    t = np.linspace(0.0, t_final, 600)
+    dt = cl_sys.dt if cl_sys.isdtime(strict=True) else 0
+    t = dt * np.arange(min(int(np.ceil(t_final / dt)), 2000) + 1) if dt else \
+        np.linspace(0.0, t_final, 600)
     step = np.asarray(ct.step_response(cl_sys, t).outputs).reshape(cl_sys.noutputs, cl_sys.ninputs, -1)
     with warnings.catch_warnings():   # D != 0: the impulse's Dirac part is left out (documented)
         warnings.simplefilter("ignore", UserWarning)
@@ -331,14 +381,17 @@ def loop_analysis(result, plant, *, C=None, omega=None, bandwidth=None,
 
     Parameters
     ----------
-    result : SynthesisResult
+    result : SynthesisResult or DiscreteSynthesisResult
         A state-feedback (``result.K``, u = +K x) or output-feedback (``result.controller``)
-        design.
+        design; a discrete-time result (:func:`~sobolev_drake.synthesis.discrete.hinf_discrete`)
+        is analysed in z (poles reported as s = ln(z)/dt, frequencies up to π/dt).
     plant : GeneralizedPlant or linear system
         The plant: a :class:`GeneralizedPlant` (e.g. ``sd.winf_plant(A, B, D, Gamma0, Gamma1)``;
         then the performance channel w -> z is analysed too), or a linear system (Drake
         ``LinearSystem``, python-control ``StateSpace``, (A, B, C, D)) whose B is the control
-        input and, for output feedback, whose C is the measurement.
+        input and, for output feedback, whose C is the measurement.  For a discrete result:
+        ``((A, B, C, D), nmeas, ncon)`` as :func:`~sobolev_drake.synthesis.discrete.
+        sampled_data_plant` returns.
     C : array_like, optional
         Measurement y = C x of a linear-system plant (default: the system's C for output
         feedback, the identity for state feedback).
@@ -381,30 +434,34 @@ def loop_analysis(result, plant, *, C=None, omega=None, bandwidth=None,
     if gain_limit is not None:
         gain_limit = positive_scalar("gain_limit", gain_limit)
     A, B2, C2, gp = _loop_pieces(result, plant, C)
+    dt = getattr(result, "dt", None)
     n, nu, ny = A.shape[0], B2.shape[1], C2.shape[0]
-    K_ss, K_data = _controller_ss(result, ny, nu)
-    G = ct.ss(A, B2, C2, np.zeros((ny, nu)))
+    K_ss, K_data = _controller_ss(result, ny, nu, dt or 0)
+    G = ct.ss(A, B2, C2, np.zeros((ny, nu)), dt or 0)
     L_in, L_out = -K_ss * G, -G * K_ss
-    cl_A = ct.ss(A, B2, C2, 0).feedback(K_ss, sign=+1).A if K_ss.nstates else A + B2 @ K_data @ C2
-    cl, k_poles = PoleSummary.of(cl_A), (PoleSummary.of(K_data) if K_ss.nstates else None)
-    w = _grid(np.r_[np.linalg.eigvals(A), cl.poles], omega)
+    cl_A = G.feedback(K_ss, sign=+1).A if K_ss.nstates else A + B2 @ K_data @ C2
+    cl = PoleSummary.of(cl_A, dt)
+    k_poles = PoleSummary.of(K_data, dt) if K_ss.nstates else None
+    plant_poles = PoleSummary.of(A, dt)
+    w = _grid(np.r_[plant_poles.poles, cl.poles], omega, dt)
     in_m, Lii = _margins("input", L_in, w)
     out_m, _ = _margins("output", L_out, w)
-    eye = ct.ss(np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((ny, 0)), np.eye(ny))
+    eye = ct.ss(np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((ny, 0)), np.eye(ny), dt or 0)
     S = eye.feedback(L_out)
     sigma = {"S": _sigma(S, w)[0], "T": _sigma(eye - S, w)[0], "KS": _sigma(K_ss * S, w)[0]}
     gamma = getattr(result, "gamma", None)
     hnorm, t, step, imp = None, np.zeros(0), None, None
     if gp is not None:
-        Acl, Bcl, Ccl, Dcl = result.closed_loop(gp)
-        tzw = ct.ss(Acl, Bcl, Ccl, Dcl)
+        Acl, Bcl, Ccl, Dcl = (gp.closed_loop(controller=result.controller) if dt else
+                              result.closed_loop(gp))
+        tzw = ct.ss(Acl, Bcl, Ccl, Dcl, dt or 0)
         sigma["Tzw"] = _sigma(tzw, w)[0]
         hnorm = float(max(sigma["Tzw"][0].max(), np.linalg.norm(Dcl, 2)))
         t, step, imp = _responses(tzw, -cl.max_real, cl.fastest)
-    gains = [result.K] if result.K is not None else list(result.controller)[1:]
+    gains = [K_data] if not K_ss.nstates else list(result.controller)[1:]
     max_gain = float(max(np.abs(np.asarray(M)).max(initial=0.0) for M in gains))
-    ref = _reference_frequency(A, bandwidth)
-    warns = _warnings(cl, k_poles, ref, pole_factor, max_gain, gain_limit, gp is not None)
-    return LoopAnalysis(PoleSummary.of(A), cl, k_poles, in_m, out_m, w, sigma, Lii,
+    ref = _reference_frequency(plant_poles.fastest, bandwidth)
+    warns = _warnings(cl, k_poles, ref, pole_factor, max_gain, gain_limit, dt)
+    return LoopAnalysis(plant_poles, cl, k_poles, in_m, out_m, w, sigma, Lii,
                         None if gamma is None else float(gamma), hnorm, t, step, imp, max_gain,
-                        ref, warns)
+                        ref, warns, dt)

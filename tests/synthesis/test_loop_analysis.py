@@ -142,3 +142,24 @@ def test_readme_examples_are_analysed_by_the_diagram_script(tmp_path):
     # the angle-only output feedback's fast controller poles are reported with their fix
     of = out["acrobot W∞ output feedback (angles)"][0]
     assert any("region=sd.regions.disk(" in w for w in of.warnings)
+
+
+@pytest.mark.parametrize("delay", [False, True])
+def test_discrete_loop_nyquist_ringing_is_reported_and_the_suggested_disk_removes_it(arm, delay):
+    # the sampled-data W∞ design with y = x noise free: its controller rings at the Nyquist
+    # frequency (z near -1, damping 0.01); the warning's bilinear-domain disk removes it
+    A, B, D = arm
+    G0, G1 = sd.winf_weights(5.0, 0.8, dof=2)
+    sdp = sd.sampled_data_plant(sd.winf_plant(A, B, D, G0, G1), 0.01, computation_delay=delay)
+    res = quiet(sd.hinf_discrete, sdp, None, None, dt=0.01, computation_delay=delay)
+    an = sd.loop_analysis(res, sdp)
+    assert an.dt == 0.01 and an.stable and an.hinf_norm <= res.gamma
+    assert np.all(an.omega < np.pi / 0.01)
+    ring = [w for w in an.warnings if "oscillating" in w]
+    assert ring and "sd.hinf_discrete(..., region=sd.regions.disk(" in ring[0]
+    R = float(ring[0].split("region=sd.regions.disk(")[1].split(")")[0])
+    fixed = quiet(sd.hinf_discrete, sdp, None, None, dt=0.01, computation_delay=delay,
+                  region=sd.regions.disk(R))
+    an2 = sd.loop_analysis(fixed, sdp)
+    assert an2.stable and not [w for w in an2.warnings if "oscillating" in w]
+    assert an2.controller.min_damping > an.controller.min_damping
