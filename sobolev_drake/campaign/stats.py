@@ -22,11 +22,15 @@ Failed cases count in the success rate only, not in any index statistic or paire
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 from scipy.stats import bootstrap, norm
 
 from sobolev_drake.plots import save_figure
@@ -48,7 +52,7 @@ def _number(value, name, low=0, high=math.inf, *, integer=False, closed=True):
     return int(value) if integer else float(value)
 
 
-def wilson_interval(successes, n, confidence=0.95):
+def wilson_interval(successes: float, n: int, confidence: float = 0.95) -> tuple[float, float]:
     """Wilson score interval of a binomial proportion: with p = successes / n and z the
     two-sided normal quantile, ``(p + z²/2n ± z sqrt(p(1-p)/n + z²/4n²)) / (1 + z²/n)``.
 
@@ -81,7 +85,8 @@ def wilson_interval(successes, n, confidence=0.95):
     return low, 1.0 if successes == n else min(1.0, centre + half)
 
 
-def bootstrap_interval(values, statistic, *, confidence=0.95, resamples=2000, seed=0):
+def bootstrap_interval(values: ArrayLike, statistic: Callable[..., Any], *, confidence: float = 0.95,
+                       resamples: int = 2000, seed: int = 0) -> tuple[float, float]:
     """Percentile bootstrap interval: the (1 ∓ confidence)/2 quantiles of ``statistic`` over
     ``resamples`` resamples (with replacement) of the finite values, by
     :func:`scipy.stats.bootstrap` (``method="percentile"``).
@@ -210,8 +215,9 @@ def _compare(a, b, design_a, design_b, name, confidence, boot):
             "ratio_interval": _num(bootstrap_interval(ratio, np.median, **boot))}
 
 
-def summarize(records, *, designs=None, indices=None, baseline=None, confidence=0.95,
-              resamples=2000, seed=0):
+def summarize(records: Iterable[Mapping], *, designs: Sequence[str] | None = None,
+              indices: Sequence[str] | None = None, baseline: str | None = None,
+              confidence: float = 0.95, resamples: int = 2000, seed: int = 0) -> dict:
     """Success rates, index distributions and paired comparisons of a campaign's cases.
 
     Parameters
@@ -283,7 +289,7 @@ def _with_interval(value, interval):
         f"{fmt(value)} [{fmt(interval[0])}, {fmt(interval[1])}]"
 
 
-def summary_tables(summary):
+def summary_tables(summary: dict) -> tuple[str, dict]:
     """Markdown tables of a :func:`summarize` result (4 significant digits, "—" if undefined).
 
     Parameters
@@ -347,7 +353,7 @@ def _panels(records, summary, path, draw, log_axis):
     return save_figure(fig, path)
 
 
-def plot_distributions(records, summary, path):
+def plot_distributions(records: Iterable[Mapping], summary: dict, path: str | os.PathLike) -> Path:
     """Box plots of each index per design over jittered points of the successful cases, one
     panel per index (log y axis when all values are positive and span more than 100×).
 
@@ -383,7 +389,7 @@ def plot_distributions(records, summary, path):
     return _panels(records, summary, path, draw, "y")
 
 
-def plot_cdfs(records, summary, path):
+def plot_cdfs(records: Iterable[Mapping], summary: dict, path: str | os.PathLike) -> Path:
     """Empirical CDF of each index per design, one panel per index (log x axis when all
     values are positive and span more than 100×).  A design's CDF is over all its cases, a
     failed case (or a missing or infinite value) counting as worse than any value: a curve
