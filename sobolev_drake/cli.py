@@ -21,7 +21,9 @@ import math
 import sys
 import time
 import traceback
+from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from sobolev_drake import experiments as exps
 from sobolev_drake.errors import SobolevDrakeError
@@ -37,7 +39,7 @@ class UsageError(SobolevDrakeError):
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line usage errors (no usage block, no traceback)."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise UsageError(message)
 
 
@@ -440,7 +442,7 @@ _COMMANDS = {"list": lambda args: _cmd_list(), "run": _cmd_run, "demo": _cmd_dem
              "campaign": _cmd_campaign, "campaign-repair": _cmd_campaign_repair}
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sobolev-drake``; returns the exit code (0 ok, 1 crash, 2 usage)."""
     try:
         args = _parser().parse_args(argv)

@@ -32,6 +32,7 @@ import json
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,7 @@ def _array_tree(arr: np.ndarray) -> dict:
     return {_ARRAY: dtype, "shape": list(arr.shape), "data": data}
 
 
-def to_tree(value):
+def to_tree(value: Any) -> Any:
     """``value`` as a JSON-serializable tree (see the module docstring for the encoding).
 
     Parameters
@@ -118,7 +119,7 @@ def _to_tree(value, where):
                     "file (numbers, strings, lists, dicts and numpy arrays only)")
 
 
-def from_tree(tree, where: str = "value"):
+def from_tree(tree: Any, where: str = "value") -> Any:
     """The value :func:`to_tree` encoded as ``tree`` (arrays rebuilt with dtype and shape).
 
     Parameters
@@ -189,7 +190,7 @@ def _canonical(value, where):
     return _to_tree(value, where)
 
 
-def fingerprint(value) -> str:
+def fingerprint(value: Any) -> str:
     """SHA-256 of a value's exact content (hex): equal values give equal fingerprints.
 
     Frozen dataclasses (design specifications) are fingerprinted field by field with their
@@ -215,7 +216,7 @@ def fingerprint(value) -> str:
     return hashlib.sha256(text.encode("ascii")).hexdigest()
 
 
-def fsync_directory(path) -> None:
+def fsync_directory(path: str | os.PathLike) -> None:
     """Make a rename or a new file in folder ``path`` durable (POSIX; a no-op where folders
     cannot be opened, e.g. Windows).
 
@@ -235,7 +236,7 @@ def fsync_directory(path) -> None:
         os.close(fd)
 
 
-def write_json_atomic(path, value) -> Path:
+def write_json_atomic(path: str | os.PathLike, value: Any) -> Path:
     """Write ``value`` (a :func:`to_tree`-able value) as JSON to ``path`` atomically.
 
     The text goes to a temporary file in the same folder, is flushed and synced, then renamed
@@ -267,7 +268,7 @@ def write_json_atomic(path, value) -> Path:
     return write_text_atomic(path, text)
 
 
-def write_text_atomic(path, text: str) -> Path:
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     """Replace ``path`` by ``text`` (UTF-8) atomically (:func:`write_bytes_atomic`).
 
     Parameters
@@ -282,7 +283,7 @@ def write_text_atomic(path, text: str) -> Path:
     return write_bytes_atomic(path, text.encode("utf-8"))
 
 
-def write_bytes_atomic(path, data: bytes) -> Path:
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     """Replace ``path`` by ``data`` atomically: temporary file in the same folder, flush, fsync,
     rename, folder fsync.  On any failure (a full disk) the old file stays.
 
@@ -310,7 +311,7 @@ def write_bytes_atomic(path, data: bytes) -> Path:
     return path
 
 
-def read_json(path, what: str = "data file"):
+def read_json(path: str | os.PathLike, what: str = "data file") -> Any:
     """Parse the JSON file ``path`` (:func:`from_tree` applied).
 
     Parameters

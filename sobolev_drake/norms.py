@@ -34,6 +34,7 @@ import numbers
 from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.validation import (bounds_pair, describe, one_of, positive_scalar, real_array,
                                       real_scalar, real_vector, sequence)
@@ -54,7 +55,7 @@ __all__ = [
 ]
 
 
-def check_time(t) -> np.ndarray:
+def check_time(t: ArrayLike) -> np.ndarray:
     """Return ``t`` as a float vector after checking it is 1-D, finite, strictly increasing.
 
     Parameters
@@ -107,7 +108,7 @@ def _signal(name: str, z, n: int) -> tuple[np.ndarray, bool]:
     return z, was_1d
 
 
-def trapezoid(t, y) -> np.ndarray | float:
+def trapezoid(t: ArrayLike, y: ArrayLike) -> np.ndarray | float:
     """∫ y dt by the trapezoid rule on the (non-uniform) grid ``t``; per channel for 2-D ``y``.
 
     Parameters
@@ -128,7 +129,7 @@ def trapezoid(t, y) -> np.ndarray | float:
     return float(out[0]) if was_1d else out
 
 
-def finite_difference(t, z, order: int = 1) -> np.ndarray:
+def finite_difference(t: ArrayLike, z: ArrayLike, order: int = 1) -> np.ndarray:
     """d^order z / dt^order by repeated second-order ``numpy.gradient`` (edge_order=2).
 
     Second order in the interior and at the ends on non-uniform grids.  Each repetition loses
@@ -186,7 +187,8 @@ def _weight(name: str, sigma, p: int) -> np.ndarray:
     return W
 
 
-def sobolev_norm_terms(t, z, sigmas: Sequence, derivatives: Sequence | None = None) -> np.ndarray:
+def sobolev_norm_terms(t: ArrayLike, z: ArrayLike, sigmas: Sequence,
+                       derivatives: Sequence | None = None) -> np.ndarray:
     """The m+1 terms ∫ (d^α z)ᵀ σ_α (d^α z) dt, α = 0..m, of the squared norm (3.4).
 
     Parameters
@@ -244,7 +246,8 @@ def _norm_terms(t, z, sigmas, derivatives, *, z_name="z", sigma_names=None):
     return terms
 
 
-def sobolev_norm(t, z, sigmas: Sequence, derivatives: Sequence | None = None, *, squared: bool = False) -> float:
+def sobolev_norm(t: ArrayLike, z: ArrayLike, sigmas: Sequence, derivatives: Sequence | None = None, *,
+                 squared: bool = False) -> float:
     """Weighted Sobolev norm ‖z‖_{W^{m,2,σ}} of (3.4) (p = 2) on a logged signal.
 
     With ``sigmas=[σ0]`` this is the weighted L2 norm.
@@ -277,7 +280,7 @@ def sobolev_norm(t, z, sigmas: Sequence, derivatives: Sequence | None = None, *,
     return s if squared else float(np.sqrt(max(s, 0.0)))
 
 
-def ise(t, e):
+def ise(t: ArrayLike, e: ArrayLike) -> float | np.ndarray:
     """Integral of the square error ∫ e(t)² dt per channel (float for 1-D ``e``).
 
     Parameters
@@ -303,7 +306,7 @@ def ise(t, e):
     return _channel_integral(t, e, np.square)
 
 
-def iae(t, e):
+def iae(t: ArrayLike, e: ArrayLike) -> float | np.ndarray:
     """Integral of the absolute error ∫ |e(t)| dt per channel (trapezoid on the samples).
 
     Parameters
@@ -329,7 +332,7 @@ def _channel_integral(t, e, integrand):
     return float(out[0]) if was_1d else out
 
 
-def iadu(t, u):
+def iadu(t: ArrayLike, u: ArrayLike) -> float | np.ndarray:
     """∫ |du/dt| dt per channel, computed exactly for the sampled signal as Σ |Δu|.
 
     The thesis tables report the sum over channels, ``iadu(t, u).sum()``.  ``t`` is only
@@ -362,7 +365,7 @@ def iadu(t, u):
     return float(out[0]) if was_1d else out
 
 
-def l2_norm(t, w, sigma=1.0) -> float:
+def l2_norm(t: ArrayLike, w: ArrayLike, sigma: ArrayLike = 1.0) -> float:
     """‖w‖_{L2,σ} = (∫ wᵀ σ w dt)^{1/2} over all channels.
 
     Parameters
@@ -387,8 +390,9 @@ def _l2_norm(t, w, sigma, sigma_name):
     return float(np.sqrt(max(s, 0.0)))
 
 
-def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | None = None,
-                   *, w_sigma=1.0, initial_term: float = 0.0) -> float:
+def empirical_gain(t: ArrayLike, z: ArrayLike, w: ArrayLike, sigmas: Sequence = (1.0,),
+                   derivatives: Sequence | None = None, *, w_sigma: ArrayLike = 1.0,
+                   initial_term: float = 0.0) -> float:
     """Empirical gain ‖z‖_{W^{m,2,σ}} / ‖w‖_{L2} of a simulated run.
 
     ``initial_term`` (e.g. 2V(x0)) is subtracted from ‖z‖² before the square root, so the
@@ -438,7 +442,8 @@ def empirical_gain(t, z, w, sigmas: Sequence = (1.0,), derivatives: Sequence | N
 SETTLING_CROSSINGS = ("interpolated", "next_sample")
 
 
-def settling_time(t, y, *, fraction, reference=None, until=None, crossing="interpolated") -> float:
+def settling_time(t: ArrayLike, y: ArrayLike, *, fraction: float, reference: float | None = None,
+                  until: float | None = None, crossing: str = "interpolated") -> float:
     """Time after which |y| stays within ``fraction`` × ``reference``.
 
     Parameters
@@ -484,7 +489,7 @@ def settling_time(t, y, *, fraction, reference=None, until=None, crossing="inter
     return float(t[k] + (t[k + 1] - t[k]) * excess[k] / (excess[k] - excess[k + 1]))
 
 
-def fraction_at_bounds(u, lo, hi, *, rtol: float = 1e-6) -> float:
+def fraction_at_bounds(u: ArrayLike, lo: ArrayLike, hi: ArrayLike, *, rtol: float = 1e-6) -> float:
     """Share of samples at which some input is on (or beyond) a bound of the box [lo, hi].
 
     "On" means within ``rtol`` × max(|lo|, |hi|) of it: a saturated actuator, or a command the

@@ -1,8 +1,8 @@
 """Reading saved Meshcat recordings (the standalone HTML of ``Meshcat.StaticHtml()``).
 
 The page embeds the viewer's commands as base64 msgpack blobs; :func:`meshcat_commands` decodes
-them, :func:`animation_keyframes` lists what the recorded animation moves and
-:func:`animates_path` asks about one object.  :func:`external_script_sources` lists any tag that
+them (with the msgpack package), :func:`animation_keyframes` lists what the recorded animation
+moves and :func:`animates_path` asks about one object.  :func:`external_script_sources` lists any tag that
 would load a script or stylesheet from the network (a recording must open offline).  Used by
 the tests and by :func:`sobolev_drake.viz.save_recording_html`.
 """
@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import base64
 import re
-import struct
 from pathlib import Path
+
+import msgpack
 
 __all__ = ["external_script_sources", "meshcat_commands", "animation_keyframes", "animates_path"]
 
@@ -53,49 +54,14 @@ def external_script_sources(html: str) -> list[str]:
     return tags
 
 
-def _unpack(b: bytes, i: int = 0):
-    """Minimal msgpack decoder (the subset Meshcat emits); returns (value, next index)."""
-    c = b[i]
-    if c <= 0x7F or c >= 0xE0:
-        return (c if c <= 0x7F else c - 256), i + 1
-    if 0x80 <= c <= 0x9F:
-        n, i, is_map = c & 0x0F, i + 1, c <= 0x8F
-    elif c in (0xDC, 0xDD, 0xDE, 0xDF):
-        f = ">H" if c in (0xDC, 0xDE) else ">I"
-        n, i, is_map = struct.unpack_from(f, b, i + 1)[0], i + 1 + struct.calcsize(f), c >= 0xDE
-    elif 0xA0 <= c <= 0xBF:
-        n = c & 0x1F
-        return b[i + 1:i + 1 + n].decode(), i + 1 + n
-    elif c in (0xC0, 0xC2, 0xC3):
-        return {0xC0: None, 0xC2: False, 0xC3: True}[c], i + 1
-    else:
-        num = {0xCA: ">f", 0xCB: ">d", 0xCC: ">B", 0xCD: ">H", 0xCE: ">I", 0xCF: ">Q",
-               0xD0: ">b", 0xD1: ">h", 0xD2: ">i", 0xD3: ">q"}
-        if c in num:
-            return struct.unpack_from(num[c], b, i + 1)[0], i + 1 + struct.calcsize(num[c])
-        lens = {0xC4: ">B", 0xC5: ">H", 0xC6: ">I", 0xD9: ">B", 0xDA: ">H", 0xDB: ">I",
-                0xC7: ">B", 0xC8: ">H", 0xC9: ">I"}
-        fixext = {0xD4: 1, 0xD5: 2, 0xD6: 4, 0xD7: 8, 0xD8: 16}
-        if c in fixext:
-            n, j = fixext[c], i + 1
-        elif c in lens:
-            n = struct.unpack_from(lens[c], b, i + 1)[0]
-            j = i + 1 + struct.calcsize(lens[c])
-        else:
-            raise ValueError(f"unsupported msgpack byte 0x{c:02x} at {i}")
-        if c in fixext or c >= 0xC7 and c <= 0xC9:  # ext: (type, raw bytes)
-            return ("ext", b[j], bytes(b[j + 1:j + 1 + n])), j + 1 + n
-        raw = bytes(b[j:j + n])
-        return (raw.decode() if c >= 0xD9 else raw), j + n
-    out = {} if is_map else []
-    for _ in range(n):
-        if is_map:
-            k, i = _unpack(b, i)
-            out[k], i = _unpack(b, i)
-        else:
-            v, i = _unpack(b, i)
-            out.append(v)
-    return out, i
+def _unpack(raw: bytes):
+    """The first msgpack object of ``raw`` (msgpack's decoder; an ext value as ``("ext", type,
+    bytes)``, map keys of any type, trailing bytes ignored)."""
+    try:
+        return msgpack.unpackb(raw, raw=False, strict_map_key=False,
+                               ext_hook=lambda code, data: ("ext", code, bytes(data)))
+    except msgpack.ExtraData as extra:
+        return extra.unpacked
 
 
 _BLOB = re.compile(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)")
@@ -120,8 +86,8 @@ def meshcat_commands(html: str) -> list[dict]:
     for m in _BLOB.finditer(html):
         raw = base64.b64decode(m.group(1))
         try:
-            v, _ = _unpack(raw)
-        except (ValueError, IndexError, UnicodeDecodeError, KeyError):
+            v = _unpack(raw)
+        except (ValueError, msgpack.UnpackException):   # an asset that is not msgpack
             continue
         if isinstance(v, dict) and "type" in v:
             out.append(v)

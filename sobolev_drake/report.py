@@ -14,7 +14,7 @@ import re
 from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -76,7 +76,7 @@ class ExperimentResult:
 
 
 
-def percent_of(value, base) -> str:
+def percent_of(value: float | None, base: float | None) -> str:
     """A table cell "value (percentage of base)", e.g. ``"0.369 (65%)"``; the value alone when
     ``base`` is 0.
 
@@ -92,7 +92,7 @@ def percent_of(value, base) -> str:
     return f"{value:.4g} ({100 * value / base:.0f}%)" if base else f"{value:.4g}"
 
 
-def percent_rows(values, base, columns) -> list:
+def percent_rows(values: dict, base: str | dict, columns: Sequence[str]) -> list:
     """Table rows "label, value (percentage of the base row's value), ..." per labelled row.
 
     Parameters
@@ -114,7 +114,8 @@ def percent_rows(values, base, columns) -> list:
     return [[label, *(percent_of(v[c], base_row[c]) for c in columns)] for label, v in values.items()]
 
 
-def reading_claim(text, values, thesis_row, columns, tolerance, *, digits=1, extra="") -> Claim:
+def reading_claim(text: str, values: dict, thesis_row: dict, columns: Sequence[str], tolerance: float, *,
+                  digits: int = 1, extra: str = "") -> Claim:
     """The claim "a reading reproduces a thesis row": every column within ``tolerance``.
 
     Parameters
@@ -149,7 +150,7 @@ def reading_claim(text, values, thesis_row, columns, tolerance, *, digits=1, ext
                  detail + (f"; {extra}" if extra else ""))
 
 
-def fmt(x) -> str:
+def fmt(x: Any) -> str:
     """Human formatting of one table cell.
 
     Parameters
@@ -224,8 +225,9 @@ def markdown_table(columns: Sequence[str], rows: Sequence[Sequence]) -> str:
     return "\n".join([head, sep, *body])
 
 
-def write_table(out_dir, stem: str, columns: Sequence[str], rows: Sequence[Sequence], *,
-                thesis_rows: Sequence[Sequence | None] | None = None, title: str = ""):
+def write_table(out_dir: str | os.PathLike, stem: str, columns: Sequence[str], rows: Sequence[Sequence], *,
+                thesis_rows: Sequence[Sequence | None] | None = None,
+                title: str = "") -> tuple[Path, Path, str]:
     """Write ``<out_dir>/<stem>.md`` and ``<stem>.json``; return (md_path, json_path, markdown).
 
     ``thesis_rows`` (optional) is aligned with ``rows`` (``None`` where the thesis has no
@@ -297,7 +299,7 @@ def _rel(p, base: Path) -> str:
         return Path(p).name
 
 
-def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of the thesis experiments",
+def write_reproduction(results: Sequence, path: str | os.PathLike, *, title: str = "Reproduction of the thesis experiments",
                        campaigns: Sequence = (), differences: str = "") -> Path:
     """Write a REPRODUCTION.md from ``ExperimentResult`` objects: per experiment its table, its
     claims marked held / NOT held, headline metrics and links (relative to ``path``) to outputs.
@@ -372,7 +374,7 @@ def write_reproduction(results: Sequence, path, *, title: str = "Reproduction of
     return path
 
 
-def check_replaceable(path) -> Path:
+def check_replaceable(path: str | os.PathLike) -> Path:
     """``path`` as a Path if a report may be written there: absent, or a file that
     :func:`write_reproduction` wrote (its first line is :data:`GENERATED_MARKER`).
 
@@ -417,7 +419,7 @@ def _require_result(name, value):
         raise TypeError(f"{name} must be an ExperimentResult, got {type(value).__name__}")
 
 
-def save_result(result, out_dir) -> Path:
+def save_result(result: ExperimentResult, out_dir: str | os.PathLike) -> Path:
     """Write ``<out_dir>/result.json`` (paths relative to ``out_dir``) so that reports can be
     rebuilt later without rerunning (``sobolev-drake report``).
 
@@ -452,7 +454,7 @@ def _json_bool(value, path, i):
     return value
 
 
-def load_result(path):
+def load_result(path: str | os.PathLike) -> ExperimentResult:
     """Inverse of :func:`save_result` (output paths made relative to the current directory).
 
     Parameters

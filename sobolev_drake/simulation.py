@@ -39,6 +39,7 @@ import time
 import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import Context_, Diagram, EventStatus
+from tqdm import tqdm
 
 from sobolev_drake.simulation_errors import SimulationDiverged, SimulationStalled, SimulationTimeout
 
@@ -75,7 +76,7 @@ _SUCCESS = (EventStatus.Severity.kDidNothing, EventStatus.Severity.kSucceeded)
 
 
 class ProgressMonitor:
-    """Callable for ``Simulator.set_monitor``: a tqdm-like single line on ``stream``.
+    """Callable for ``Simulator.set_monitor``: a tqdm progress bar of simulated time on ``stream``.
 
     Parameters
     ----------
@@ -86,10 +87,14 @@ class ProgressMonitor:
     stream : file-like, optional
         Where the line is written (default ``sys.stderr``).
     period : float, default 0.5
-        Minimum wall-clock seconds between two rewrites of the live line.
+        Minimum wall-clock seconds between two redraws of the live bar (tqdm's ``mininterval``).
     live : bool, optional
-        Rewrite the line during the run; default: whether ``stream`` is a terminal.
+        Redraw the bar during the run; default: whether ``stream`` is a terminal.  Otherwise
+        only the final line is written (a log file gets one line per run).
     """
+
+    #: tqdm's line: label, percentage, bar, simulated time, wall time, then the step count
+    BAR_FORMAT = "{desc}: {percentage:5.1f}%|{bar:20}| t = {n:.3f}/{total:.3f} s  wall {elapsed}{postfix}"
 
     def __init__(self, t_start: float, t_end: float, *, label: str = "", stream=None, period: float = 0.5,
                  live: bool | None = None):
@@ -99,28 +104,20 @@ class ProgressMonitor:
         self.period = float(period)
         self.live = self.stream.isatty() if live is None and hasattr(self.stream, "isatty") else bool(live)
         self.wall0 = time.perf_counter()
-        self._last = -float("inf")
         self.calls = 0
-
-    def _line(self, t: float) -> str:
-        span = max(self.t_end - self.t_start, 1e-12)
-        frac = min(max((t - self.t_start) / span, 0.0), 1.0)
-        wall = time.perf_counter() - self.wall0
-        bar = "#" * int(20 * frac)
-        return f"{self.label}: [{bar:<20}] {100 * frac:5.1f}%  t = {t:8.3f}/{self.t_end:.3f} s  wall {wall:6.1f} s"
+        self._span = max(self.t_end - self.t_start, 1e-12)
+        self._bar = tqdm(total=self._span, desc=self.label, file=self.stream, mininterval=self.period,
+                         bar_format=self.BAR_FORMAT, leave=True, dynamic_ncols=False) if self.live else None
 
     def __call__(self, context) -> EventStatus:
         self.calls += 1
-        if self.live:
-            now = time.perf_counter()
-            if now - self._last >= self.period:
-                self._last = now
-                self.stream.write("\r" + self._line(context.get_time()))
-                self.stream.flush()
+        if self._bar is not None:
+            done = min(max(context.get_time() - self.t_start, 0.0), self._span)
+            self._bar.update(done - self._bar.n)     # tqdm redraws at most every `period` s
         return EventStatus.Succeeded()
 
     def finish(self, t: float, steps: int) -> None:
-        """Write the final summary line (progress, simulated and wall time, steps).
+        """Write the final line (progress, simulated and wall time, steps).
 
         Parameters
         ----------
@@ -129,8 +126,17 @@ class ProgressMonitor:
         steps : int
             Number of integrator steps taken.
         """
-        prefix = "\r" if self.live else ""
-        self.stream.write(f"{prefix}{self._line(t)}  ({steps} steps)\n")
+        done = min(max(float(t) - self.t_start, 0.0), self._span)
+        postfix = f"{steps} steps"
+        if self._bar is not None:
+            self._bar.n = done
+            self._bar.set_postfix_str(postfix, refresh=False)
+            self._bar.close()                   # redraws the final state, then a newline
+            self._bar = None
+            return
+        self.stream.write(tqdm.format_meter(done, self._span, time.perf_counter() - self.wall0,
+                                            prefix=self.label, bar_format=self.BAR_FORMAT,
+                                            postfix=postfix, ncols=None) + "\n")
         self.stream.flush()
 
 

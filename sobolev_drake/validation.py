@@ -14,16 +14,20 @@ import numbers
 import operator
 import os
 import re
-from collections.abc import Hashable, Iterable, Mapping
+from collections.abc import Hashable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+T = TypeVar("T")
 
 __all__ = ["check_parameter_fields", "real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
            "bounds_pair", "one_of", "describe", "sequence", "mapping", "path_like"]
 
 
-def describe(value, limit: int = 60) -> str:
+def describe(value: Any, limit: int = 60) -> str:
     """Short ``repr`` of ``value`` for an error message (long arrays are abbreviated)."""
     if isinstance(value, np.ndarray) and value.size > 6:
         return f"array of shape {value.shape} and dtype {value.dtype}"
@@ -31,7 +35,7 @@ def describe(value, limit: int = 60) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def real_array(name, value):
+def real_array(name: str, value: ArrayLike) -> np.ndarray:
     """``value`` as a float array; refuses strings, objects, booleans used as numbers and
     complex values (whose imaginary part would otherwise be dropped silently)."""
     if isinstance(value, (str, bytes)):
@@ -66,7 +70,8 @@ def _nonempty_finite(name, arr, value, allow_empty):
     return arr
 
 
-def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> np.ndarray:
+def real_matrix(name: str, value: ArrayLike, shape: tuple[int | None, int | None] | None = None, *,
+                allow_empty: bool = False) -> np.ndarray:
     """``value`` as a finite real 2-D float array (scalars and vectors are promoted to 2-D).
 
     ``shape``: expected (rows, cols), ``None`` entries meaning any size.  Empty matrices are
@@ -84,7 +89,8 @@ def real_matrix(name: str, value, shape=None, *, allow_empty: bool = False) -> n
     return _nonempty_finite(name, arr, value, allow_empty)
 
 
-def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool = False) -> np.ndarray:
+def real_vector(name: str, value: ArrayLike, size: int | None = None, *,
+                allow_empty: bool = False) -> np.ndarray:
     """``value`` as a finite real 1-D float array (a scalar becomes length 1); ``size``: expected length."""
     arr = real_array(name, value)
     if arr.ndim > 1:
@@ -95,7 +101,8 @@ def real_vector(name: str, value, size: int | None = None, *, allow_empty: bool 
     return _nonempty_finite(name, arr, value, allow_empty)
 
 
-def real_scalar(name: str, value, *, low=None, high=None, low_open: bool = False,
+def real_scalar(name: str, value: Any, *, low: float | None = None, high: float | None = None,
+                low_open: bool = False,
                 high_open: bool = False, finite: bool = True) -> float:
     """``value`` as a Python float, checked against [low, high] (open ends with ``*_open``)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
@@ -114,12 +121,13 @@ def real_scalar(name: str, value, *, low=None, high=None, low_open: bool = False
     return x
 
 
-def positive_scalar(name: str, value) -> float:
+def positive_scalar(name: str, value: Any) -> float:
     """A finite number > 0."""
     return real_scalar(name, value, low=0.0, low_open=True)
 
 
-def index_tuple(name: str, value, size: int | None, *, names=None) -> tuple[int, ...]:
+def index_tuple(name: str, value: Any, size: int | None, *,
+                names: Sequence[str] | None = None) -> tuple[int, ...]:
     """Distinct integer indices in ``range(size)`` (a single int is a one-element tuple;
     ``size`` None: any index >= 0).
 
@@ -162,7 +170,8 @@ def index_tuple(name: str, value, size: int | None, *, names=None) -> tuple[int,
     return tuple(out)
 
 
-def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
+def bounds_pair(lo_name: str, lo: ArrayLike, hi_name: str, hi: ArrayLike,
+                size: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(lo, hi) as float vectors of one length with lo <= hi entrywise (infinite ends allowed)."""
     lo_arr, hi_arr = real_array(lo_name, lo), real_array(hi_name, hi)
     lo_arr, hi_arr = np.atleast_1d(lo_arr), np.atleast_1d(hi_arr)
@@ -186,7 +195,7 @@ def bounds_pair(lo_name: str, lo, hi_name: str, hi, size: int | None = None):
     return np.array(lo_arr, dtype=float), np.array(hi_arr, dtype=float)
 
 
-def one_of(name: str, value, options):
+def one_of(name: str, value: T, options: Iterable) -> T:
     """``value`` if it is one of ``options``, else a ValueError listing them."""
     # an array compared with a string is an array, whose truth value is ambiguous
     if not isinstance(value, Hashable) or value not in tuple(options):
@@ -194,7 +203,7 @@ def one_of(name: str, value, options):
     return value
 
 
-def sequence(name: str, value, what: str = "items") -> list:
+def sequence(name: str, value: Any, what: str = "items") -> list:
     """``value`` as a list; a TypeError naming ``name`` if it is not a sequence (strings,
     bytes, dicts and non-iterables are refused: their items are rarely what was meant).
 
@@ -217,7 +226,7 @@ def sequence(name: str, value, what: str = "items") -> list:
     return list(value)
 
 
-def mapping(name: str, value, what: str = "{label: value}") -> Mapping:
+def mapping(name: str, value: Any, what: str = "{label: value}") -> Mapping:
     """``value`` if it is a mapping (dict), else a TypeError naming ``name``.
 
     Parameters
@@ -239,7 +248,7 @@ def mapping(name: str, value, what: str = "{label: value}") -> Mapping:
     return value
 
 
-def path_like(name: str, value):
+def path_like(name: str, value: str | os.PathLike) -> Path:
     """``value`` as a :class:`pathlib.Path`: a TypeError naming ``name`` unless it is a ``str``
     or ``os.PathLike``, a ValueError for an empty string (it would mean the current folder).
 
@@ -262,7 +271,8 @@ def path_like(name: str, value):
     return Path(value)
 
 
-def check_parameter_fields(params, positive=(), nonnegative=()) -> None:
+def check_parameter_fields(params: Any, positive: Iterable[str] = (),
+                           nonnegative: Iterable[str] = ()) -> None:
     """Check a dataclass of physical parameters: every numeric field finite (arrays entrywise),
     the fields named in ``positive`` > 0 and those in ``nonnegative`` >= 0; strings are skipped.
     Errors name ``<Class>.<field>``."""

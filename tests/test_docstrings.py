@@ -16,21 +16,25 @@ defines).  For each name:
   (``Yields`` for a generator).
 
 Methods that override a hook of a third-party base class (Drake's ``DoCalc...``) are
-documented there and skipped.  The docstrings are parsed here (no numpydoc dependency).  A
-failure lists every offending name with what is missing, so an argument added without
-documentation breaks CI.
+documented there and skipped.  numpydoc parses the docstrings (``numpydoc.docscrape``) and its
+validator (``numpydoc.validate.Validator``) says whether a function returns something; the
+rules above that numpydoc's error codes do not express (a constructor documented in the class,
+dataclass fields and properties under ``Attributes``, a starred entry of another name) are
+applied here.  A failure lists every offending name with what is missing, so an argument added
+without documentation breaks CI.
 """
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import importlib
 import inspect
 import pkgutil
-import re
-import textwrap
 import types
+import warnings
+
+from numpydoc.docscrape import NumpyDocString, get_doc_object
+from numpydoc.validate import Validator
 
 PACKAGE = "sobolev_drake"
 API_MODULES = ("sobolev_drake", "sobolev_drake.synthesis", "sobolev_drake.systems",
@@ -42,54 +46,22 @@ LIBRARY_MODULES = ("sobolev_drake.harness", "sobolev_drake.tuning", "sobolev_dra
                    "sobolev_drake.report", "sobolev_drake.viz", "sobolev_drake.plots",
                    "sobolev_drake.recording_html", "sobolev_drake.simulation")
 
-_UNDERLINE = re.compile(r"^\s*-{3,}\s*$")
-
 
 # --------------------------------------------------------------------------- docstring parsing
 
-def parse_sections(doc: str) -> dict[str, list[str]]:
-    """Sections of a numpydoc docstring: title -> its lines (header and dashes excluded).
-
-    A section starts at a line followed by a line of at least three dashes; the text before
-    the first section is stored under ``""``.
-    """
-    lines = inspect.cleandoc(doc).splitlines()
-    sections: dict[str, list[str]] = {"": []}
-    current = ""
-    i = 0
-    while i < len(lines):
-        line = lines[i]
-        if (line.strip() and i + 1 < len(lines) and _UNDERLINE.match(lines[i + 1])
-                and not _UNDERLINE.match(line)):
-            current = line.strip().rstrip(":").title()
-            sections.setdefault(current, [])
-            i += 2
-            continue
-        sections[current].append(line)
-        i += 1
-    return sections
+def parse(doc: str) -> NumpyDocString:
+    """numpydoc's parse of a docstring (its warnings, e.g. an unknown section title, ignored:
+    this test checks arguments and returns, not the section vocabulary)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return NumpyDocString(inspect.cleandoc(doc or ""))
 
 
-def documented_names(section: list[str]) -> set[str]:
-    """Names of the entries of a Parameters-like section.
-
-    An entry is a line at the section's smallest indentation, ``name : type`` or ``name``;
-    ``a, b : type`` documents both; stars (``*args``, ``**kwargs``) are kept.
-    """
-    entries = [line for line in section if line.strip()]
-    if not entries:
-        return set()
-    indent = min(len(line) - len(line.lstrip()) for line in entries)
-    names = set()
-    for line in entries:
-        if len(line) - len(line.lstrip()) != indent:
-            continue                                     # description or type continuation
-        head = line.strip().split(" : ", 1)[0].rstrip(":").strip()
-        for name in head.split(","):
-            name = name.strip()
-            if re.fullmatch(r"\*{0,2}[A-Za-z_][A-Za-z0-9_]*", name):
-                names.add(name)
-    return names
+def documented_names(doc: NumpyDocString, *sections: str) -> set[str]:
+    """Names of the entries of Parameters-like ``sections``: ``a, b : type`` documents both;
+    stars (``*args``, ``**kwargs``, also written escaped) are kept."""
+    return {name.strip().replace("\\", "") for section in sections for entry in doc[section]
+            for name in entry.name.split(",") if name.strip()}
 
 
 def is_documented(param: inspect.Parameter, names: set[str]) -> bool:
@@ -104,35 +76,20 @@ def is_documented(param: inspect.Parameter, names: set[str]) -> bool:
 
 # --------------------------------------------------------------------------- source inspection
 
-def _own_nodes(func_node):
-    """Nodes of a function body, not descending into nested functions, lambdas or classes."""
-    stack = list(func_node.body)
-    while stack:
-        node = stack.pop()
-        yield node
-        for child in ast.iter_child_nodes(node):
-            if not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda,
-                                      ast.ClassDef)):
-                stack.append(child)
-
-
-def return_kind(func) -> str | None:
-    """"Yields" for a generator, "Returns" if the source has ``return <value>``, else None."""
+def return_kind(func, doc: str | None = None) -> str | None:
+    """"Yields" for a generator, "Returns" if numpydoc's validator finds a ``return <value>``
+    in the source (not in nested functions), else None."""
     func = inspect.unwrap(func)
     if inspect.isgeneratorfunction(func):
         return "Yields"
     try:
-        source = textwrap.dedent(inspect.getsource(func))
-    except (OSError, TypeError):
-        return None
-    tree = ast.parse(source)
-    node = next(n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef,
-                                                            ast.AsyncFunctionDef)))
-    for child in _own_nodes(node):
-        if isinstance(child, ast.Return) and child.value is not None and not (
-                isinstance(child.value, ast.Constant) and child.value.value is None):
-            return "Returns"
-    return None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            returns = Validator(get_doc_object(func, what="function", doc=doc or "")
+                                ).method_returns_something
+    except (OSError, TypeError, SyntaxError):
+        return None                                   # no Python source (a builtin, a lambda)
+    return "Returns" if returns else None
 
 
 def signature_parameters(obj, *, bound: bool) -> list[inspect.Parameter] | None:
@@ -243,20 +200,19 @@ def check_function(name, func, *, method=False, doc=None) -> list[str]:
     if not doc:
         return [f"{name}: no docstring"]
     problems = []
-    sections = parse_sections(doc)
+    parsed = parse(doc)
     params = signature_parameters(func, bound=method) or []
     if params:
-        if "Parameters" not in sections:
+        if not parsed["Parameters"] and not parsed["Other Parameters"]:
             problems.append(f"{name}: no 'Parameters' section (arguments: "
                             f"{', '.join(p.name for p in params)})")
         else:
-            names = documented_names(sections["Parameters"])
-            names |= documented_names(sections.get("Other Parameters", []))
+            names = documented_names(parsed, "Parameters", "Other Parameters")
             for p in params:
                 if not is_documented(p, names):
                     problems.append(f"{name}: argument '{p.name}' not documented")
-    kind = return_kind(func)
-    if kind is not None and kind not in sections:
+    kind = return_kind(func, doc)
+    if kind is not None and not parsed[kind]:
         problems.append(f"{name}: no '{kind}' section")
     return problems
 
@@ -271,12 +227,12 @@ def check_class(name, cls) -> list[str]:
     if _ours(owner):
         params = signature_parameters(cls, bound=False) or []
         init = vars(cls).get("__init__") if owner is cls else None
-        sections = parse_sections(doc or "")
-        names = documented_names(sections.get("Parameters", []))
+        parsed = parse(doc)
+        names = documented_names(parsed, "Parameters")
         if dataclasses.is_dataclass(cls):
-            names |= documented_names(sections.get("Attributes", []))
+            names |= documented_names(parsed, "Attributes")
         if inspect.isfunction(init) and init.__doc__:
-            names |= documented_names(parse_sections(init.__doc__).get("Parameters", []))
+            names |= documented_names(parse(init.__doc__), "Parameters")
         missing = [p.name for p in params if not is_documented(p, names)]
         if missing:
             problems.append(f"{name}: constructor argument(s) {', '.join(missing)} not "
@@ -294,7 +250,7 @@ def check_member(name, cls, member, value) -> list[str]:
         if value.fget and value.fget.__doc__:
             return []
         owner = next(k for k in cls.__mro__ if member in vars(k))
-        attributes = documented_names(parse_sections(_own_doc(owner) or "").get("Attributes", []))
+        attributes = documented_names(parse(_own_doc(owner)), "Attributes")
         return [] if member in attributes else [f"{name}: no docstring (property) and not in "
                                                  "the class's 'Attributes' section"]
     func = value.__func__ if isinstance(value, (staticmethod, classmethod)) else value

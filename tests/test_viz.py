@@ -102,7 +102,7 @@ def test_simulate_errors_and_silent_monitor():
     mon = ProgressMonitor(0.0, 10.0, label="x", stream=buf)
     assert mon.live is False  # StringIO is not a TTY: nothing until the final line
     mon.finish(10.0, 7)
-    assert buf.getvalue().count("\n") == 1 and "(7 steps)" in buf.getvalue()
+    assert buf.getvalue().count("\n") == 1 and "7 steps" in buf.getvalue()
 
 
 def test_write_table_and_reproduction(tmp_path):

@@ -18,7 +18,9 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Any
 
 from sobolev_drake.campaign.errors import ClusterLostError, ClusterUnavailableError, first_line
 
@@ -31,7 +33,7 @@ DASK_CONNECT_TIMEOUT = 20.0
 DASK_WORKERLESS_TIMEOUT = 60.0
 
 
-def pick(workers: int, scheduler):
+def pick(workers: int, scheduler: str | None) -> Callable[..., Any]:
     """The executor for ``workers`` (0: this process) and ``scheduler`` (None: processes).
 
     Parameters
@@ -69,7 +71,8 @@ _ARGUMENTS = """
 
 
 
-def inline(fn, calls, workers, scheduler, tasks_per_worker):
+def inline(fn: Callable[..., Any], calls: list[tuple], workers: int, scheduler: str | None,
+           tasks_per_worker: int) -> Any:
     for args in calls:
         yield fn(*args)
 
@@ -97,7 +100,8 @@ def _die_with_parent(parent_pid):
     threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
-def processes(fn, calls, workers, scheduler, tasks_per_worker):
+def processes(fn: Callable[..., Any], calls: list[tuple], workers: int, scheduler: str | None,
+              tasks_per_worker: int) -> Any:
     # A fresh pool every `workers × tasks_per_worker` calls bounds what a worker accumulates
     # (Python LeafSystems are never freed).  ProcessPoolExecutor's own max_tasks_per_child is
     # not used: on Python 3.11 the pool stops scheduling once a worker retires (seen here, a
@@ -113,7 +117,8 @@ def processes(fn, calls, workers, scheduler, tasks_per_worker):
                 yield f.result()
 
 
-def dask(fn, calls, workers, scheduler, tasks_per_worker):
+def dask(fn: Callable[..., Any], calls: list[tuple], workers: int, scheduler: str | None,
+         tasks_per_worker: int) -> Any:
     try:
         from distributed import Client, LocalCluster, wait
     except ImportError:
@@ -170,7 +175,7 @@ def dask(fn, calls, workers, scheduler, tasks_per_worker):
             cluster.close()
 
 
-def worker_count(workers, scheduler, pending):
+def worker_count(workers: int, scheduler: str | None, pending: int) -> int:
     """Processes to start: at most one per CPU and one per pending task (said on stderr when
     the CPU count caps ``workers``).
 

@@ -25,12 +25,13 @@ import json
 import math
 import os
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from sobolev_drake.campaign import executors
 from sobolev_drake.campaign.case import Case, DesignFailed
 from sobolev_drake.campaign.errors import CampaignFolderError, first_line
-from sobolev_drake.campaign.registry import get_campaign
+from sobolev_drake.campaign.registry import CampaignDefinition, get_campaign
 from sobolev_drake.campaign.store import CampaignStore
 from sobolev_drake.datafile import fingerprint, write_text_atomic
 
@@ -41,8 +42,9 @@ __all__ = ["make_cases", "synthesize_design", "run_case", "run_campaign", "write
            "claim_statistics"]
 
 
-def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs=None, perturb=None,
-               duration=None, smoke: bool = False) -> list:
+def make_cases(name: str, seeds: int, *, first_seed: int = 0, designs: Sequence[str] | None = None,
+               perturb: dict | None = None, duration: float | None = None,
+               smoke: bool = False) -> list[Case]:
     """The cases of a campaign: every design on every seed.
 
     Parameters
@@ -226,9 +228,10 @@ def _synthesize_labelled(name, label):
     return label, synthesize_design(name, label)
 
 
-def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs=None,
-                 workers: int = 1, scheduler=None, perturb=None, resume: bool = False,
-                 duration=None, smoke: bool = False, progress: bool = True,
+def run_campaign(name: str, *, seeds: int, out_dir: str | os.PathLike, first_seed: int = 0,
+                 designs: Sequence[str] | None = None, workers: int = 1,
+                 scheduler: str | None = None, perturb: dict | None = None, resume: bool = False,
+                 duration: float | None = None, smoke: bool = False, progress: bool = True,
                  tasks_per_worker: int = 20) -> dict:
     """Run (or finish) a campaign and write its records, summary, tables and plots.
 
@@ -343,7 +346,8 @@ def run_campaign(name: str, *, seeds: int, out_dir, first_seed: int = 0, designs
     return summary
 
 
-def write_summary(name, records, designs, out_dir, extra=None) -> dict:
+def write_summary(name: str, records: list[dict], designs: list[str], out_dir: Path,
+                  extra: dict | None = None) -> dict:
     """Statistics, tables and plots of a campaign's records.
 
     Parameters
@@ -389,7 +393,7 @@ def write_summary(name, records, designs, out_dir, extra=None) -> dict:
     return summary
 
 
-def claim_statistics(defn, summary) -> list:
+def claim_statistics(defn: CampaignDefinition, summary: dict) -> list[dict]:
     """Each of the campaign's claims "A has the smaller index than B" as a paired statistic.
 
     Parameters

@@ -11,9 +11,10 @@ and parameter draw, the same for every design).  A case is a record dict with "d
 * **Wilson score intervals for proportions** (success rates, shares of wins).  n is small and
   good designs succeed almost always (p near 0 or 1), where the normal (Wald) interval
   collapses to zero width and undercovers; Wilson's stays in [0, 1] near nominal coverage.
-* **Percentile bootstrap for medians and median ratios.**  Indices are skewed and heavy-tailed
-  (one near-failure dominates a mean), so medians are reported; their sampling distribution
-  has no closed form for an unknown density, the (seeded, reproducible) bootstrap needs none.
+* **Percentile bootstrap for medians and median ratios** (:func:`scipy.stats.bootstrap`).
+  Indices are skewed and heavy-tailed (one near-failure dominates a mean), so medians are
+  reported; their sampling distribution has no closed form for an unknown density, the
+  (seeded, reproducible) bootstrap needs none.
 
 Failed cases count in the success rate only, not in any index statistic or paired comparison.
 """
@@ -21,14 +22,18 @@ Failed cases count in the success rate only, not in any index statistic or paire
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
-from scipy.stats import norm
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+from scipy.stats import bootstrap, norm
 
-from sobolev_drake.plots import save_figure  # also selects the Agg backend when headless
+from sobolev_drake.plots import save_figure
 from sobolev_drake.report import fmt, markdown_table
 
 __all__ = ["wilson_interval", "bootstrap_interval", "summarize", "summary_tables",
@@ -47,7 +52,7 @@ def _number(value, name, low=0, high=math.inf, *, integer=False, closed=True):
     return int(value) if integer else float(value)
 
 
-def wilson_interval(successes, n, confidence=0.95):
+def wilson_interval(successes: float, n: int, confidence: float = 0.95) -> tuple[float, float]:
     """Wilson score interval of a binomial proportion: with p = successes / n and z the
     two-sided normal quantile, ``(p + z²/2n ± z sqrt(p(1-p)/n + z²/4n²)) / (1 + z²/n)``.
 
@@ -80,20 +85,11 @@ def wilson_interval(successes, n, confidence=0.95):
     return low, 1.0 if successes == n else min(1.0, centre + half)
 
 
-def _rowwise(statistic, samples):
-    """statistic of each row: one call with ``axis=1`` if the callable takes it, else a loop."""
-    try:
-        out = np.asarray(statistic(samples, axis=1), dtype=float)
-        if out.shape == samples.shape[:1]:
-            return out
-    except TypeError:
-        pass
-    return np.array([statistic(row) for row in samples], dtype=float)
-
-
-def bootstrap_interval(values, statistic, *, confidence=0.95, resamples=2000, seed=0):
+def bootstrap_interval(values: ArrayLike, statistic: Callable[..., Any], *, confidence: float = 0.95,
+                       resamples: int = 2000, seed: int = 0) -> tuple[float, float]:
     """Percentile bootstrap interval: the (1 ∓ confidence)/2 quantiles of ``statistic`` over
-    ``resamples`` resamples (with replacement, one index matrix) of the finite values.
+    ``resamples`` resamples (with replacement) of the finite values, by
+    :func:`scipy.stats.bootstrap` (``method="percentile"``).
 
     Parameters
     ----------
@@ -101,7 +97,7 @@ def bootstrap_interval(values, statistic, *, confidence=0.95, resamples=2000, se
         1-D sample; NaN and infinite entries are dropped.
     statistic : callable
         ``statistic(x) -> float`` for a 1-D array ``x``; when it takes ``axis`` (``np.median``,
-        ``np.mean``) all resamples are reduced in one vectorized call.
+        ``np.mean``) all resamples of a batch are reduced in one vectorized call.
     confidence : float, default 0.95
         Coverage probability, in (0, 1).
     resamples : int, default 2000
@@ -112,7 +108,16 @@ def bootstrap_interval(values, statistic, *, confidence=0.95, resamples=2000, se
     Returns
     -------
     tuple of float
-        (low, high); (nan, nan) when fewer than 2 entries are finite.
+        (low, high); (nan, nan) when fewer than 2 entries are finite.  Resamples whose
+        statistic is not finite are left out of the quantiles.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.random.default_rng(1).normal(size=200)
+    >>> low, high = bootstrap_interval(x, np.median, seed=3)
+    >>> bool(low < np.median(x) < high)
+    True
     """
     confidence = _number(confidence, "confidence", 0, 1, closed=False)
     resamples = _number(resamples, "resamples", 1, integer=True)
@@ -124,14 +129,25 @@ def bootstrap_interval(values, statistic, *, confidence=0.95, resamples=2000, se
     x = x[np.isfinite(x)]
     if x.size < 2:
         return math.nan, math.nan
-    rng, rows = np.random.default_rng(seed), max(1, _CHUNK // x.size)
-    stats = np.concatenate([_rowwise(statistic, x[rng.integers(0, x.size, (min(rows, m), x.size))])
-                            for m in range(resamples, 0, -rows)])
-    stats = stats[np.isfinite(stats)]
-    if stats.size == 0:
-        return math.nan, math.nan
-    low, high = np.quantile(stats, [(1 - confidence) / 2, (1 + confidence) / 2])
+    res = bootstrap((x,), statistic, n_resamples=int(resamples), batch=max(1, _CHUNK // x.size),
+                    confidence_level=confidence, method="percentile",
+                    rng=np.random.default_rng(seed), vectorized=_takes_axis(statistic))
+    low, high = res.confidence_interval
+    if not (math.isfinite(low) and math.isfinite(high)):      # some resamples' statistic is NaN
+        stats = res.bootstrap_distribution[np.isfinite(res.bootstrap_distribution)]
+        if stats.size == 0:
+            return math.nan, math.nan
+        low, high = np.quantile(stats, [(1 - confidence) / 2, (1 + confidence) / 2])
     return float(low), float(high)
+
+
+def _takes_axis(statistic) -> bool:
+    """Whether ``statistic(samples, axis=-1)`` reduces each row (``np.median``, ``np.mean``)."""
+    probe = np.arange(6.0).reshape(2, 3)
+    try:
+        return np.shape(statistic(probe, axis=-1)) == (2,)
+    except TypeError:
+        return False
 
 
 def _num(x):
@@ -199,8 +215,9 @@ def _compare(a, b, design_a, design_b, name, confidence, boot):
             "ratio_interval": _num(bootstrap_interval(ratio, np.median, **boot))}
 
 
-def summarize(records, *, designs=None, indices=None, baseline=None, confidence=0.95,
-              resamples=2000, seed=0):
+def summarize(records: Iterable[Mapping], *, designs: Sequence[str] | None = None,
+              indices: Sequence[str] | None = None, baseline: str | None = None,
+              confidence: float = 0.95, resamples: int = 2000, seed: int = 0) -> dict:
     """Success rates, index distributions and paired comparisons of a campaign's cases.
 
     Parameters
@@ -272,7 +289,7 @@ def _with_interval(value, interval):
         f"{fmt(value)} [{fmt(interval[0])}, {fmt(interval[1])}]"
 
 
-def summary_tables(summary):
+def summary_tables(summary: dict) -> tuple[str, dict]:
     """Markdown tables of a :func:`summarize` result (4 significant digits, "—" if undefined).
 
     Parameters
@@ -319,7 +336,8 @@ def _panels(records, summary, path, draw, log_axis):
     designs, indices = summary["designs"], summary["indices"]
     n_cases = {d: len(cases.get(d, {})) for d in designs}
     nrows, ncols = -(-max(1, len(indices)) // 3), min(3, max(1, len(indices)))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.4 * nrows), squeeze=False)
+    fig = Figure(figsize=(4.2 * ncols, 3.4 * nrows))   # no pyplot: no backend chosen
+    axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax in axes.flat[len(indices):]:
         ax.set_visible(False)
     fig.suptitle("" if indices else "(no index in the summary)")
@@ -335,7 +353,7 @@ def _panels(records, summary, path, draw, log_axis):
     return save_figure(fig, path)
 
 
-def plot_distributions(records, summary, path):
+def plot_distributions(records: Iterable[Mapping], summary: dict, path: str | os.PathLike) -> Path:
     """Box plots of each index per design over jittered points of the successful cases, one
     panel per index (log y axis when all values are positive and span more than 100×).
 
@@ -371,7 +389,7 @@ def plot_distributions(records, summary, path):
     return _panels(records, summary, path, draw, "y")
 
 
-def plot_cdfs(records, summary, path):
+def plot_cdfs(records: Iterable[Mapping], summary: dict, path: str | os.PathLike) -> Path:
     """Empirical CDF of each index per design, one panel per index (log x axis when all
     values are positive and span more than 100×).  A design's CDF is over all its cases, a
     failed case (or a missing or infinite value) counting as worse than any value: a curve

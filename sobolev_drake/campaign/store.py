@@ -35,7 +35,9 @@ import json
 import os
 import socket
 import sys
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 from sobolev_drake.campaign.errors import (CampaignFolderError, CampaignLockedError,
                                            CorruptRecordsError)
@@ -148,7 +150,7 @@ class CampaignStore:
     # -- the lock ---------------------------------------------------------------------------
 
     @contextlib.contextmanager
-    def locked(self):
+    def locked(self) -> Iterator[CampaignStore]:
         """Hold the folder for this process (non-blocking ``flock`` on ``.lock``).
 
         Yields
@@ -383,7 +385,8 @@ class CampaignStore:
 
     # -- pinned designs --------------------------------------------------------------------
 
-    def load_designs(self, campaign: str, specs: dict, check=None) -> dict:
+    def load_designs(self, campaign: str, specs: dict,
+                     check: Callable[..., Any] | None = None) -> dict:
         """The pinned designs, validated: {label: {"design": object} or {"failure": str}}.
 
         Parameters

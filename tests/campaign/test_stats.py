@@ -120,6 +120,25 @@ def test_bootstrap_median_of_a_normal_sample():
     assert hits >= 88
 
 
+def _hand_written_percentile_bootstrap(x, resamples, seed, confidence=0.95):
+    """The interval the package computed before it used scipy.stats.bootstrap: one index matrix
+    from default_rng(seed), the median of each row, linear-interpolated quantiles."""
+    rng = np.random.default_rng(seed)
+    medians = np.median(x[rng.integers(0, x.size, (resamples, x.size))], axis=1)
+    return tuple(np.quantile(medians, [(1 - confidence) / 2, (1 + confidence) / 2]))
+
+
+def test_bootstrap_is_the_hand_written_interval_it_replaced():
+    # scipy draws the same indices from the same Generator (rows in batch order); the quantile
+    # interpolation differs only in rounding: 1e-12 relative is ~1e4 ulps, far below any
+    # difference in the resampling (which would move the bounds by a sample spacing)
+    for k in range(10):
+        x = np.random.default_rng(k).lognormal(size=5 + 37 * k)
+        expected = _hand_written_percentile_bootstrap(x, 700, seed=k)
+        assert bootstrap_interval(x, np.median, resamples=700, seed=k) == \
+            pytest.approx(expected, rel=1e-12)
+
+
 def test_bootstrap_is_deterministic_and_drops_non_finite_values():
     x = np.random.default_rng(1).lognormal(size=50)
     first = bootstrap_interval(x, np.median, seed=3)
