@@ -1,7 +1,7 @@
 """The speed targets of issue 36, each a ratio measured in one run against its baseline.
 
     python benchmarks/speed_targets.py [--repeat 3] [--mission-seconds 60] [--arm-seconds 1]
-        [--evaluations 2000] [--skip-mission] [--json out.json]
+        [--evaluations 2000] [--skip-mission | --skip-arm] [--json out.json]
 
 Process CPU time (``time.process_time``), the variants of one repetition interleaved so machine
 load hits them alike, best of ``--repeat``:
@@ -155,6 +155,7 @@ def main(argv=None):
     ap.add_argument("--arm-seconds", type=float, default=1.0, help="simulated seconds of the arm")
     ap.add_argument("--evaluations", type=int, default=2000, help="controller evaluations")
     ap.add_argument("--skip-mission", action="store_true", help="only the arm")
+    ap.add_argument("--skip-arm", action="store_true", help="only the tilt-rotor mission")
     ap.add_argument("--json", help="write the results to this file")
     args = ap.parse_args(argv)
     from sobolev_drake.models.serial_chain import seven_link_arm
@@ -171,10 +172,10 @@ def main(argv=None):
 
     period, accuracy, T = 0.01, 1e-3, args.mission_seconds
     for _ in range(args.repeat):
-        for name, system in arm.items():
+        for name, system in ({} if args.skip_arm else arm).items():
             full, fix = per_evaluation(system, states, desired)
             keep(("eval", name), full - fix)
-        for name, make in arm_controllers().items():
+        for name, make in ({} if args.skip_arm else arm_controllers()).items():
             keep(("sim", name), arm_simulation(make, args.arm_seconds))
         if not args.skip_mission:
             cpu, steps = mission(T, period, accuracy)
@@ -189,21 +190,22 @@ def main(argv=None):
 
     results = {}
     law, idc = "W2 MechanicalController", "Drake IDC (C++)"
-    print(f"7-joint arm, best of {args.repeat} (process CPU)\n")
-    print("| controller | µs per evaluation | CPU s per simulated s |")
-    print("|---|---|---|")
-    for name in arm_controllers():
-        per_eval = f"{1e6 * best['eval', name]:.1f}" if ("eval", name) in best else "—"
-        print(f"| {name} | {per_eval} | {best['sim', name] / args.arm_seconds:.3f} |")
-    eval_ratio = best["eval", law] / best["eval", idc]
-    sim_ratio = best["sim", law] / best["sim", idc]
-    results["law_vs_idc_per_evaluation"] = eval_ratio
-    results["law_vs_idc_per_simulation"] = sim_ratio
-    sampled = best["sim", "W2 sampled 1 kHz"] / best["sim", idc]
-    results["sampled_law_vs_idc_per_simulation"] = sampled
-    print(f"\nW2 law / IDC per evaluation: {eval_ratio:.2f}× (target ≤ 3×: "
-          f"{verdict(eval_ratio <= 3.0)}); per simulation: {sim_ratio:.2f}× "
-          f"(sampled at 1 kHz: {sampled:.2f}×)")
+    if not args.skip_arm:
+        print(f"7-joint arm, best of {args.repeat} (process CPU)\n")
+        print("| controller | µs per evaluation | CPU s per simulated s |")
+        print("|---|---|---|")
+        for name in arm_controllers():
+            per_eval = f"{1e6 * best['eval', name]:.1f}" if ("eval", name) in best else "—"
+            print(f"| {name} | {per_eval} | {best['sim', name] / args.arm_seconds:.3f} |")
+        eval_ratio = best["eval", law] / best["eval", idc]
+        sim_ratio = best["sim", law] / best["sim", idc]
+        results["law_vs_idc_per_evaluation"] = eval_ratio
+        results["law_vs_idc_per_simulation"] = sim_ratio
+        sampled = best["sim", "W2 sampled 1 kHz"] / best["sim", idc]
+        results["sampled_law_vs_idc_per_simulation"] = sampled
+        print(f"\nW2 law / IDC per evaluation: {eval_ratio:.2f}× (target ≤ 3×: "
+              f"{verdict(eval_ratio <= 3.0)}); per simulation: {sim_ratio:.2f}× "
+              f"(sampled at 1 kHz: {sampled:.2f}×)")
     if not args.skip_mission:
         print(f"\ntilt-rotor scenario 2, first {T:g} s, best of {args.repeat} (process CPU)\n")
         print("| variant | CPU s | real-time factor | steps/s |")

@@ -73,6 +73,9 @@ _DRAKE_MIN_STEP = 1e-14
 _DRAKE_GAVE_UP = ("Error control wants to select step smaller than minimum allowed",
                   "Integrator has been directed to a near zero-length step")
 _SUCCESS = (EventStatus.Severity.kDidNothing, EventStatus.Severity.kSucceeded)
+# one instance returned by every step of the guard (pybind copies a monitor's result into
+# C++, so sharing it is safe; constructing one per step cost about a third of the guard)
+_SUCCEEDED = EventStatus.Succeeded()
 
 
 class ProgressMonitor:
@@ -138,6 +141,16 @@ class ProgressMonitor:
                                             prefix=self.label, bar_format=self.BAR_FORMAT,
                                             postfix=postfix, ncols=None) + "\n")
         self.stream.flush()
+
+
+def _all_finite(x) -> bool:
+    """Whether every entry of the 1-D float array ``x`` is finite.  A sum of floats is finite
+    only if every term is (NaN and ±inf propagate), so for short vectors (the guard's every
+    step) the float sum decides and numpy's exact check runs only when it is not finite (a NaN,
+    an inf or an overflow); long vectors go to numpy at once."""
+    if x.size <= 64 and math.isfinite(sum(x.tolist())):
+        return True
+    return bool(np.isfinite(x).all())
 
 
 def _state_layout(system) -> list:
@@ -229,7 +242,7 @@ class _Guard(ProgressMonitor):
         self._t_last = t
         if self.layout is not None:
             x = context.get_continuous_state_vector().CopyToVector()
-            if not np.isfinite(x).all():
+            if not _all_finite(x):
                 text, sub = _describe_entries(self.layout, x, "x")
                 return self._stop(SimulationDiverged(
                     f"simulate: the continuous state is not finite at t = {t:.9g} s: {text}", t, sub))
@@ -239,7 +252,7 @@ class _Guard(ProgressMonitor):
                 return self._finish(context, t)
             # the derivative the next step starts from: if it is not finite, that step never ends
             xdot = self.system.EvalTimeDerivatives(context).get_vector().CopyToVector()
-            if not np.isfinite(xdot).all():
+            if not _all_finite(xdot):
                 text, sub = _describe_entries(self.layout, xdot, "xdot")
                 return self._stop(SimulationDiverged(
                     f"simulate: the time derivative is not finite at t = {t:.9g} s: {text}", t, sub))
@@ -248,8 +261,11 @@ class _Guard(ProgressMonitor):
 
     def _at_update(self, t: float) -> bool:
         """Whether a periodic discrete update of some subsystem falls at ``t``."""
-        return any(t >= offset and abs(t - offset - period * round((t - offset) / period))
-                   <= 1e-12 * max(1.0, abs(t)) for period, offset in self.ticks)
+        tol = 1e-12 * max(1.0, abs(t))
+        for period, offset in self.ticks:      # a loop, not any(generator): run every step
+            if t >= offset and abs(t - offset - period * round((t - offset) / period)) <= tol:
+                return True
+        return False
 
     def _finish(self, context, t: float) -> EventStatus:
         if self._still >= STALL_STEPS:
@@ -263,7 +279,7 @@ class _Guard(ProgressMonitor):
         if self.limit is not None and time.perf_counter() - self.wall0 > self.limit:
             self.expired = True
             return EventStatus.ReachedTermination(None, "wall_time_limit reached")
-        return super().__call__(context) if self.show else EventStatus.Succeeded()
+        return super().__call__(context) if self.show else _SUCCEEDED
 
     def _ahead(self, context) -> tuple[float, str, str | None] | None:
         """The first non-finite derivative just ahead of the last checked step: probed on a

@@ -349,3 +349,21 @@ def test_exported_from_the_package():
     assert sobolev_drake.SimulationDiverged is SimulationDiverged
     assert sobolev_drake.SimulationStalled is SimulationStalled
     assert {"SimulationDiverged", "SimulationStalled"} <= set(sobolev_drake.__all__)
+
+
+@pytest.mark.parametrize("size", [1, 16, 64, 65, 300])
+def test_the_guards_finiteness_check_equals_numpys(size):
+    """The guard's per-step check (a float sum first) agrees with np.isfinite(x).all() on NaN,
+    ±inf, +inf next to −inf (the sum is NaN) and finite entries whose sum overflows (finite:
+    the exact check must then say so), short and long vectors."""
+    rng = np.random.default_rng(size)
+    big = np.finfo(float).max
+    for bad in (None, math.nan, math.inf, -math.inf, "inf-inf", "overflow"):
+        x = rng.normal(size=size)
+        if bad == "inf-inf" and size > 1:
+            x[0], x[-1] = math.inf, -math.inf
+        elif bad == "overflow":
+            x[:] = big                                   # every entry finite, the sum is not
+        elif isinstance(bad, float):
+            x[rng.integers(size)] = bad
+        assert simulation._all_finite(x) is bool(np.isfinite(x).all())

@@ -423,6 +423,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
         for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
             self.DeclareStateOutputPort(name, idx)
+        # group numbers as ints: DiscreteValues.set_value(int, array) is one pybind call (a
+        # BasicVector's SetFromVector from a list costs several times more)
+        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp))
         dep = {self.discrete_state_ticket(self._state)}
         for name in ("tau_bar", "u_star", "allocation_residual", "integral_error", "saturation"):
             sl = self.RECORD_FIELDS[name]
@@ -465,7 +468,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         t, stamp = context.get_time(), context.get_discrete_state(self._stamp).GetAtIndex(0)
         if stamp == t:
             return                                   # this sample was taken at initialization
-        discrete_state.get_mutable_vector(self._stamp).SetAtIndex(0, t)
+        i_state, i_n, i_s, i_d, i_stamp = self._groups
+        discrete_state.get_mutable_value(i_stamp)[0] = t
         x = self.x_port.Eval(context)
         ref = self.reference_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
@@ -474,16 +478,14 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         # layout [∫e_c | τ̄ | n | u* | residual | saturation], assembled from float lists (a
         # few numpy calls on 3-vectors cost more than the arithmetic); forward-Euler integral
         # of the controlled-DOF error over one sample
-        tau, n = step.tau_bar, step.propeller_speed
+        tau, n = step.tau_bar, np.asarray(step.propeller_speed, dtype=float)
         xl, rl, h = x.tolist(), ref.tolist(), self.period
         ie = [e + h * (xl[c] - r) for e, c, r in zip(old[self._I].tolist(), _CONTROLLED_IDX, rl)]
-        tl, nl = tau.tolist(), n.tolist()
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            ie + tl + nl + step.u_star.tolist() + [step.residual]
-            + saturation_flags(tau, step.lo, step.up).tolist())
+        discrete_state.set_value(i_state, np.array(
+            ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
+            + saturation_flags(tau, step.lo, step.up).tolist()))
         if self.computation_delay and stamp != -np.inf:    # the previous sample goes out now
-            tl, nl = old[self._TAU].tolist(), old[self._N].tolist()
-        g_n, g_s, g_d = self._held
-        discrete_state.get_mutable_vector(g_n).SetFromVector(nl)
-        discrete_state.get_mutable_vector(g_s).SetFromVector(tl[2:4])
-        discrete_state.get_mutable_vector(g_d).SetFromVector(tl[4:8])
+            tau, n = old[self._TAU], old[self._N]
+        discrete_state.set_value(i_n, n)
+        discrete_state.set_value(i_s, tau[2:4])
+        discrete_state.set_value(i_d, tau[4:8])

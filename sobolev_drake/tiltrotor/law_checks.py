@@ -33,7 +33,9 @@ def checked_vector(name, value, size):
     arr = value if type(value) is np.ndarray and value.dtype == np.float64 else np.asarray(value, dtype=float)
     if arr.shape == (size,):
         lst = arr.tolist()
-        if all(map(math.isfinite, lst)):
+        # a float sum is finite only if every term is (NaN, ±inf propagate); the term-by-term
+        # check decides only when the sum is not (a non-finite entry, or an overflow)
+        if math.isfinite(sum(lst)) or all(map(math.isfinite, lst)):
             return arr, lst
     return check_vector(name, value, size), None        # raises
 

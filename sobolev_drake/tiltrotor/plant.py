@@ -349,6 +349,10 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             self._native = None if self._kernel is None else force_model(
                 self.prop, self.aero, perm16=self._perm16.tolist(),
                 perm8_inv=self._perm8_inv.tolist(), cos_beta_servo=self._cosb)
+            # the per-evaluation calls bound once (pybind look-ups cost about a kernel call each)
+            self._fast = None if self._native is None else (
+                self._kernel.plant_force, self._native, self._state.Eval, self._inputs.EvalAbstract,
+                *(f for p in self._port_list[4:] for f in (p.Eval, p.HasValue)))
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.model, native=other._native_request if T is float else False,
@@ -430,12 +434,12 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
         def _native_force(self, context, out, drake_order) -> None:
             """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
             self.evaluations += 1
-            p_w, p_f, p_dist = self._port_list[4:]
-            self._kernel.plant_force(self._native, self._state.Eval(context), self._inputs.Eval(context),
-                                     p_w.Eval(context) if p_w.HasValue(context) else None,
-                                     p_f.Eval(context) if p_f.HasValue(context) else None,
-                                     p_dist.Eval(context) if p_dist.HasValue(context) else None,
-                                     out, drake_order)
+            force, model, state, inputs, wind, has_wind, fd, has_fd, dist, has_dist = self._fast
+            # EvalAbstract(...).get_value(): the cached list itself, cheaper than CacheEntry.Eval
+            force(model, state(context), inputs(context).get_value(),
+                  wind(context) if has_wind(context) else None,
+                  fd(context) if has_fd(context) else None,
+                  dist(context) if has_dist(context) else None, out, drake_order)
 
         def _calc_thesis(self, context, output) -> None:
             if self._native is None:

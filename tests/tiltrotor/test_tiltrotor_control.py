@@ -128,3 +128,19 @@ def test_tilt_schedule_polynomial_derivatives():
     assert np.isclose(da, (s(10 + h)[0] - s(10 - h)[0]) / (2 * h), rtol=1e-6)
     assert np.isclose(dda, (s(10 + h)[1] - s(10 - h)[1]) / (2 * h), rtol=1e-5)
     assert s(50.0) == (s(33.99)[0], 0.0, 0.0)
+
+
+def test_checked_vector_accepts_exactly_the_finite_vectors():
+    """The per-sample check (a float sum first) passes finite vectors — also those whose sum
+    overflows — with their floats, and names the argument for NaN, ±inf and +inf next to −inf."""
+    import math
+
+    import pytest
+    big = np.finfo(float).max
+    for x in (np.arange(12.0), np.full(12, big), [1.0, -big, big]):
+        arr, lst = tc.checked_vector("reference", x, len(x))
+        assert lst == np.asarray(x, dtype=float).tolist() and arr.dtype == np.float64
+    for bad in ([1.0, math.nan, 2.0], [math.inf, 0.0, 0.0], [0.0, -math.inf, 0.0],
+                [math.inf, -math.inf, 1.0]):
+        with pytest.raises(ValueError, match="reference"):
+            tc.checked_vector("reference", bad, 3)
