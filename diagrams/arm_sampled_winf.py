@@ -1,4 +1,7 @@
-"""The two-link arm held against gravity by a W∞ controller sampled at 100 Hz with a
+"""Two-link arm under a sampled-data W∞ controller (100 Hz, one-sample delay)
+==========================================================================
+
+The two-link arm held against gravity by a W∞ controller sampled at 100 Hz with a
 one-sample computation delay, designed for the loop that runs (sampled-data design).
 
 The arm is linearized by Drake at q0 = (0.3, 0.5) rad with the torques u0 that hold it there;

@@ -1,4 +1,7 @@
-"""The README's synthesis examples analysed: poles, margins, S/T/KS, the W∞ channel, responses.
+"""Loop analysis of the README's synthesis examples
+================================================
+
+The README's synthesis examples analysed: poles, margins, S/T/KS, the W∞ channel, responses.
 
 The first README block designs three W∞ controllers for Drake's Acrobot linearized upright
 (state feedback at the optimum, output feedback measuring the two angles, state feedback with

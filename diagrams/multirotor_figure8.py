@@ -1,4 +1,7 @@
-"""Your own drone: a quadrotor described the way drone packages describe one — one free body
+"""Your own drone: quadrotor and hexarotor figure-8 beside Drake's LQR
+===================================================================
+
+Your own drone: a quadrotor described the way drone packages describe one — one free body
 (Drake gives it a quaternion floating joint) and four Drake ``Propeller``s — flies a figure-8 at
 2 m/s through a wind gust and a 2 N × 0.5 s push, with the nonlinear W2/W∞ position law and
 bounded rotor allocation, beside Drake's LQR designed around hover on the same vehicle; then
