@@ -156,7 +156,9 @@ def test_unattained_infimum_output_feedback():
     :func:`assert_backends_agree` (measured spread <= 1.8e-4)."""
     rng = np.random.default_rng(121)
     _, of_plant = random_plant(rng, 10)
-    of = [output_feedback(of_plant, backend=b) for b in ("cvxpy", "drake")]
+    # no time budget: under a budget the solvers stop on the wall clock, and a run on a loaded
+    # machine was seen to stop at an LMI point below the certified norm (21.119 vs 21.124)
+    of = [output_feedback(of_plant, backend=b, time_limit=None) for b in ("cvxpy", "drake")]
     ach = [r.certificate.achieved for r in of]
     assert all(r.certificate.ok for r in of)
     assert abs(ach[0] - ach[1]) <= 1e-3 * min(ach)
