@@ -14,6 +14,8 @@ linearization (A, B, D) about a trim (7.57)
 allocation    control allocation (7.84)–(7.89) and the thrust → propeller-speed inversion (7.90)
 law           the W∞ law composed with the model, allocation and propeller data (7.3.2)
 controller    the nonlinear W∞ controller LeafSystem of the missions (7.3.2)
+gain_schedule the envelope's scheduled W∞ weights (beyond 7.3.2: targets per regime, C² blend)
+envelope_analysis  frozen-point closed-loop poles of a design at level-flight trims
 
 The experiments' pieces, from the linear hover designs (7.3.1) to the missions (7.3.2):
 
@@ -29,6 +31,8 @@ Nothing outside this package depends on it except the experiments, benchmarks an
 """
 
 from sobolev_drake.tiltrotor.controller import TiltrotorWInfController
+from sobolev_drake.tiltrotor.envelope_analysis import frozen_point
+from sobolev_drake.tiltrotor.gain_schedule import EnvelopeSchedule
 from sobolev_drake.tiltrotor.linear_controller import LinearHoverController
 from sobolev_drake.tiltrotor.linear_design import HoverDesign
 from sobolev_drake.tiltrotor.mission import build_mission, simulate_mission
@@ -42,4 +46,5 @@ __all__ = [
     "TiltrotorParams", "TiltrotorModel", "TiltrotorHandles", "add_tiltrotor", "tiltrotor_urdf",
     "TiltrotorWInfController", "Trim", "trim_hover", "trim_level_flight", "linearize",
     "HoverDesign", "LinearHoverController", "build_mission", "simulate_mission", "score_mission",
+    "EnvelopeSchedule", "frozen_point",
 ]

@@ -41,6 +41,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sobolev_drake.tiltrotor.controller import forward_air_speed
+
 __all__ = ["ChannelTarget", "Regime", "REGIMES", "SCHEDULE_SPEEDS", "target_polynomial",
            "target_gains", "target_weights", "blend_factor", "EnvelopeSchedule"]
 
@@ -350,8 +352,6 @@ class EnvelopeSchedule:
         list of float, length 8
             q̈_des [αR αL φ θ ψ x y z] (rad/s², m/s²).
         """
-        from sobolev_drake.tiltrotor.controller import forward_air_speed
-
         U, _ = forward_air_speed(reference[4:7], reference[8:11], reference[3], reference[7], wind)
         k = self.gains(U)
         acc = [0.0] * 8
