@@ -46,7 +46,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
-from sobolev_drake.tiltrotor.law_checks import checked_vector, saturation_flags
+from sobolev_drake.tiltrotor.law_checks import checked_vector, saturation_flag_list, saturation_flags
 from sobolev_drake.tiltrotor.scalars import DoubleOnly
 
 __all__ = [
@@ -483,7 +483,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         ie = [e + h * (xl[c] - r) for e, c, r in zip(old[self._I].tolist(), _CONTROLLED_IDX, rl)]
         discrete_state.set_value(i_state, np.array(
             ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
-            + saturation_flags(tau, step.lo, step.up).tolist()))
+            + saturation_flag_list(tau, step.lo, step.up)))
         if self.computation_delay and stamp != -np.inf:    # the previous sample goes out now
             tau, n = old[self._TAU], old[self._N]
         discrete_state.set_value(i_n, n)

@@ -10,7 +10,7 @@ import numpy as np
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native import kernel
 
-__all__ = ["checked_vector", "saturation_flags"]
+__all__ = ["checked_vector", "saturation_flags", "saturation_flag_list"]
 
 #: actuator inputs τ̄ of the tilt-rotor (the compiled kernel's size)
 N_TAU = 8
@@ -84,3 +84,29 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
     width_ok = (up - lo) > min_width
     return np.where(width_ok & (tau >= up - tol), 1.0,
                     np.where(width_ok & (tau <= lo + tol), -1.0, 0.0))
+
+
+def saturation_flag_list(tau, lo, up):
+    """:func:`saturation_flags` with its default tolerances, as a list of floats: for 8-vectors
+    the compiled kernel called directly (the controller's per-sample path; the same comparisons
+    on the same floats, so the same flags — tested), else :func:`saturation_flags`.
+
+    Parameters
+    ----------
+    tau, lo, up : array_like, shape (n,)
+        Actuator values and their bounds (float64 arrays are read without a copy).
+
+    Returns
+    -------
+    list of float
+        +1.0, −1.0 or 0.0 per entry.
+
+    Examples
+    --------
+    >>> saturation_flag_list([1.0, 0.0, -1.0], [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
+    [1.0, 0.0, -1.0]
+    """
+    k = kernel("forces")
+    if k is not None and len(tau) == len(lo) == len(up) == N_TAU:
+        return k.saturation_flags(tau, lo, up, 1e-3, 1e-3)
+    return saturation_flags(tau, lo, up).tolist()

@@ -116,6 +116,14 @@ def test_saturation_flags():
     F = tc.saturation_flags(tau, lo, up)
     assert np.array_equal(F, np.array([tc.saturation_flags(t, a, b) for t, a, b in zip(tau, lo, up)]))
     assert np.any(F == 1) and np.any(F == -1) and np.any(F == 0)
+    # the controller's list form (the kernel called directly) gives the same flags, also
+    # without the kernels (then it is saturation_flags itself)
+    from sobolev_drake.native import disabled
+    from sobolev_drake.tiltrotor.law_checks import saturation_flag_list
+    for t, a, b, row in zip(tau, lo, up, F):
+        assert saturation_flag_list(t, a, b) == row.tolist()
+        with disabled():
+            assert saturation_flag_list(t, a, b) == row.tolist()
 
 
 def test_tilt_schedule_polynomial_derivatives():
