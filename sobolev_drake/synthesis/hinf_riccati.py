@@ -158,8 +158,8 @@ def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level, candidate=None):
     """Lyapunov matrix P of the closed loop for the bounded-real inequality at ``gamma`` (gamma^2
     form, see ``SynthesisResult``), or None when none is found.
 
-    Candidates: ``candidate`` (the closed form from the design's Riccati solutions,
-    :meth:`_Problem.storage`) first -- measured 10-30x cheaper than a Riccati solve of the 2n-state
+    Candidates: ``candidate`` (built from the design's Riccati solutions,
+    :meth:`_Problem.storage`) first -- an n-state Riccati solve instead of one of the 2n-state
     closed loop; then the stabilizing solutions of the closed loop's bounded-real Riccati
     equation at ``level`` (the controller's design level, just below ``gamma``), with and
     without scipy's balancing.  The one with the smallest ``brl_residual`` is kept if it is
