@@ -3,9 +3,10 @@
 Nothing here uses the LMI: a result is accepted only if
 
 * every closed-loop eigenvalue has negative real part (and lies in the requested LMI region),
-* the H∞ norm of the closed-loop performance channel, computed by Hamiltonian
-  iteration (Bruinsma & Steinbuch 1990, own implementation, D != 0 handled), does not exceed
-  the claimed gamma by more than a relative tolerance (default 1e-4).
+* the H∞ norm of the closed-loop performance channel does not exceed the claimed gamma by more
+  than a relative tolerance (default 1e-4): SLICOT's ab13dd when slycot is installed, its
+  value re-checked by the own gain evaluation, else the own Hamiltonian iteration
+  (:func:`hinf_norm`, Bruinsma & Steinbuch 1990, D != 0 handled).
 
 Failures raise :class:`~sobolev_drake.synthesis.lmi.SynthesisError` naming the failed check and
 by how much. Input validation (shapes, weights, PBH stabilizability) lives here as well.
@@ -167,6 +168,53 @@ def hinf_norm(A, B, C, D, rtol=1e-7):
     return lb, wpk
 
 
+#: relative accuracy asked of SLICOT's ab13dd (python-control's ``linfnorm`` default)
+SLICOT_TOL = 1e-10
+
+
+def _slicot_norm(A, B, C, D):
+    """(norm, peak frequency) of a stable system by SLICOT's ab13dd (compiled Bruinsma-Steinbuch
+    on a Hessenberg form, structured Hamiltonian eigenvalues), or None when slycot is missing
+    or the routine reports a failure."""
+    try:
+        from slycot import ab13dd
+    except ImportError:
+        return None
+    n, m, p = A.shape[0], B.shape[1], C.shape[0]
+    try:
+        g, f = ab13dd("C", "I", "S", "D", n, m, p, A, np.eye(n), B, C, D, SLICOT_TOL)
+    except Exception:  # slycot's SlycotError family and argument errors: use the own norm
+        return None
+    return float(g), float(f)
+
+
+def _certificate_norm(A, B, C, D):
+    """H∞ norm of a stable closed loop for its certificate.
+
+    SLICOT's ab13dd when available: measured 4-7x faster than :func:`hinf_norm` on closed
+    loops of 20-120 states (``benchmarks/synthesis_floor.py``), whose frequency evaluations
+    are full complex solves.  Its value is re-checked by the own code: the gain at its peak
+    frequency, evaluated here (:func:`_sigma_max`), must reproduce it (a norm is a maximum over
+    frequencies, so this catches a wrong peak that would inflate the norm), and it may not be
+    below the gain at 0 and the feedthrough.  An underestimate is what a certificate must never
+    accept; the Riccati path's Lyapunov matrix P (``brl_residual``, an inequality checked on
+    its own) bounds the norm from above independently.  Any disagreement -- or no slycot --
+    falls back to the own Hamiltonian iteration."""
+    A, B, C, D = (np.atleast_2d(np.asarray(M, float)) for M in (A, B, C, D))
+    if A.shape[0] and B.size and C.size:
+        out = _slicot_norm(A, B, C, D)
+        if out is not None and np.isfinite(out[0]):
+            g, f = out
+            at_peak = np.linalg.norm(D, 2) if f == np.inf else _sigma_max(A, B, C, D, f)
+            floor = max(_sigma_max(A, B, C, D, 0.0), np.linalg.norm(D, 2) if D.size else 0.0)
+            # 1e-6 at the peak: both evaluations' rounding on closed loops with condition
+            # numbers up to 1e10 (measured 2e-8 apart at 3e9); 1e-8 below the floor: an
+            # underestimate is the unsafe direction, the own iteration decides then
+            if abs(at_peak - g) <= 1e-6 * max(g, 1e-300) and floor <= g * (1 + 1e-8):
+                return g
+    return hinf_norm(A, B, C, D)[0]
+
+
 def hinf_norm_sweep(A, B, C, D, freqs=None):
     """Frequency-sweep lower estimate of the H∞ norm (for tests and plots)."""
     if freqs is None:
@@ -210,7 +258,7 @@ def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, so
     stable = mre < 0
     if not stable:
         fails.append(f"closed loop unstable: max Re(eig) = {mre:.3g}")
-    achieved = hinf_norm(Acl, Bcl, Ccl, Dcl)[0] if stable else np.inf
+    achieved = _certificate_norm(Acl, Bcl, Ccl, Dcl) if stable else np.inf
     if stable and achieved > gamma * (1 + rtol):
         fails.append(f"H∞ norm {achieved:.6g} exceeds gamma {gamma:.6g} by "
                      f"{achieved / gamma - 1:.2e} (relative; tolerance {rtol:.0e})")

@@ -128,24 +128,80 @@ class _Problem:
         _, test, nrm = self.variant(eps)
         data = test(gamma)
         if not self.of:
-            return unscale_gain(data[0], self.T, self.Su)
-        ctrl = nrm.controller(central_controller(nrm.plant, data))
-        return unscale_controller(ctrl, self.Su, self.Sy)
+            gain = unscale_gain(data[0], self.T, self.Su)
+        else:
+            ctrl = nrm.controller(central_controller(nrm.plant, data))
+            gain = unscale_controller(ctrl, self.Su, self.Sy)
+        self._storage = (gain, gamma, data)
+        return gain
+
+    def storage(self, gain):
+        """Closed-form route to the closed loop's Lyapunov matrix P for the controller ``gain``
+        last built by :meth:`controller`: a function of (A_cl, B_cl, C_cl, D_cl, level)
+        returning a candidate P, or None for another gain.
+
+        State feedback u = F2 x: the game Riccati solution X is the stabilizing solution of the
+        closed loop's bounded-real Riccati equation at the design level (its closed-loop
+        matrix A + B1 F1 + B2 F2 is Hurwitz).  Central controller (state x^ estimating the
+        scaled state x~): with the worst-case disturbance split off, w = F1 x~ + r, the
+        dissipation splits into x~'X x~ and a storage e'Pi e of the estimation error
+        e = x~ - x^, whose dynamics driven by r do not involve x~ (the separation structure of
+        Zhou, Doyle & Glover 1996, sec. 16.8).  So P = S'diag(X, Pi) S with S (x, x_K) = (x~, e),
+        and Pi is the stabilizing solution of the n-state bounded-real Riccati equation of the
+        error block of the closed loop in those coordinates -- one n-state solve instead of
+        one of the 2n-state closed loop.  The caller accepts a candidate only on its own
+        bounded-real check (``brl_residual``)."""
+        kept, _, data = getattr(self, "_storage", (None, None, None))
+        if kept is not gain:
+            return None
+        Ti = 1.0 / self.T
+        if not self.of:
+            X = Ti[:, None] * data[1] * Ti
+            return lambda Acl, Bcl, Ccl, Dcl, level: X
+        X, n = data.X, self.plant.n
+
+        def candidate(Acl, Bcl, Ccl, Dcl, level):
+            # S = [[diag(1/T), 0], [diag(1/T), -I]], S^-1 = [[diag(T), 0], [I, -I]]: the error
+            # block of S A_cl S^-1 and the error columns of C_cl S^-1, rows of S B_cl
+            A_ee = (Ti[:, None] * Acl[:n, n:] - Acl[n:, n:])  # (S A_cl)[e, x_K]
+            A22 = -A_ee  # times S^-1[x_K, e] = -I
+            B2 = Ti[:, None] * Bcl[:n] - Bcl[n:]
+            C2 = -Ccl[:, n:]
+            R = Dcl.T @ Dcl - level ** 2 * np.eye(Dcl.shape[1])
+            Pi = sla.solve_continuous_are(A22, B2, C2.T @ C2, R, s=C2.T @ Dcl)
+            Pi = 0.5 * (Pi + Pi.T)
+            return np.block([[Ti[:, None] * (X + Pi) * Ti, -Ti[:, None] * Pi],
+                             [-Pi * Ti, Pi]])
+        return candidate
 
     def optimum(self, eps, deadline):
         _, test, _ = self.variant(eps)
         return bisect_gamma(test, self.bound, rtol=BISECTION_RTOL, deadline=deadline)
 
 
-def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level):
+def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level, candidate=None):
     """Lyapunov matrix P of the closed loop for the bounded-real inequality at ``gamma`` (gamma^2
     form, see ``SynthesisResult``), or None when none is found.
 
-    Candidates: the stabilizing solutions of the closed loop's bounded-real Riccati equation at
-    ``level`` (the controller's design level, just below ``gamma``), with and without scipy's
-    balancing; the one with the smallest ``brl_residual`` is kept if it is positive
-    semidefinite and its residual is at most ``BRL_TOL`` (the LMI path's acceptance test)."""
+    Candidates: ``candidate`` (built from the design's Riccati solutions,
+    :meth:`_Problem.storage`) first -- an n-state Riccati solve instead of one of the 2n-state
+    closed loop; then the stabilizing solutions of the closed loop's bounded-real Riccati
+    equation at ``level`` (the controller's design level, just below ``gamma``), with and
+    without scipy's balancing.  The one with the smallest ``brl_residual`` is kept if it is
+    positive semidefinite and its residual is at most ``BRL_TOL`` (the LMI path's acceptance
+    test): whichever produced it, P is accepted only on that independent check."""
     best, best_r = None, np.inf
+    try:
+        P = None if candidate is None else candidate(Acl, Bcl, Ccl, Dcl, level)
+    except (np.linalg.LinAlgError, ValueError):
+        P = None
+    if P is not None and np.all(np.isfinite(P)):
+        P = 0.5 * (P + P.T)
+        r = brl_residual(Acl, Bcl, Ccl, Dcl, P, gamma)
+        if r <= 0.01 * BRL_TOL and np.linalg.eigvalsh(P).min() >= -1e-12 * np.abs(P).max():
+            return P  # the CARE's acceptance bar below: no 2n-state solve needed
+        if r < best_r and np.linalg.eigvalsh(P).min() >= -1e-12 * np.abs(P).max():
+            best, best_r = P, r
     for balanced in (True, False):
         try:
             P = sla.solve_continuous_are(Acl, Bcl, Ccl.T @ Ccl,
@@ -177,7 +233,7 @@ def _result(problem, gain, level, gamma_opt, status, timings, rtol):
                           **({"controller": gain} if problem.of else {"K": gain}))
     res = certify_result(res, [p], None, rtol, False, status)
     if res.certificate.ok:
-        P = _closed_loop_lyapunov(*res.closed_loop(p), res.gamma, level)
+        P = _closed_loop_lyapunov(*res.closed_loop(p), res.gamma, level, problem.storage(gain))
         if P is not None:
             try:  # P^-1 where P is positive definite (Cholesky: independent of the scaling)
                 Pi = sla.cho_solve(sla.cho_factor(P), np.eye(P.shape[0]))
