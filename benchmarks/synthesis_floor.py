@@ -239,9 +239,8 @@ def main():
                 row = measure(case.plant, methods[m])
                 if (k, m) not in best or row["time"] < best[k, m]["time"]:
                     best[k, m] = row
-            print(f"\rrep {rep + 1}/{args.reps}, plant {k + 1}/{len(cases)}   ", end="",
-                  flush=True)
-    print()
+            print(f"rep {rep + 1}: {case}: " + ", ".join(
+                f"{m} {best[k, m]['time']:.3f}" for m in names), flush=True)
     if pc is not None:
         pc.close()
     print("per plant: CPU s (certified/stabilizing), ratio to floor")
