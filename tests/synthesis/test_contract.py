@@ -117,3 +117,29 @@ def test_an_output_feedback_thesis_result_saves_and_refuses_to_close_a_loop(tmp_
     assert back.gamma == res.gamma and back.method == "thesis_lmi" and not back.certified
     with pytest.raises(ValueError, match="no controller"):
         back.closed_loop(sd.winf_plant(A, B, D, [1, 1], [0.1, 0.1], C))
+
+
+def test_one_vocabulary_for_the_feedback_kind():
+    """"state_feedback"/"output_feedback" (SynthesisResult.kind) is the one spelling; the
+    older "sf"/"of"/"dyn" and the short "state"/"output" are mapped at the boundaries, and an
+    unknown kind is refused naming the argument."""
+    from sobolev_drake.synthesis import FEEDBACKS, feedback_kind
+    from sobolev_drake.synthesis.designs import FeedbackTable, LinearDesign
+    assert [feedback_kind(v) for v in ("sf", "state", "state_feedback")] == [FEEDBACKS[0]] * 3
+    assert [feedback_kind(v) for v in ("of", "dyn", "output", "output_feedback")] == [FEEDBACKS[1]] * 4
+    for bad in ("lqr", "SF", None, 1):
+        with pytest.raises(ValueError, match=r"^kind must be 'state_feedback' or 'output_feedback'"):
+            feedback_kind(bad, "kind")
+    assert LinearDesign("W∞-O.F.", "winf", "of").feedback == "output_feedback"
+    assert LinearDesign("W∞", "winf").feedback == "state_feedback"
+    with pytest.raises(ValueError, match="feedback must be"):
+        LinearDesign("W∞", "winf", "static")
+    table = FeedbackTable(40.0, 150.0)
+    assert (table["sf"], table["output_feedback"], "dyn" in table, "lqr" in table) == (40.0, 150.0, True, False)
+    with pytest.raises(KeyError, match="key must be"):
+        table["lqr"]
+    # the result kinds the syntheses return use the same words
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        assert {CALLS[n](getattr(sd, n)).kind for n in ("winf_state_feedback",
+                                                         "winf_output_feedback")} == set(FEEDBACKS)
