@@ -143,3 +143,35 @@ def test_one_vocabulary_for_the_feedback_kind():
         warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
         assert {CALLS[n](getattr(sd, n)).kind for n in ("winf_state_feedback",
                                                          "winf_output_feedback")} == set(FEEDBACKS)
+
+
+@pytest.mark.parametrize("name", SYNTHESES)
+def test_each_takes_the_one_options_type(name):
+    """options= reaches the synthesis (the LMI path in a disk, visible in the result); the
+    same knob given again as a keyword must agree, and a conflicting one is refused."""
+    disk = sd.regions.disk(60.0)
+    opts = sd.SynthesisOptions(method="lmi", region=disk, rtol=1e-3)
+    fn = getattr(sd, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        res = CALLS[name](lambda *a, **k: fn(*a, **k, options=opts))
+        again = CALLS[name](lambda *a, **k: fn(*a, **k, options=opts, method="lmi"))
+    assert res.method == "lmi" and res.region is disk and res.certificate.ok
+    assert res.certificate.region_ok and again.method == "lmi"
+    with pytest.raises(ValueError, match=r"^method='riccati' conflicts with options.method='lmi'"):
+        CALLS[name](lambda *a, **k: fn(*a, **k, options=opts, method="riccati"))
+    with pytest.raises(TypeError, match="options must be a SynthesisOptions, got dict"):
+        CALLS[name](lambda *a, **k: fn(*a, **k, options={"method": "lmi"}))
+
+
+def test_options_are_validated_when_built():
+    with pytest.raises(ValueError, match="method must be one of"):
+        sd.SynthesisOptions(method="fast")
+    with pytest.raises(ValueError, match="time_limit"):
+        sd.SynthesisOptions(time_limit=0.0)
+    with pytest.raises(ValueError, match="regularize must be"):
+        sd.SynthesisOptions(regularize="yes")
+    with pytest.raises(TypeError, match="region must be an LMIRegion"):
+        sd.SynthesisOptions(region=50.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sd.SynthesisOptions().method = "lmi"
