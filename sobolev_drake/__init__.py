@@ -25,7 +25,7 @@ from sobolev_drake.models import FloatingBaseModel, MechanicalModel, PlantHandle
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
 from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
-                                     SynthesisResult, controlled_gains, generalized_plant,
+                                     SynthesisOptions, SynthesisResult, controlled_gains, generalized_plant,
                                      hinf_mechanical_gains, hinf_output_feedback,
                                      hinf_output_feedback_qr, hinf_plant, hinf_state_feedback,
                                      hinf_state_feedback_qr, hinfsyn, load_result, regions,
@@ -60,7 +60,7 @@ __all__ = [
     # linear synthesis
     "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
-    "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisError",
+    "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisOptions", "SynthesisError",
     "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace", "save_result", "load_result",
     # analysis of a designed loop, weights from bandwidth and damping
     "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",

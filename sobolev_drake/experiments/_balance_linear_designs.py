@@ -14,19 +14,20 @@ import time
 import numpy as np
 
 from sobolev_drake.harness import quiet
-from sobolev_drake.synthesis.designs import LinearDesign
+from sobolev_drake.synthesis.designs import FeedbackTable, LinearDesign
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
 GAMMA1_SF = np.diag([2.6, 0.25, 0.625])
 GAMMA0_OF = np.diag([10.0, 1.0, 10.0])
 GAMMA1_OF = np.diag([0.66, 0.35, 0.3355])
 C_OF = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # θ̇ not measured (6.5.2)
-RADIUS = {"sf": 40.0, "of": 150.0}
+RADIUS = FeedbackTable(state_feedback=40.0, output_feedback=150.0)
 
 
 DESIGN_SPECS = {d.label: d for d in (
-    LinearDesign("H∞", "hinf", "sf"), LinearDesign("W∞", "winf", "sf"),
-    LinearDesign("H∞-O.F.", "hinf", "of"), LinearDesign("W∞-O.F.", "winf", "of"))}
+    LinearDesign("H∞", "hinf", "state_feedback"), LinearDesign("W∞", "winf", "state_feedback"),
+    LinearDesign("H∞-O.F.", "hinf", "output_feedback"),
+    LinearDesign("W∞-O.F.", "winf", "output_feedback"))}
 DESIGNS = tuple(DESIGN_SPECS)
 #: Table 6.2: ISE θ, ISE ϕ̇, IADU, empirical H∞ index
 THESIS_TABLE_6_2 = {"H∞": (1.7, 82.9, 48.2, 1.47), "W∞": (1.8, 65.8, 33.5, 1.32),
@@ -37,7 +38,7 @@ LOWER = 0.98
 #: ρ grids of the equal-settling-time search (R = ρ; Q = Γ0 of the matching W∞ design); two
 #: points per decade: the O.F. settling time is V-shaped in ρ and a decade grid straddles its
 #: dip, finding no match although one exists
-RHO_GRID = {"sf": np.logspace(-3, 3, 13), "of": np.logspace(-3, 3, 13)}
+RHO_GRID = FeedbackTable(np.logspace(-3, 3, 13), np.logspace(-3, 3, 13))
 #: relative γ relaxation of the regularized O.F. designs (see _balance_linear_posedness): at
 #: δ = 0.05 Clarabel, cvxpy/Clarabel and Drake/Clarabel return the same settling time to
 #: 1e-3 s; at δ ≤ 0.02 the gain-bound LMI is so ill-conditioned that solvers fail or disagree
@@ -82,7 +83,7 @@ def design(which, lin, *, rho=None, backend=None, regularize=None):
     if spec is None:
         raise ValueError(f"which must be one of {DESIGNS} or a LinearDesign, got {which!r}")
     A, B, D = lin
-    of = spec.feedback == "of"
+    of = spec.feedback == "output_feedback"
     disk = regions.disk(RADIUS[spec.feedback])
     G0, G1 = (GAMMA0_OF, GAMMA1_OF) if of else (GAMMA0_SF, GAMMA1_SF)
     if spec.norm == "winf":

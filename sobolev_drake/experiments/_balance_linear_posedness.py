@@ -135,7 +135,7 @@ def diagnose(res, lin, rig_of, designs, out_dir):
     A, B, D = lin
     rho = float(designs["H∞-O.F."]["rho"])
     rows_spread, growth = [], {}
-    disk = regions.disk(RADIUS["of"])
+    disk = regions.disk(RADIUS["output_feedback"])
     for name, plant in (("W∞-O.F.", sb.winf_plant(A, B, D, GAMMA0_OF, GAMMA1_OF, C_OF)),
                         ("H∞-O.F.", sb.hinf_plant(A, B, D, GAMMA0_OF, np.array([[rho]]), C_OF))):
         g_design = float(designs[name]["res"].gamma)

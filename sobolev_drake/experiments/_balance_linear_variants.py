@@ -58,12 +58,12 @@ def run_variants(lin, rigs, designs, duration):
     w_raw, _, _ = design("W∞-O.F.", lin, regularize=False)
     out = [variant_pair("O.F., LMI optimum (both)", w_raw,
                         lambda rho: design("H∞-O.F.", lin, rho=rho, regularize=False)[0],
-                        rigs["of"], RHO_GRID["of"], duration)]
-    disk = regions.disk(RADIUS["sf"])
+                        rigs["output_feedback"], RHO_GRID["output_feedback"], duration)]
+    disk = regions.disk(RADIUS["state_feedback"])
     out.append(variant_pair("S.F., H∞ with Q = I", designs["W∞"]["res"],
                             lambda rho: quiet(sb.hinf_state_feedback_qr, A, B, D, np.eye(3),
                                                  np.array([[rho]]), region=disk)[0],
-                            rigs["sf"], RHO_GRID["sf"], duration))
+                            rigs["state_feedback"], RHO_GRID["state_feedback"], duration))
     return out
 
 

@@ -23,6 +23,7 @@ from sobolev_drake.experiments._balance_linear_designs import (C_OF, DESIGN_SPEC
 from sobolev_drake.models.two_wheeled_linear import linearize
 from sobolev_drake.rigs.balance_linear import (DISTURBANCE_START, BalanceLinearRig, flight_indices,
                                                result_gains, theta_settling_time)
+from sobolev_drake.synthesis.designs import FeedbackTable, feedback_kind
 from sobolev_drake.tuning import match_parameter
 
 
@@ -33,8 +34,9 @@ def synthesize_all(lin, rigs, *, search=True, log=print):
     ----------
     lin : (A, B, D)
         The linear model.
-    rigs : dict
-        ``{"sf": rig, "of": rig}``, the :class:`BalanceLinearRig` of each controller kind.
+    rigs : mapping
+        The :class:`BalanceLinearRig` of each feedback kind, keyed ``"state_feedback"`` and
+        ``"output_feedback"`` (older spellings such as ``"sf"``/``"of"`` are mapped).
     search : bool
         Match ρ on the nonlinear rig; False (smoke mode) uses ``RHO_TUNED``, the values a full
         run found (reproducible: the search is deterministic).
@@ -48,8 +50,10 @@ def synthesize_all(lin, rigs, *, search=True, log=print):
         "settling_matched", "search"}.
     """
     from sobolev_drake.synthesis.lmi import SynthesisError
+    rigs = FeedbackTable(**{feedback_kind(k, "rigs key"): v for k, v in rigs.items()})
     designs = {}
-    for kind, (w_name, h_name) in (("sf", ("W∞", "H∞")), ("of", ("W∞-O.F.", "H∞-O.F."))):
+    for kind, (w_name, h_name) in (("state_feedback", ("W∞", "H∞")),
+                                   ("output_feedback", ("W∞-O.F.", "H∞-O.F."))):
         wres, notes, dt = design(w_name, lin)
         ts_w = (theta_settling_time(rigs[kind].run(result_gains(wres), DISTURBANCE_START))
                 if search else float("nan"))
@@ -92,7 +96,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
     duration = (DISTURBANCE_START if smoke else 25.0) if duration is None else float(duration)
     diagnose = (not smoke) if diagnose is None else bool(diagnose)
     lin = linearize()
-    rigs = {"sf": BalanceLinearRig(), "of": BalanceLinearRig(C_OF)}
+    rigs = FeedbackTable(BalanceLinearRig(), BalanceLinearRig(C_OF))
     designs = synthesize_all(lin, rigs, search=not smoke)
     runs, metrics, rows, th_rows = {}, {}, [], []
     for name in DESIGNS:
@@ -136,7 +140,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
     add_claims(res, metrics, full=duration >= 20.0)
     if diagnose:
         from ._balance_linear_posedness import diagnose as _diagnose
-        _diagnose(res, lin, rigs["of"], designs, out_dir)
+        _diagnose(res, lin, rigs["output_feedback"], designs, out_dir)
         if duration >= 20.0:
             from ._balance_linear_variants import add_variants
             add_variants(res, lin, rigs, designs, duration, out_dir)

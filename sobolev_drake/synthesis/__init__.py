@@ -5,7 +5,9 @@ The names below are the public synthesis API; the modules hold the rest:
 result types), ``sobolev`` (W∞ channels),
 ``interop`` (linear systems in, controllers out), ``mechanical`` (Sobolev gains of
 Euler–Lagrange systems), ``regions`` (LMI pole regions), ``certificates`` (independent
-checks), ``polytopic``, ``galerkin``, ``margins``, ``design_file`` (results saved as JSON / npz).
+checks), ``polytopic``, ``galerkin``, ``margins``, ``design_file`` (results saved as JSON / npz),
+``designs`` (design rows; :func:`feedback_kind`, the one spelling of a feedback kind),
+``options`` (:class:`SynthesisOptions`, the shared knobs as one value).
 """
 
 from sobolev_drake.synthesis import regions
@@ -19,6 +21,8 @@ from sobolev_drake.synthesis.interop import (HinfsynOutput, generalized_plant, h
                                              hinf_state_feedback, hinfsyn, state_space_matrices,
                                              to_statespace)
 from sobolev_drake.synthesis.design_file import load_result, save_result
+from sobolev_drake.synthesis.designs import FEEDBACKS, feedback_kind
+from sobolev_drake.synthesis.options import SynthesisOptions
 from sobolev_drake.synthesis.lmi import InfeasibleLMIError, SynthesisError
 from sobolev_drake.synthesis.mechanical import (controlled_gains, hinf_mechanical_gains,
                                                 regulated_gains, stabilized_gains)
@@ -32,6 +36,7 @@ __all__ = [
     "HinfsynOutput", "generalized_plant", "hinf_output_feedback", "hinf_state_feedback", "hinfsyn",
     "state_space_matrices", "to_statespace",
     "InfeasibleLMIError", "SynthesisError", "save_result", "load_result",
+    "FEEDBACKS", "feedback_kind", "SynthesisOptions",
     "controlled_gains", "hinf_mechanical_gains", "regulated_gains", "stabilized_gains",
     "hinf_output_feedback_qr", "hinf_plant", "hinf_state_feedback_qr", "winf_output_feedback",
     "winf_plant", "winf_state_feedback",

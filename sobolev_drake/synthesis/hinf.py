@@ -37,6 +37,7 @@ from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_requ
 from .problem import (DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning,  # noqa: F401
                       check_initial_states, transient_bound)
 from .lmi import LMIProgram, SynthesisError, bmat
+from .options import accepts_options
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
 from .hinf_riccati import REGULARIZE_DELTA
 from .regions import region_lmi
@@ -97,6 +98,7 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, 
 
 
 
+@accepts_options
 def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
                    rtol=1e-4, verify=True, input_weight=None, vertices=None, margin=EPS,
@@ -133,6 +135,9 @@ def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regio
         Raise :class:`SynthesisError` if the final certificate fails (default True).
     scaling : bool or tuple
         Exact balancing of the plant before solving (below).
+    options : SynthesisOptions, optional
+        The shared knobs in one value (:class:`~sobolev_drake.synthesis.options.SynthesisOptions`);
+        a keyword given beside it must agree with it.
 
     Returns
     -------

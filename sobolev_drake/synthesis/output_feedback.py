@@ -24,6 +24,7 @@ from .hinf_riccati import REGULARIZE_DELTA
 from .regions import region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
+from .options import accepts_options
 
 __all__ = ["reconstruct_controller", "singular_problem", "output_feedback"]
 
@@ -139,6 +140,7 @@ def singular_problem(plant, tol=1e-9):
     return ", ".join(msgs)
 
 
+@accepts_options
 def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
                     backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
                     rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
@@ -165,7 +167,7 @@ def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, regi
         LMI-only options (below and in ``state_feedback``).
     transient_gain_weight : float
         LMI path with ``initial_states`` (below).
-    gamma, regularize, delta, rtol, verify, scaling
+    gamma, regularize, delta, rtol, verify, scaling, options
         As for :func:`~sobolev_drake.synthesis.hinf.state_feedback`.
 
     Returns

@@ -267,11 +267,17 @@ class SynthesisResult:
     fallback : str
         Why earlier backends were not used by the automatic chain ("" = none).
     method : str
-        ``"riccati"`` or ``"lmi"``: which characterization produced the controller.
+        ``"riccati"`` or ``"lmi"``: which characterization produced the controller;
+        ``"thesis_lmi"`` for the thesis-literal LMI forms (``winf_sf_thesis_lmi``,
+        ``winf_of_thesis_lmi``, ``winf_disturbance_thesis``), which are not certified.
     attempts : list of str
         What the call tried before this result, in order: "<what>: <seconds> s, <outcome>".
     well_posed : bool
         True when ``warnings`` is empty.
+    certified : bool
+        True when ``certificate`` is present and passed (False for the thesis-literal forms
+        and for ``verify=False`` calls: then ``gamma`` is the solver's value, not a verified
+        bound).
 
     Examples
     --------
@@ -305,7 +311,7 @@ class SynthesisResult:
     #: sum_i x0_i' P x0_i for the ``initial_states`` of the synthesis (None without them)
     transient_bound: float | None = None
     fallback: str = ""  # automatic backend chain: why earlier backends were not used ("" = none)
-    method: str = "lmi"  # "riccati" | "lmi": which characterization produced the controller
+    method: str = "lmi"  # "riccati" | "lmi" | "thesis_lmi" (uncertified thesis-literal forms)
     #: what the call tried before this result, in order: "<what>: <seconds> s, <outcome>"
     attempts: list = field(default_factory=list)
 
@@ -329,6 +335,16 @@ class SynthesisResult:
         """True when the result has no warnings (see ``warnings``)."""
         return not self.warnings
 
+    @property
+    def certified(self):
+        """True when the independent certificate is present and passed.
+
+        Derived from ``certificate`` (not stored), so a result and its design file cannot
+        disagree.  False for the thesis-literal LMI forms (``method == "thesis_lmi"``) and for
+        ``verify=False`` calls.
+        """
+        return self.certificate is not None and bool(self.certificate.ok)
+
     def closed_loop(self, plant):
         """(A_cl, B_cl, C_cl, D_cl) of w -> z for ``plant`` closed by this result's controller.
 
@@ -342,6 +358,10 @@ class SynthesisResult:
         tuple of ndarray
             See :meth:`GeneralizedPlant.closed_loop`.
         """
+        if self.K is None and self.controller is None:
+            raise ValueError(f"this {self.kind} result (method {self.method!r}) has no "
+                             "controller to close the loop with (winf_of_thesis_lmi gives gamma "
+                             "only; use winf_output_feedback for a controller)")
         if self.kind == "state_feedback":
             return plant.closed_loop(K=self.K)
         return plant.closed_loop(controller=self.controller)

@@ -28,6 +28,7 @@ from .certificates import as_matrix, check_weight, sqrtm_psd
 from .hinf import GeneralizedPlant, output_feedback, state_feedback
 from .interop import is_linear_system, state_space_matrices
 from .lmi import InfeasibleLMIError, LMIProgram, bmat
+from .problem import SynthesisResult
 
 __all__ = [
     "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
@@ -318,9 +319,16 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
 
 
 def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
-    """(6.7) written out as in the thesis (variables S, R, gamma*); returns (gamma, K).
+    """(6.7) written out as in the thesis (variables S, R, gamma*), uncertified.
 
-    Used to cross-check the generalized-plant formulation (same optimal gamma).
+    Used to cross-check the generalized-plant formulation (same optimal gamma). Arguments as
+    :func:`winf_state_feedback`; ``backend`` as :class:`~.lmi.LMIProgram`.
+
+    Returns
+    -------
+    SynthesisResult
+        ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``K = R S^-1``,
+        ``X = S``; no certificate (``certified`` False): gamma is not a verified bound.
     """
     A, B, D = _abd(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
@@ -338,16 +346,32 @@ def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
     out = prog.solve(backend)
     if not out.success:
         raise InfeasibleLMIError(f"(6.7) not solved: {out.status}", out.status)
-    K = np.linalg.solve(S.value(out.x), R.value(out.x).T).T
-    return float(np.sqrt(g.value(out.x)[0, 0])), K
+    Sv = S.value(out.x)
+    K = np.linalg.solve(Sv, R.value(out.x).T).T
+    gamma = float(np.sqrt(g.value(out.x)[0, 0]))
+    return _thesis_result("state_feedback", gamma, out, K=K, X=Sv)
+
+
+def _thesis_result(kind, gamma, out, **fields):
+    """The uncertified SynthesisResult of a thesis-literal LMI solve ``out``."""
+    return SynthesisResult(kind=kind, gamma=gamma, gamma_opt=gamma, solver=out.solver,
+                           backend=out.backend, status=out.status, method="thesis_lmi",
+                           warnings=["thesis-literal LMI: gamma is the solver's optimum, "
+                                     "not certified"], **fields)
 
 
 def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
-    """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*); returns gamma.
+    """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*), uncertified.
 
     The thesis' (2,1) block is 0: the free Gahinet-Apkarian variable Ak has been set to
     -(A + B Df C)^T, which does not change the optimum. Used to cross-check
-    :func:`winf_output_feedback` (same optimal gamma).
+    :func:`winf_output_feedback` (same optimal gamma), whose arguments it takes.
+
+    Returns
+    -------
+    SynthesisResult
+        ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``X = S``,
+        ``Y = W``; no controller (the thesis reconstructs none) and no certificate.
     """
     A, B, D = _abd(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
@@ -376,7 +400,8 @@ def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
     out = prog.solve(backend)
     if not out.success:
         raise InfeasibleLMIError(f"(6.22) not solved: {out.status}", out.status)
-    return float(np.sqrt(g.value(out.x)[0, 0]))
+    return _thesis_result("output_feedback", float(np.sqrt(g.value(out.x)[0, 0])), out,
+                          X=S.value(out.x), Y=W.value(out.x))
 
 
 # --------------------------------------------------------------------------- disturbance model
@@ -421,8 +446,19 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
     The exogenous input is (d, v) entering through B1 = [D Cd, 0]; the -gamma^2 I block is
     replaced by -gamma^2 L' diag(Ups0, Ups1) L. With ``strict=True`` (the thesis' "< 0") the
     problem is infeasible whenever that weight is singular; an InfeasibleLMIError carrying the
-    degeneracy report is raised. ``strict=False`` solves the non-strict problem and returns the
-    (uncertified) result; its gamma is not a verified bound.
+    degeneracy report's message is raised. ``strict=False`` solves the non-strict problem and
+    returns the (uncertified) result; its gamma is not a verified bound.
+
+    Returns
+    -------
+    SynthesisResult
+        ``method="thesis_lmi"``, no certificate (``certified`` is False); ``warnings`` ends
+        with the degeneracy report's message (the report: :func:`disturbance_model_degeneracy`).
+
+    Raises
+    ------
+    InfeasibleLMIError
+        ``strict=True`` and the (d, v) weight is singular, or the solver failed.
     """
     A, B, D = _abd(A, B, D)
     Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
@@ -443,7 +479,8 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
         raise InfeasibleLMIError(f"strict LMI not satisfiable: (d, v) block has eigenvalue {worst:.3g} "
                                  f">= 0 (solver returned status {r.status}); {rep.message}", "infeasible")
     r = fn(plant, input_weight=Wt, regularize=False, verify=False, margin=0.0, **kw)
-    return r.replace(warnings=r.warnings + [rep.message]), rep
+    return r.replace(warnings=r.warnings + [rep.message], method="thesis_lmi", certificate=None,
+                     certificates=[])
 
 
 def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sobolev_drake.synthesis.designs import feedback_kind
+
 __all__ = ["GAMMA0", "GAMMA1", "UPSILON0", "UPSILON1_SF", "UPSILON1_OF", "DISK_RADIUS",
            "HoverDesign", "DESIGN_SPECS", "DESIGNS", "OF_MEASURED", "output_matrix", "design",
            "common_channel_norm", "wind_channel_norm", "loop_margins"]
@@ -44,8 +46,9 @@ class HoverDesign:
     label : str
         Row label of the tables and key of the metrics.
     feedback : str
-        ``"sf"``: state feedback on Δx; ``"of"``: output feedback on y = C Δx
-        (:func:`output_matrix`).
+        ``"state_feedback"`` on Δx or ``"output_feedback"`` on y = C Δx
+        (:func:`output_matrix`); older spellings ("sf", "of") are mapped on construction
+        (:func:`~sobolev_drake.synthesis.designs.feedback_kind`).
     disturbance : str
         ``"none"``: the W∞ channel (6.1) (state feedback (6.7), output feedback (6.22));
         ``"thesis"``: the disturbance-model LMI (6.31)/(6.36) as written (non-strict);
@@ -62,6 +65,9 @@ class HoverDesign:
     disturbance: str = "none"
     disk: bool = False
     column: str | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "feedback", feedback_kind(self.feedback))
 
 
 #: label -> design, cheapest first: an interrupted full run still has the state-feedback rows.
@@ -176,7 +182,7 @@ def _solve(lin, spec, backend, x0=None):
     A, B, D = lin.A, lin.B, lin.D
     disk = regions.disk(DISK_RADIUS)
     region = disk if spec.disk else None
-    of = spec.feedback == "of"
+    of = spec.feedback == "output_feedback"
     notes = []
     # Default backends: "auto" (own IPM, kept only when its certificate and the BRL re-check
     # pass, else the Clarabel chain) for the W∞ state/output feedback, where it is faster

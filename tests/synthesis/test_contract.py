@@ -62,3 +62,116 @@ def test_the_readme_example_says_what_was_done_in_one_line_per_call():
             res = call()
         assert len(caught) == 1 and res.warnings == [str(caught[0].message)]
         assert res.regularized and res.certificate.ok
+
+
+# The thesis-literal LMI forms return the same type, marked uncertified (method "thesis_lmi",
+# no certificate).  (6.31) with a first-order disturbance filter d' = -d + v, w = d: n_d + n_v
+# = 2 n_w, so its (d, v) weight is definite and the strict LMI is well posed (the thesis' own
+# second-order filter is degenerate, tests/synthesis/test_synthesis_sobolev.py).
+def _disturbance_thesis(f):
+    return f([[0.0, 50.0], [-50.0, -50.0]], B, B, [[-1.0]], [[1.0]], [[1.0]], [10.0, 10.0],
+             [1.0, 1.0], 1.0, 1.0)
+
+
+THESIS_CALLS = {
+    "winf_sf_thesis_lmi": lambda f: f(A, B, D, [1, 1], [0.1, 0.1]),
+    "winf_of_thesis_lmi": lambda f: f(A, B, C, D, [1, 1], [0.1, 0.1]),
+    "winf_disturbance_thesis": _disturbance_thesis,
+}
+
+
+@pytest.mark.parametrize("name", sorted(THESIS_CALLS))
+def test_thesis_literal_forms_return_the_one_type_uncertified(name):
+    from sobolev_drake.synthesis import sobolev
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        res = THESIS_CALLS[name](getattr(sobolev, name))
+    assert type(res) is sd.SynthesisResult
+    assert res.method == "thesis_lmi" and res.certificate is None and not res.certified
+    assert np.isfinite(res.gamma) and res.gamma > 0 and res.warnings
+    assert (res.K is None) == (res.kind == "output_feedback")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.gamma = 0.0
+
+
+def test_thesis_state_feedback_matches_the_certified_optimum():
+    """(6.7) written out and the generalized-plant LMI have the same optimum (both Clarabel,
+    relative accuracy ~1e-8 on gamma^2, so 1e-5 on gamma is loose); the certified path's
+    result says it is certified, the thesis form's does not."""
+    from sobolev_drake.synthesis.sobolev import winf_sf_thesis_lmi
+    thesis = winf_sf_thesis_lmi(A, B, D, [1, 1], [0.1, 0.1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        ref = sd.winf_state_feedback(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1], method="lmi",
+                                     regularize=False)
+    assert ref.certified and not thesis.certified
+    assert abs(thesis.gamma - ref.gamma_opt) <= 1e-5 * ref.gamma_opt
+
+
+def test_an_output_feedback_thesis_result_saves_and_refuses_to_close_a_loop(tmp_path):
+    """(6.22) gives gamma only: the design file keeps it (uncertified, no controller) and
+    closed_loop says why it cannot close a loop instead of failing on None."""
+    from sobolev_drake.synthesis.sobolev import winf_of_thesis_lmi
+    res = winf_of_thesis_lmi(A, B, C, D, [1, 1], [0.1, 0.1])
+    back = sd.load_result(sd.save_result(res, tmp_path / "thesis.json"))
+    assert back.gamma == res.gamma and back.method == "thesis_lmi" and not back.certified
+    with pytest.raises(ValueError, match="no controller"):
+        back.closed_loop(sd.winf_plant(A, B, D, [1, 1], [0.1, 0.1], C))
+
+
+def test_one_vocabulary_for_the_feedback_kind():
+    """"state_feedback"/"output_feedback" (SynthesisResult.kind) is the one spelling; the
+    older "sf"/"of"/"dyn" and the short "state"/"output" are mapped at the boundaries, and an
+    unknown kind is refused naming the argument."""
+    from sobolev_drake.synthesis import FEEDBACKS, feedback_kind
+    from sobolev_drake.synthesis.designs import FeedbackTable, LinearDesign
+    assert [feedback_kind(v) for v in ("sf", "state", "state_feedback")] == [FEEDBACKS[0]] * 3
+    assert [feedback_kind(v) for v in ("of", "dyn", "output", "output_feedback")] == [FEEDBACKS[1]] * 4
+    for bad in ("lqr", "SF", None, 1):
+        with pytest.raises(ValueError, match=r"^kind must be 'state_feedback' or 'output_feedback'"):
+            feedback_kind(bad, "kind")
+    assert LinearDesign("W∞-O.F.", "winf", "of").feedback == "output_feedback"
+    assert LinearDesign("W∞", "winf").feedback == "state_feedback"
+    with pytest.raises(ValueError, match="feedback must be"):
+        LinearDesign("W∞", "winf", "static")
+    table = FeedbackTable(40.0, 150.0)
+    assert (table["sf"], table["output_feedback"], "dyn" in table, "lqr" in table) == (40.0, 150.0, True, False)
+    with pytest.raises(KeyError, match="key must be"):
+        table["lqr"]
+    # the result kinds the syntheses return use the same words
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        assert {CALLS[n](getattr(sd, n)).kind for n in ("winf_state_feedback",
+                                                         "winf_output_feedback")} == set(FEEDBACKS)
+
+
+@pytest.mark.parametrize("name", SYNTHESES)
+def test_each_takes_the_one_options_type(name):
+    """options= reaches the synthesis (the LMI path in a disk, visible in the result); the
+    same knob given again as a keyword must agree, and a conflicting one is refused."""
+    disk = sd.regions.disk(60.0)
+    opts = sd.SynthesisOptions(method="lmi", region=disk, rtol=1e-3)
+    fn = getattr(sd, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.SobolevDrakeWarning)
+        res = CALLS[name](lambda *a, **k: fn(*a, **k, options=opts))
+        again = CALLS[name](lambda *a, **k: fn(*a, **k, options=opts, method="lmi"))
+    assert res.method == "lmi" and res.region is disk and res.certificate.ok
+    assert res.certificate.region_ok and again.method == "lmi"
+    with pytest.raises(ValueError, match=r"^method='riccati' conflicts with options.method='lmi'"):
+        CALLS[name](lambda *a, **k: fn(*a, **k, options=opts, method="riccati"))
+    with pytest.raises(TypeError, match="options must be a SynthesisOptions, got dict"):
+        CALLS[name](lambda *a, **k: fn(*a, **k, options={"method": "lmi"}))
+
+
+def test_options_are_validated_when_built():
+    with pytest.raises(ValueError, match="method must be one of"):
+        sd.SynthesisOptions(method="fast")
+    with pytest.raises(ValueError, match="time_limit"):
+        sd.SynthesisOptions(time_limit=0.0)
+    with pytest.raises(ValueError, match="regularize must be"):
+        sd.SynthesisOptions(regularize="yes")
+    with pytest.raises(TypeError, match="region must be an LMIRegion"):
+        sd.SynthesisOptions(region=50.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sd.SynthesisOptions().method = "lmi"

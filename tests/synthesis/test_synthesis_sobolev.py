@@ -37,7 +37,7 @@ def test_winf_channel_matches_thesis_lmi_67():
         Ar = rng.normal(size=(n, n))
         Br, Dr = rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
         g0, g1 = np.diag(rng.uniform(0.5, 2, n)), np.diag(rng.uniform(0.05, 0.3, n))
-        g_thesis, _ = winf_sf_thesis_lmi(Ar, Br, Dr, g0, g1)
+        g_thesis = winf_sf_thesis_lmi(Ar, Br, Dr, g0, g1).gamma
         r = winf_state_feedback(Ar, Br, Dr, g0, g1, regularize=False, verify=False)
         assert abs(r.gamma_opt - g_thesis) <= 1e-5 * g_thesis
 
@@ -142,7 +142,7 @@ def test_winf_output_feedback_vs_thesis_lmi_622():
         Ar = rng.normal(size=(n, n))
         Br, Dr, Cr = rng.normal(size=(n, 1)), rng.normal(size=(n, 1)), rng.normal(size=(2, n))
         g0, g1 = np.diag(rng.uniform(0.5, 2, n)), np.diag(rng.uniform(0.05, 0.3, n))
-        g_thesis = winf_of_thesis_lmi(Ar, Br, Cr, Dr, g0, g1)
+        g_thesis = winf_of_thesis_lmi(Ar, Br, Cr, Dr, g0, g1).gamma
         r = winf_output_feedback(Ar, Br, Cr, Dr, g0, g1)
         assert r.certificate.ok
         assert g_thesis >= r.gamma_opt * (1 - 1e-4)

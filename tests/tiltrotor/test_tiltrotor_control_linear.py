@@ -183,10 +183,10 @@ def test_designs_are_values():
     assert ld.DESIGNS[0] == "W∞" and len(ld.DESIGNS) == 7
     for label, spec in ld.DESIGN_SPECS.items():
         assert isinstance(spec, ld.HoverDesign) and spec.label == label
-        assert spec.feedback in ("sf", "of") and spec.disturbance in ("none", "thesis", "augmented")
+        assert spec.feedback in ("state_feedback", "output_feedback") and spec.disturbance in ("none", "thesis", "augmented")
         assert spec.column is None or spec.column in THESIS_TABLE_7_2
     # the thesis puts its output-feedback designs in the disk; the well-posed W∞-D is one too
-    assert all(s.disk for s in ld.DESIGN_SPECS.values() if s.feedback == "of" or s.disturbance == "augmented")
+    assert all(s.disk for s in ld.DESIGN_SPECS.values() if s.feedback == "output_feedback" or s.disturbance == "augmented")
 
 
 def test_bad_design_name_is_rejected(tmp_path):
