@@ -192,3 +192,33 @@ def test_singular_levels_keep_the_certified_controller_when_time_runs_out(monkey
     assert len(levels) == 1 and res.certificate.ok and res.regularized
     assert "time budget reached" in warns[-1]
     assert hinf_norm(*res.closed_loop(p))[0] <= res.gamma  # re-checked independently
+
+
+def test_own_ipm_stops_at_its_time_limit(monkeypatch):
+    """The own IPM (first backend of backend="auto") had no time limit.  min x s.t.
+    [[x, 1], [1, 1]] >= 0 (optimum 1) solves in about ten iterations; on a clock that advances
+    1 s per reading, time_limit=2.5 lets exactly two iterations start."""
+    import types
+    from sobolev_drake.synthesis import sdp_ipm
+    c, C, A = np.array([1.0]), [np.array([[0.0, 1.0], [1.0, 1.0]])], [np.array([[[-1.0, 0.0], [0.0, 0.0]]])]
+    x, status, info = sdp_ipm.solve_sdp(c, C, A)
+    assert status == "Solved" and x[0] == pytest.approx(1.0, rel=1e-6) and info["iterations"] > 3
+    ticks = iter(range(10 ** 6))
+    monkeypatch.setattr(sdp_ipm, "time", types.SimpleNamespace(perf_counter=lambda: next(ticks)))
+    _, status, info = sdp_ipm.solve_sdp(c, C, A, time_limit=2.5)
+    assert status == "MaxTime" and info["iterations"] == 3
+
+
+def test_automatic_chain_gives_the_ipm_the_remaining_time():
+    from sobolev_drake.synthesis.hinf_common import solve_lmi_program
+    seen = []
+
+    class Refusing:
+        def solve(self, backend, options):
+            seen.append((backend, dict(options or {})))
+            raise InfeasibleLMIError("refused (test double)")
+    deadline = riccati.time.perf_counter() + 1e6
+    with pytest.raises(InfeasibleLMIError, match="does not keep to the time budget"):
+        solve_lmi_program(Refusing(), "auto", None, {}, "lmi", deadline=deadline)
+    assert [b for b, _ in seen] == ["ipm", "clarabel"]   # Drake's fallbacks skipped
+    assert all(0 < opts["time_limit"] <= 1e6 for _, opts in seen)
