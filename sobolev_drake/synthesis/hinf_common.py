@@ -81,7 +81,7 @@ def solve_lmi_program(prog, backend, options, timings, label, check=None, deadli
     in ``out.status`` ("after fallback: ...") and ``out.extra["fallback"]``.
 
     ``deadline`` (``time.perf_counter()`` value): no backend is started after it, and Clarabel
-    gets the remaining time as its ``time_limit``.
+    and the own IPM get the remaining time as their ``time_limit``.
     """
     if backend is None:
         chain = [None, *FALLBACKS]
@@ -113,9 +113,10 @@ def solve_lmi_program(prog, backend, options, timings, label, check=None, deadli
                 errors.append(f"{name} skipped: {left:.1f} s left, the previous backend took "
                               f"{previous:.1f} s")
                 break
-            if name == "clarabel" or (explicit and name in ("drake", "drake:clarabel")):
-                opts = {"time_limit": left, **(opts or {})}  # Clarabel stops itself in time
-            elif name != "ipm" and not explicit:
+            if name in ("clarabel", "ipm") or (explicit and name in ("drake", "drake:clarabel")):
+                # Clarabel and the own IPM stop themselves in time
+                opts = {"time_limit": left, **(opts or {})}
+            elif not explicit:
                 # the fallbacks of the automatic chain do not stop in time: CSDP cannot be
                 # stopped (measured 120 s on a 15-state region problem), Drake's Clarabel was
                 # measured 4-10 s past its time_limit on 15-16-state region problems

@@ -246,10 +246,13 @@ def _result(problem, gain, level, gamma_opt, status, timings, rtol):
     return res
 
 
-def _certified_at(problem, eps, levels, gamma_opt, status, timings, rtol):
-    """First certified controller over the increasing ``levels`` (None if none certifies)."""
+def _certified_at(problem, eps, levels, gamma_opt, status, timings, rtol, deadline=None):
+    """First certified controller over the increasing ``levels`` (None if none certifies).
+    Raises BudgetExceeded before a retry level once ``deadline`` has passed."""
     last = None
-    for g in levels:
+    for i, g in enumerate(levels):
+        if i and deadline is not None and time.perf_counter() > deadline:
+            raise BudgetExceeded(f"time budget exhausted backing off from the optimum ({last})")
         try:
             gain = problem.controller(eps, g)
         except (RiccatiInfeasible, np.linalg.LinAlgError, ValueError) as e:
@@ -307,7 +310,7 @@ def _regular(problem, gamma, delta, rtol, regularize, timings, warns, t0, deadli
         levels = [(1 + delta) * hi, (1 + 5 * delta) * hi]
     else:
         levels = [(1 + OPTIMUM_GAP) * hi] + [(1 + b) * hi for b in BACKOFF]
-    res, why = _certified_at(problem, 0.0, levels, hi, status, timings, rtol)
+    res, why = _certified_at(problem, 0.0, levels, hi, status, timings, rtol, deadline)
     if res is None:
         raise SynthesisError(f"Riccati controllers near the optimum {hi:.6g} fail their "
                              f"certificates ({why})")
@@ -355,9 +358,18 @@ def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadli
     targets = [gamma / (1 + 1e-6)] if gamma is not None else [(1 + d) * base for d in gaps]
     ref = ("the estimated infimum" if estimated else
            "the requested gamma" if gamma is not None else "the LMI optimum")
-    found, last = None, None
+    found, last, tried = None, None, 0
     for target in targets:
-        res, eps, why = _ladder(problem, target, base, what, timings, rtol, deadline)
+        if found is not None and deadline is not None and time.perf_counter() > deadline:
+            break  # out of time: keep the certified controller of the previous level
+        tried += 1
+        try:
+            res, eps, why = _ladder(problem, target, base, what, timings, rtol, deadline)
+        except BudgetExceeded:
+            if found is None:
+                raise
+            tried -= 1  # this level was not finished
+            break
         if res is None:
             last = why
             continue
@@ -379,7 +391,9 @@ def _singular(problem, gamma, delta, rtol, reference, timings, warns, t0, deadli
     if auto:
         note += (f" (limit {POLE_LIMIT:g})" if ratio <= POLE_LIMIT else
                  f", above the limit {POLE_LIMIT:g} at every level up to "
-                 f"(1+{gaps[-1]:g}) x {ref}: give a region (e.g. regions.disk) to bound it")
+                 f"(1+{gaps[tried - 1]:g}) x {ref}"
+                 + ("" if tried == len(gaps) else " (time budget reached)")
+                 + ": give a region (e.g. regions.disk) to bound it")
     warns.append(note)
     timings["riccati"] = time.perf_counter() - t0
     return res, warns

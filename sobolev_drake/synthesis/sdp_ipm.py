@@ -28,6 +28,7 @@ Measured behaviour (tests/synthesis/test_synthesis.py plants, benchmarks/synthes
 from __future__ import annotations
 
 import functools
+import time
 
 import numpy as np
 import scipy.linalg as sla
@@ -63,13 +64,14 @@ def solve_sdp(c, C, A, **kw):
 
 
 def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, stall=4,
-               gapdef="both", adaptive=True, refine=1, window=12):
+               gapdef="both", adaptive=True, refine=1, window=12, time_limit=None):
     """Solve min c'x s.t. C[b] - sum_i x_i A[b][i] >= 0.
 
     ``C``: list of symmetric (n_b, n_b) arrays; ``A``: list of (m, n_b, n_b) arrays.
     Returns (x, status, info) with status "Solved", "AlmostSolved" (best point with error
     < 1e-5 after progress stopped), "Stalled" (error not halved in ``window`` iterations),
-    "MaxIterations" or "NumericalError".  ``adaptive``: SDPT3's step factor 0.9 + 0.09 min(steps)
+    "MaxIterations", "MaxTime" (``time_limit`` seconds passed, like Clarabel's setting of that
+    name) or "NumericalError".  ``adaptive``: SDPT3's step factor 0.9 + 0.09 min(steps)
     and centering exponent max(1, 3 min(steps)^2); ``refine``: refinement steps of the
     search direction; ``gapdef``: "both" (default), "trSZ" (<S, Z>) or "pd" (|primal - dual objective|).
     """
@@ -95,7 +97,11 @@ def _solve_sdp(c, C, A, *, tol=1e-8, max_iter=100, step=0.98, verbose=False, sta
     status, it = "MaxIterations", 0
     best, history = None, []
     stp = step
+    stop = None if time_limit is None else time.perf_counter() + time_limit
     for it in range(1, max_iter + 1):
+        if stop is not None and time.perf_counter() > stop:
+            status = "MaxTime"
+            break
         rp = -c - sum(Af[b] @ Z[b].ravel() for b in range(nb))
         Ax = [np.tensordot(x, A[b], axes=1) for b in range(nb)]
         Rd = [C[b] - Ax[b] - S[b] for b in range(nb)]

@@ -113,10 +113,14 @@ def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_er
         return None
     base = free.gamma_opt
     for factor in ((1 + (REGULARIZE_DELTA if delta is None else delta)),) + REGION_LEVELS:
+        if deadline is not None and time.perf_counter() > deadline:
+            return None  # a requested gamma skips the Riccati path's own deadline checks
         try:
             res, warns = riccati_synthesis(plant, of, gamma=factor * base, delta=delta,
                                            rtol=rtol, scaling=scaling, deadline=deadline)
-        except (SynthesisError, BudgetExceeded):
+        except BudgetExceeded:
+            return None  # the budget is spent: the next level would only raise it again
+        except SynthesisError:
             continue
         res = certify_result(res, [plant], region, rtol, False, res.status)
         if res.certificate.ok:

@@ -121,3 +121,104 @@ def test_region_problem_falls_back_to_a_riccati_controller_in_the_region(monkeyp
     assert r.gamma_opt <= r.gamma <= 10.0 * r.gamma_opt * (1 + 1e-6)
     with pytest.raises(InfeasibleLMIError, match="injected"):  # a requested gamma: no fallback
         output_feedback(p, region=region, gamma=2.0 * r.gamma)
+
+
+# ------------------------------------------------------------- the deadline inside every loop
+# No wall-clock comparisons: a deadline already in the past, or a module clock jumped forward,
+# and counters of the steps started after it.
+
+def test_region_fallback_stops_at_the_budget(monkeypatch):
+    """The Riccati fallback of a region problem tried all six levels after the budget was
+    spent (each call raising BudgetExceeded was caught and the next level started)."""
+    from sobolev_drake.synthesis import hinf_riccati
+    p = random_plant(np.random.default_rng(3), 4, "stable").plant
+    free, _ = hinf_riccati.riccati_synthesis(p, False)
+    calls = []
+
+    def spent(*args, **kwargs):
+        calls.append(kwargs.get("gamma"))
+        if len(calls) == 1:
+            return free, []
+        raise riccati.BudgetExceeded("time budget exhausted (injected)")
+    monkeypatch.setattr(strategy, "riccati_synthesis", spent)
+    from sobolev_drake.synthesis import regions
+    found = strategy._riccati_in_region(p, False, regions.disk(1.0), None, 1e-4, True, None,
+                                        "LMI failed (injected)")
+    assert found is None and len(calls) == 2   # the first level's BudgetExceeded ends the search
+
+
+def test_backoff_levels_consult_the_deadline(monkeypatch):
+    """After the bisection, the back-off levels (5 controllers and certificates) ran whatever
+    the time: with the deadline passed, only the first level is tried, then BudgetExceeded."""
+    from sobolev_drake.synthesis import hinf_riccati
+    p = random_plant(np.random.default_rng(3), 4, "stable").plant
+    real_bisect, real_result = hinf_riccati.bisect_gamma, hinf_riccati._result
+    monkeypatch.setattr(hinf_riccati, "bisect_gamma",   # the search itself runs in time here
+                        lambda *a, **k: real_bisect(*a, **{**k, "deadline": None}))
+    built = []
+
+    def rejected(*args, **kwargs):  # every level fails its certificate (as on a hard plant)
+        res = real_result(*args, **kwargs)
+        built.append(res.gamma)
+        res.certificate.failures.append("injected failure")
+        return res
+    monkeypatch.setattr(hinf_riccati, "_result", rejected)
+    with pytest.raises(riccati.BudgetExceeded, match="backing off from the optimum"):
+        hinf_riccati.riccati_synthesis(p, False, deadline=-np.inf)   # long past
+    assert len(built) == 1
+
+
+def test_singular_levels_keep_the_certified_controller_when_time_runs_out(monkeypatch):
+    """A singular W∞ problem (Gamma1 = 0: rank D12 = 0) climbs the target levels while the
+    controller's poles are too fast; the budget running out after the first level raised
+    BudgetExceeded and dropped its certified controller.  Now the climb stops and returns it."""
+    import types
+    from sobolev_drake.synthesis import hinf_riccati
+    p = winf_plant([[0.0, 1.0], [-1.0, -0.5]], [[0.0], [1.0]], np.eye(2), [1, 1], [0, 0])
+    monkeypatch.setattr(hinf_riccati, "pole_ratio", lambda res, plant: 1e9)  # always too fast
+    offset = [0.0]   # hinf_riccati's own clock, jumped past the deadline after one level
+    monkeypatch.setattr(hinf_riccati, "time", types.SimpleNamespace(
+        perf_counter=lambda: riccati.time.perf_counter() + offset[0]))
+    real_ladder, levels = hinf_riccati._ladder, []
+
+    def ladder(*args):
+        levels.append(args[1])
+        out = real_ladder(*args)
+        offset[0] = 1e9
+        return out
+    monkeypatch.setattr(hinf_riccati, "_ladder", ladder)
+    deadline = riccati.time.perf_counter() + 1e6   # the estimate (riccati's clock) runs in time
+    res, warns = hinf_riccati.riccati_synthesis(p, False, deadline=deadline)
+    assert len(levels) == 1 and res.certificate.ok and res.regularized
+    assert "time budget reached" in warns[-1]
+    assert hinf_norm(*res.closed_loop(p))[0] <= res.gamma  # re-checked independently
+
+
+def test_own_ipm_stops_at_its_time_limit(monkeypatch):
+    """The own IPM (first backend of backend="auto") had no time limit.  min x s.t.
+    [[x, 1], [1, 1]] >= 0 (optimum 1) solves in about ten iterations; on a clock that advances
+    1 s per reading, time_limit=2.5 lets exactly two iterations start."""
+    import types
+    from sobolev_drake.synthesis import sdp_ipm
+    c, C, A = np.array([1.0]), [np.array([[0.0, 1.0], [1.0, 1.0]])], [np.array([[[-1.0, 0.0], [0.0, 0.0]]])]
+    x, status, info = sdp_ipm.solve_sdp(c, C, A)
+    assert status == "Solved" and x[0] == pytest.approx(1.0, rel=1e-6) and info["iterations"] > 3
+    ticks = iter(range(10 ** 6))
+    monkeypatch.setattr(sdp_ipm, "time", types.SimpleNamespace(perf_counter=lambda: next(ticks)))
+    _, status, info = sdp_ipm.solve_sdp(c, C, A, time_limit=2.5)
+    assert status == "MaxTime" and info["iterations"] == 3
+
+
+def test_automatic_chain_gives_the_ipm_the_remaining_time():
+    from sobolev_drake.synthesis.hinf_common import solve_lmi_program
+    seen = []
+
+    class Refusing:
+        def solve(self, backend, options):
+            seen.append((backend, dict(options or {})))
+            raise InfeasibleLMIError("refused (test double)")
+    deadline = riccati.time.perf_counter() + 1e6
+    with pytest.raises(InfeasibleLMIError, match="does not keep to the time budget"):
+        solve_lmi_program(Refusing(), "auto", None, {}, "lmi", deadline=deadline)
+    assert [b for b, _ in seen] == ["ipm", "clarabel"]   # Drake's fallbacks skipped
+    assert all(0 < opts["time_limit"] <= 1e6 for _, opts in seen)
