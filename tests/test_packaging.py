@@ -143,7 +143,12 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                  "sobolev_drake.campaign.executors", "sobolev_drake.campaign.registry",
                  "sobolev_drake.campaign.runner", "sobolev_drake.campaign.stats",
                  "sobolev_drake.campaign.store", "sobolev_drake.datafile", "sobolev_drake.cli",
-                 "sobolev_drake.norms", "sobolev_drake.report", "sobolev_drake.validation")
+                 "sobolev_drake.norms", "sobolev_drake.report", "sobolev_drake.validation",
+                 *(f"sobolev_drake.models.{m}" for m in (
+                     "arm", "base", "euler_chart", "euler_zyx", "floating_base",
+                     "generic_quadrotor", "handles", "linearization", "plant_checks", "quadrotor",
+                     "quadrotor_linear", "quadrotor_params", "scalar_terms", "serial_chain",
+                     "simple_linear", "two_wheeled", "two_wheeled_design", "two_wheeled_linear")))
 
 
 def test_the_package_is_typed_and_its_typed_modules_are_complete():
