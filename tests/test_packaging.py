@@ -155,7 +155,13 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                  "sobolev_drake.simulation", "sobolev_drake.harness", "sobolev_drake.plots",
                  "sobolev_drake.viz", "sobolev_drake.recording_html", "sobolev_drake.analysis_plots",
                  *(f"sobolev_drake.synthesis.{m}" for m in (
-                     "loop_analysis", "weights", "discrete", "design_file")))
+                     "loop_analysis", "weights", "discrete", "design_file")),
+                 *(f"sobolev_drake.systems.{m}" for m in (
+                     "bounded_ls", "control_output", "discrete_controller", "disturbances",
+                     "floating_state", "galerkin_controller", "hinf_baseline", "inner_laws",
+                     "linear_controllers", "mechanical_controller", "mechanical_sample",
+                     "multirotor_control", "partition", "plant_dynamics", "reference_catalogue",
+                     "rotor_allocation", "scalar_law", "scalar_time")))
 
 
 def _type_checking_names(module):
