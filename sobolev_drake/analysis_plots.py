@@ -8,10 +8,14 @@ disk-based margins, and the step response of the performance channel.
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 from matplotlib.figure import Figure
 
 from sobolev_drake.plots import save_figure
+from sobolev_drake.synthesis.loop_analysis import LoopAnalysis
 
 __all__ = ["plot_loop_analysis"]
 
@@ -94,7 +98,8 @@ def _step(ax, an):
     ax.set_title("step responses w_j → z_i")
 
 
-def plot_loop_analysis(analysis, path=None, *, title="", pole_factor=100.0):
+def plot_loop_analysis(analysis: LoopAnalysis, path: str | os.PathLike[str] | None = None, *,
+                       title: str = "", pole_factor: float = 100.0) -> Figure | Path:
     """Six-panel figure of a :class:`~sobolev_drake.synthesis.loop_analysis.LoopAnalysis`.
 
     Parameters

@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
+import numpy as np
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import Context, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import VectorLogSink
 
 from sobolev_drake import viz
@@ -14,7 +18,7 @@ from sobolev_drake import viz
 __all__ = ["LoggedLoop", "add_log_sinks", "collect_logs", "quiet"]
 
 
-def quiet(fn, *args, **kw):
+def quiet(fn: Callable[..., Any], *args: Any, **kw: Any) -> tuple[Any, list[str]]:
     """Call a synthesis, returning (result, sorted list of its warning texts).
 
     The thesis designs are offline computations: no time budget unless the caller sets one
@@ -38,7 +42,8 @@ def quiet(fn, *args, **kw):
     return res, sorted({str(w.message) for w in caught})
 
 
-def add_log_sinks(b, ports, log_period):
+def add_log_sinks(b: DiagramBuilder, ports: Sequence[tuple[str, OutputPort]],
+                  log_period: float) -> dict[str, VectorLogSink]:
     """Add a ``VectorLogSink`` per port to a builder, in the order given.
 
     Parameters
@@ -63,7 +68,7 @@ def add_log_sinks(b, ports, log_period):
     return sinks
 
 
-def collect_logs(sinks, ctx):
+def collect_logs(sinks: Mapping[str, VectorLogSink], ctx: Context) -> dict[str, np.ndarray]:
     """{label: samples, "t": times} of log sinks after a run, trimmed to a common length.
 
     Parameters
@@ -95,7 +100,8 @@ class LoggedLoop:
     (docs/design.md §8.6).
     """
 
-    def build(self, b, ports, log_period, record):
+    def build(self, b: DiagramBuilder, ports: Sequence[tuple[str, OutputPort]], log_period: float,
+              record: bool) -> None:
         """Log ``ports`` ((label, port) pairs; one labelled "x" gives the time base), add the
         optional Meshcat recorder, build the diagram and its simulator.
 
@@ -117,7 +123,7 @@ class LoggedLoop:
         self.sim = Simulator(self.diagram)
         self.context = self.sim.get_mutable_context()
 
-    def clear_logs(self, ctx):
+    def clear_logs(self, ctx: Context) -> None:
         """Empty every log in the root context ``ctx`` before a new run.
 
         Parameters
@@ -128,7 +134,7 @@ class LoggedLoop:
         for s in self.sinks.values():
             s.GetMutableLog(s.GetMyMutableContextFromRoot(ctx)).Clear()
 
-    def collect(self, ctx, t0):
+    def collect(self, ctx: Context, t0: float) -> dict[str, Any]:
         """{label: samples, "t": times, "wall_s": wall time since t0}, trimmed to equal length.
 
         Parameters

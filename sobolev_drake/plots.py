@@ -12,11 +12,14 @@ Meshcat recordings are in :mod:`sobolev_drake.viz`.
 
 from __future__ import annotations
 
+import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from matplotlib.figure import Figure
 
 from sobolev_drake.validation import describe, mapping, path_like, real_array, sequence
@@ -24,7 +27,8 @@ from sobolev_drake.validation import describe, mapping, path_like, real_array, s
 __all__ = ["save_figure", "plot_time_series", "compare_plot", "plot_semilogy", "plot_paths_3d"]
 
 
-def save_figure(fig, path, *, dpi: int = 110, tight: bool = False) -> Path:
+def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: int = 110,
+                tight: bool = False) -> Path:
     """Save a matplotlib figure (creating folders) and close it.
 
     Parameters
@@ -62,7 +66,9 @@ def _figure_path(path) -> Path:
     return path
 
 
-def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Path:
+def compare_plot(path: str | os.PathLike[str], runs: dict,
+                 panels: Sequence[tuple[str, Callable[[Any], ArrayLike], Sequence[str] | None]], *,
+                 title: str = "", vlines: Sequence[float] = ()) -> Path:
     """Stacked panels overlaying several logged runs (one line style per run, one colour per
     component).
 
@@ -119,7 +125,7 @@ def compare_plot(path, runs: dict, panels, *, title: str = "", vlines=()) -> Pat
     return save_figure(fig, path)
 
 
-def plot_semilogy(path, curves: dict, *, ylabel: str, xlabel: str = "t [s]",
+def plot_semilogy(path: str | os.PathLike[str], curves: dict, *, ylabel: str, xlabel: str = "t [s]",
                   floor: float = 1e-12) -> Path:
     """Several positive signals on one logarithmic axis (values below ``floor`` drawn at it).
 
@@ -163,7 +169,7 @@ def _positions(name, value) -> np.ndarray:
     return arr
 
 
-def plot_paths_3d(path, reference, flown: dict) -> Path:
+def plot_paths_3d(path: str | os.PathLike[str], reference: ArrayLike, flown: dict) -> Path:
     """A reference path (dotted black) and flown paths in 3-D.
 
     Parameters
@@ -196,9 +202,10 @@ def plot_paths_3d(path, reference, flown: dict) -> Path:
     return save_figure(fig, path)
 
 
-def plot_time_series(t, series: dict, path, *, title: str = "", xlabel: str = "t [s]",
+def plot_time_series(t: ArrayLike, series: dict, path: str | os.PathLike[str], *, title: str = "",
+                     xlabel: str = "t [s]",
                      ylabels: dict | None = None, labels: dict | None = None,
-                     references: dict | None = None, vlines=()) -> Path:
+                     references: dict | None = None, vlines: Sequence[float] = ()) -> Path:
     """One stacked subplot per entry of ``series`` ({panel name: (N,) or (N, k) array}).
 
     Parameters

@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-from pydrake.systems.framework import Context_, Diagram, EventStatus
+from pydrake.systems.framework import Context, Context_, Diagram, EventStatus
 from tqdm import tqdm
 
 from sobolev_drake.simulation_errors import SimulationDiverged, SimulationStalled, SimulationTimeout
@@ -356,7 +356,7 @@ def _check_initial_state(system, context) -> None:
                          f"at t = {context.get_time():.9g} s")
 
 
-def simulate(diagram, context, duration: float, *, progress: bool = True, label: str = "",
+def simulate(diagram: Diagram, context: Context | None, duration: float, *, progress: bool = True, label: str = "",
              integrator: str = "runge_kutta3", accuracy: float = 1e-4, max_step: float = 0.05,
              simulator: Simulator | None = None, wall_time_limit: float | None = None,
              max_steps: int | None = None) -> Simulator:

@@ -43,15 +43,25 @@ Tilt-rotor missions (thesis state q = [αR αL φ θ ψ x y z], z up, Drake worl
 
 from __future__ import annotations
 
+import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.recording_html import animates_path, external_script_sources  # noqa: E402
 from sobolev_drake.validation import describe, index_tuple, real_array, real_scalar, real_vector  # noqa: E402
-from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams, Rgba  # noqa: E402
+from pydrake.geometry import (Meshcat, MeshcatAnimation, MeshcatParams, MeshcatVisualizer,  # noqa: E402
+                              MeshcatVisualizerParams, Rgba, SceneGraph)
 from pydrake.math import RigidTransform  # noqa: E402
+from pydrake.multibody.plant import MultibodyPlant  # noqa: E402
+from pydrake.multibody.tree import RigidBody  # noqa: E402
+from pydrake.systems.framework import DiagramBuilder  # noqa: E402
+from pydrake.systems.primitives import VectorLog  # noqa: E402
+
+from sobolev_drake.systems.references import TrajectoryReference  # noqa: E402
 
 __all__ = [
     "start_meshcat", "add_meshcat_recorder", "save_recording_html",
@@ -106,7 +116,8 @@ def start_meshcat(*, host: str = "localhost", port: int = 0) -> Meshcat:
                            ) from None
 
 
-def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_period: float = 1 / 32,
+def add_meshcat_recorder(builder: DiagramBuilder, scene_graph: SceneGraph, meshcat: Meshcat, *,
+                         publish_period: float = 1 / 32,
                          live: bool = False) -> MeshcatVisualizer:
     """Add a MeshcatVisualizer for ``scene_graph`` and start recording its frames.
 
@@ -141,7 +152,8 @@ def add_meshcat_recorder(builder, scene_graph, meshcat: Meshcat, *, publish_peri
     return vis
 
 
-def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> Path:
+def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer,
+                        path: str | os.PathLike[str]) -> Path:
     """Stop the recording, publish it as Meshcat's animation, write ``meshcat.StaticHtml()``.
 
     Raises ``RuntimeError`` if the page would load an external script.  When the recording
@@ -176,7 +188,8 @@ def save_recording_html(meshcat: Meshcat, recorder: MeshcatVisualizer, path) -> 
     return path
 
 
-def draw_path(meshcat: Meshcat, name: str, points, rgba=(0.1, 0.4, 1.0, 1.0), *, line_width: float = 2.0) -> None:
+def draw_path(meshcat: Meshcat, name: str, points: ArrayLike,
+              rgba: Sequence[float] = (0.1, 0.4, 1.0, 1.0), *, line_width: float = 2.0) -> None:
     """Draw a polyline (e.g. a reference path) at meshcat path ``/paths/<name>``.
 
     Parameters
@@ -251,7 +264,7 @@ def _point(name: str, v) -> np.ndarray:
     return a
 
 
-def camera_position(target, *, distance: float | None = None, radius: float = 1.0,
+def camera_position(target: ArrayLike, *, distance: float | None = None, radius: float = 1.0,
                     elevation_deg: float = 20.0, azimuth_deg: float = -90.0) -> np.ndarray:
     """Camera location looking at ``target`` (world frame, z up) from ``distance`` metres.
 
@@ -286,7 +299,7 @@ def camera_position(target, *, distance: float | None = None, radius: float = 1.
     return target + float(distance) * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 
 
-def frame_camera(meshcat: Meshcat, target, **view) -> np.ndarray:
+def frame_camera(meshcat: Meshcat, target: ArrayLike, **view: float | None) -> np.ndarray:
     """Static view: put Meshcat's camera at :func:`camera_position` (same keywords) looking at
     ``target`` (also the orbit centre).  Resets the rig ``/Cameras/default`` to the origin.
 
@@ -329,8 +342,9 @@ def _trajectory(times, positions) -> tuple[np.ndarray, np.ndarray]:
     return t, P
 
 
-def follow_camera(recorder, times, positions, *, meshcat: Meshcat | None = None, follow_axes: str = "xyz",
-                  **view) -> int:
+def follow_camera(recorder: MeshcatVisualizer | MeshcatAnimation, times: ArrayLike,
+                  positions: ArrayLike, *, meshcat: Meshcat | None = None, follow_axes: str = "xyz",
+                  **view: float | None) -> int:
     """Write a follow camera into a recording: the rig ``/Cameras/default`` is translated by
     p(t) − p(t₀) at every animation frame in [t₀, t_end] (positions linearly interpolated).
 
@@ -380,7 +394,9 @@ def follow_camera(recorder, times, positions, *, meshcat: Meshcat | None = None,
     return int(frames.size)
 
 
-def trajectory_from_log(log, *, indices=None, plant=None, body=None) -> tuple[np.ndarray, np.ndarray]:
+def trajectory_from_log(log: VectorLog | tuple[ArrayLike, ArrayLike], *,
+                        indices: Sequence[int] | None = None, plant: MultibodyPlant | None = None,
+                        body: RigidBody | str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(times (N,), positions (N, 3)) for :func:`follow_camera` from a logged signal.
 
     Give either ``indices`` or ``plant`` and ``body``.
@@ -444,7 +460,8 @@ def _inject_follow_script(html: str) -> str:
     return html[:anchor] + FOLLOW_CAMERA_JS + html[anchor:]
 
 
-def draw_reference_and_flown(meshcat, traj_ref, duration, flown):
+def draw_reference_and_flown(meshcat: Meshcat, traj_ref: TrajectoryReference, duration: float,
+                             flown: ArrayLike) -> None:
     """Draw a reference path (black) and the flown path (blue) in Meshcat.
 
     Parameters

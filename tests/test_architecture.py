@@ -1,5 +1,6 @@
 """The package's import graph: no module imports another module's private names, and no
-import cycle between modules (function-level imports included)."""
+import cycle between modules (function-level imports included; an import only type checkers
+run, under ``if TYPE_CHECKING:``, is no edge: it never executes)."""
 
 import ast
 from pathlib import Path
@@ -23,7 +24,11 @@ def imports(mods):
     edges, private = {m: set() for m in mods}, []
     for name, path in mods.items():
         package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                       and getattr(block.test, "id", getattr(block.test, "attr", None))
+                       == "TYPE_CHECKING" for stmt in block.body for n in ast.walk(stmt)}
+        for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
                 base = node.module or ""
                 if node.level:
@@ -35,12 +40,12 @@ def imports(mods):
                 for alias in node.names:
                     full = f"{base}.{alias.name}"
                     target = full if full in mods else base
-                    if target in mods and target != name:
+                    if target in mods and target != name and id(node) not in typing_only:
                         edges[name].add(target)
                     if alias.name.startswith("_") and not alias.name.startswith("__") \
                             and full not in mods:
                         private.append((name, base, alias.name))
-            elif isinstance(node, ast.Import):
+            elif isinstance(node, ast.Import) and id(node) not in typing_only:
                 edges[name].update(a.name for a in node.names if a.name in mods and a.name != name)
     return edges, private
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel
@@ -121,7 +122,7 @@ class TwoLinkArmModel(MechanicalModel):
         verify_against_closed_forms(self, np.array([0.3, -0.8]))
 
     # --- thesis closed forms -------------------------------------------------------------------
-    def M_closed_form(self, q) -> np.ndarray:
+    def M_closed_form(self, q: ArrayLike) -> np.ndarray:
         """Inertia matrix (5.120) with the d11/d12 typos corrected (module docstring).
 
         Parameters
@@ -142,7 +143,7 @@ class TwoLinkArmModel(MechanicalModel):
         d22 = p.m2 * p.lc2**2 + p.I2
         return np.array([[d11, d12], [d12, d22]])
 
-    def M_printed(self, q) -> np.ndarray:
+    def M_printed(self, q: ArrayLike) -> np.ndarray:
         """Inertia matrix (5.120) exactly as printed: d11 with the extra m2·2 l1 lc2² and d12
         with l1 lc2² cos q2 (module docstring); positive definite for Table 5.1.
 
@@ -165,7 +166,7 @@ class TwoLinkArmModel(MechanicalModel):
         d22 = p.m2 * p.lc2**2 + p.I2
         return np.array([[d11, d12], [d12, d22]])
 
-    def C_closed_form(self, q, qdot) -> np.ndarray:
+    def C_closed_form(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) of (5.121), h = −m2 l1 lc2 sin q2.
 
         Parameters
@@ -184,7 +185,7 @@ class TwoLinkArmModel(MechanicalModel):
         h = -p.m2 * p.l1 * p.lc2 * np.sin(q[1])
         return np.array([[h * qdot[1], h * (qdot[0] + qdot[1])], [-h * qdot[0], 0.0]])
 
-    def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+    def Cqdot_closed_form(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ from :meth:`C_closed_form`.
 
         Parameters
@@ -199,7 +200,7 @@ class TwoLinkArmModel(MechanicalModel):
         """
         return self.C_closed_form(q, qdot) @ scalar_vector("qdot", qdot, 2)
 
-    def g_closed_form(self, q) -> np.ndarray:
+    def g_closed_form(self, q: ArrayLike) -> np.ndarray:
         """Gravity vector g(q) of (5.122).
 
         Parameters
@@ -217,7 +218,7 @@ class TwoLinkArmModel(MechanicalModel):
         g2 = p.m2 * p.lc2 * p.g * np.cos(q[0] + q[1])
         return np.array([(p.m1 * p.lc1 + p.m2 * p.l1) * p.g * np.cos(q[0]) + g2, g2])
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """B = I (both joints actuated, (5.119)).
 
         Parameters
@@ -254,7 +255,7 @@ class ThesisPrintedArmModel(TwoLinkArmModel):
     #: the adapter applies the force that makes the plant follow this model's equations
     follows_own_equations = True
 
-    def M(self, q) -> np.ndarray:
+    def M(self, q: ArrayLike) -> np.ndarray:
         """The printed inertia matrix :meth:`~TwoLinkArmModel.M_printed`.
 
         Parameters

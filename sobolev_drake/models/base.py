@@ -15,16 +15,20 @@ so the thesis' quantities are ``M_th = Tᵀ M T``, ``h_th = Tᵀ h`` and general
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
-from pydrake.multibody.plant import MultibodyPlant
+from numpy.typing import ArrayLike
+from pydrake.multibody.plant import MultibodyPlant, PropellerInfo
 from pydrake.multibody.tree import ForceElementIndex
+from pydrake.systems.framework import Context
 
 from sobolev_drake.models.plant_checks import check_context, check_plant, constraint_kinds
 
 __all__ = ["check_vector", "MechanicalModel", "PlantModel"]
 
 
-def check_vector(name: str, value, size: int) -> np.ndarray:
+def check_vector(name: str, value: ArrayLike, size: int) -> np.ndarray:
     """Return ``value`` as a float vector of length ``size`` or raise a clear ``ValueError``.
 
     Rejects wrong sizes and non-finite entries (NaN/inf), naming the argument, and complex
@@ -102,7 +106,7 @@ class MechanicalModel:
                         "include it, or use MechanicalModel.from_plant(plant), which does")
 
     # --- coordinate maps -------------------------------------------------------------------
-    def to_drake(self, q_thesis) -> np.ndarray:
+    def to_drake(self, q_thesis: ArrayLike) -> np.ndarray:
         """Thesis-ordered coordinates (or velocities) → Drake's.
 
         Parameters
@@ -117,7 +121,7 @@ class MechanicalModel:
         """
         return self.T @ np.asarray(q_thesis, dtype=float)
 
-    def to_thesis(self, q_drake) -> np.ndarray:
+    def to_thesis(self, q_drake: ArrayLike) -> np.ndarray:
         """Drake-ordered coordinates (or velocities) → thesis order.
 
         Parameters
@@ -132,7 +136,7 @@ class MechanicalModel:
         """
         return self.T_inv @ np.asarray(q_drake, dtype=float)
 
-    def force_to_drake(self, tau_thesis) -> np.ndarray:
+    def force_to_drake(self, tau_thesis: ArrayLike) -> np.ndarray:
         """Thesis generalized force → Drake generalized force (τ_d = T⁻ᵀ τ_th).
 
         Parameters
@@ -147,7 +151,7 @@ class MechanicalModel:
         """
         return self.T_inv.T @ np.asarray(tau_thesis, dtype=float)
 
-    def force_to_thesis(self, tau_drake) -> np.ndarray:
+    def force_to_thesis(self, tau_drake: ArrayLike) -> np.ndarray:
         """Drake generalized force → thesis generalized force (τ_th = Tᵀ τ_d).
 
         Parameters
@@ -170,7 +174,7 @@ class MechanicalModel:
             self.plant.SetVelocities(self.context, self.T @ qdot)
 
     # --- Euler–Lagrange terms ----------------------------------------------------------------
-    def M(self, q) -> np.ndarray:
+    def M(self, q: ArrayLike) -> np.ndarray:
         """Inertia matrix M(q) (thesis order).
 
         Parameters
@@ -186,7 +190,7 @@ class MechanicalModel:
         self._set(q)
         return self.T.T @ self.plant.CalcMassMatrix(self.context) @ self.T
 
-    def Cqdot(self, q, qdot) -> np.ndarray:
+    def Cqdot(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """Coriolis/centripetal vector C(q, q̇) q̇ (Drake's bias term).
 
         Parameters
@@ -202,7 +206,7 @@ class MechanicalModel:
         self._set(q, qdot)
         return self.T.T @ self.plant.CalcBiasTerm(self.context)
 
-    def g(self, q) -> np.ndarray:
+    def g(self, q: ArrayLike) -> np.ndarray:
         """Gravity vector g(q) as in M q̈ + C q̇ + g = τ (i.e. minus Drake's gravity forces).
 
         Parameters
@@ -218,7 +222,7 @@ class MechanicalModel:
         self._set(q)
         return -self.T.T @ self.plant.CalcGravityGeneralizedForces(self.context)
 
-    def C_times(self, q, qdot, v) -> np.ndarray:
+    def C_times(self, q: ArrayLike, qdot: ArrayLike, v: ArrayLike) -> np.ndarray:
         """C(q, q̇) v for any v by polarization (docs/design.md §3).
 
         With Christoffel symbols (a, b) ↦ C(q, a) b is symmetric bilinear, hence
@@ -240,7 +244,7 @@ class MechanicalModel:
         v = check_vector("v", v, self.n)
         return 0.25 * (self.Cqdot(q, qdot + v) - self.Cqdot(q, qdot - v))
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """Input matrix B(q) (thesis order, columns = actuator inputs). Overridden per model.
 
         The base class raises ``NotImplementedError``.
@@ -261,7 +265,7 @@ class MechanicalModel:
     #: :meth:`friction` with a non-zero K must leave this False).
     frictionless: bool = False
 
-    def friction(self, qdot) -> np.ndarray:
+    def friction(self, qdot: ArrayLike) -> np.ndarray:
         """Velocity-dependent generalized friction K(q̇) (thesis order, on the left-hand side of
         M q̈ + C q̇ + K(q̇) + g = B u + w, cf. (4.30)).  Zero unless a model overrides it.
 
@@ -283,8 +287,9 @@ class MechanicalModel:
     floating_base_model = None
 
     @classmethod
-    def from_plant(cls, plant: MultibodyPlant, *, context=None, name=None, propellers=None,
-                   **floating) -> "PlantModel":
+    def from_plant(cls, plant: MultibodyPlant, *, context: Context | None = None,
+                   name: str | None = None, propellers: Sequence[PropellerInfo] | None = None,
+                   **floating: ArrayLike | None) -> MechanicalModel:
         """A model of any finalized ``MultibodyPlant`` (continuous or discrete).
 
         Without a floating base: a :class:`PlantModel` in Drake's coordinates (q_thesis =
@@ -403,7 +408,7 @@ class PlantModel(MechanicalModel):
                                      for i in plant.GetJointActuatorIndices()], dtype=float)
         self.input_lower = -self.input_upper
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """Actuation matrix (n × number of actuators), constant in q.
 
         Parameters
@@ -419,7 +424,7 @@ class PlantModel(MechanicalModel):
         check_vector("q", q, self.n)
         return self._B.copy()
 
-    def friction(self, qdot) -> np.ndarray:
+    def friction(self, qdot: ArrayLike) -> np.ndarray:
         """Joint damping D q̇ (Drake's τ = −d v, moved to the left-hand side).
 
         Parameters

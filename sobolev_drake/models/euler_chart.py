@@ -21,6 +21,7 @@ AutoDiffXd and Expression unchanged.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["DEFAULT_MAX_PITCH", "quaternion_to_euler", "euler_to_quaternion", "rotation_of_euler",
            "euler_rates", "check_pitch"]
@@ -33,7 +34,7 @@ def _sin_cos(angle):
     return np.sin(angle), np.cos(angle)
 
 
-def quaternion_to_euler(quaternion) -> np.ndarray:
+def quaternion_to_euler(quaternion: ArrayLike) -> np.ndarray:
     """[ϕ θ ψ] of a unit quaternion [w x y z] (normalized here), R = Rz(ψ) Ry(θ) Rx(ϕ).
 
     Parameters
@@ -65,7 +66,7 @@ def quaternion_to_euler(quaternion) -> np.ndarray:
                      np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))])
 
 
-def euler_to_quaternion(eta) -> np.ndarray:
+def euler_to_quaternion(eta: ArrayLike) -> np.ndarray:
     """Unit quaternion [w x y z] of R = Rz(ψ) Ry(θ) Rx(ϕ).
 
     Parameters
@@ -82,7 +83,7 @@ def euler_to_quaternion(eta) -> np.ndarray:
                      cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
 
 
-def rotation_of_euler(eta) -> np.ndarray:
+def rotation_of_euler(eta: ArrayLike) -> np.ndarray:
     """R = Rz(ψ) Ry(θ) Rx(ϕ) (child → parent).
 
     Parameters
@@ -100,7 +101,7 @@ def rotation_of_euler(eta) -> np.ndarray:
                      [-st, ct * sf, ct * cf]])
 
 
-def euler_rates(eta, omega_parent) -> np.ndarray:
+def euler_rates(eta: ArrayLike, omega_parent: ArrayLike) -> np.ndarray:
     """η̇ = W⁻¹ Rᵀ ω_F: Euler-angle rates of a body turning at ω_F (parent frame).
 
     Parameters
@@ -124,7 +125,7 @@ def euler_rates(eta, omega_parent) -> np.ndarray:
                      (sf * w_b[1] + cf * w_b[2]) / ct])
 
 
-def check_pitch(eta, max_pitch: float, state=None) -> None:
+def check_pitch(eta: ArrayLike, max_pitch: float, state: ArrayLike | None = None) -> None:
     """Raise ``ValueError`` when |θ| ≥ ``max_pitch``: the ZYX chart is near its singularity.
 
     Parameters

@@ -18,6 +18,7 @@ M_η = Aᵀ I A and body torques enter through Aᵀ.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["EULER_READINGS", "euler_rate_matrix", "euler_rate_matrix_dot", "euler_rate_matrix_partials",
            "angular_inertia", "angular_coriolis", "torque_map"]
@@ -62,7 +63,7 @@ def euler_rate_matrix_partials(phi: float, theta: float) -> tuple[np.ndarray, np
     return d_phi, d_theta
 
 
-def euler_rate_matrix_dot(phi, theta, phidot, thetadot) -> np.ndarray:
+def euler_rate_matrix_dot(phi: float, theta: float, phidot: float, thetadot: float) -> np.ndarray:
     """Ẇ = (∂W/∂ϕ) ϕ̇ + (∂W/∂θ) θ̇.
 
     Parameters
@@ -89,7 +90,8 @@ def _rate_map(phi, theta, reading):
     return (W, d_phi, d_theta) if reading == "physical" else (W.T, d_phi.T, d_theta.T)
 
 
-def angular_inertia(inertia, phi: float, theta: float, reading: str = "physical") -> np.ndarray:
+def angular_inertia(inertia: ArrayLike, phi: float, theta: float,
+                    reading: str = "physical") -> np.ndarray:
     """M_η: Wᵀ I W (physical) or W I Wᵀ (thesis-printed).
 
     Parameters
@@ -109,7 +111,8 @@ def angular_inertia(inertia, phi: float, theta: float, reading: str = "physical"
     return A.T @ np.asarray(inertia, dtype=float) @ A
 
 
-def angular_coriolis(inertia, eta, eta_dot, reading: str = "physical") -> np.ndarray:
+def angular_coriolis(inertia: ArrayLike, eta: ArrayLike, eta_dot: ArrayLike,
+                     reading: str = "physical") -> np.ndarray:
     """C(η, η̇) η̇ of M_η by the Christoffel symbols of the first kind:
     Ṁ_η η̇ − ½ [η̇ᵀ (∂M_η/∂η_k) η̇]_k.
 

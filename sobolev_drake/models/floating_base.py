@@ -22,8 +22,9 @@ polarization holds.  The chart is singular at θ = ±90°: every evaluation refu
 from __future__ import annotations
 
 import numpy as np
-from pydrake.multibody.plant import PropellerInfo
-from pydrake.multibody.tree import JacobianWrtVariable
+from numpy.typing import ArrayLike
+from pydrake.multibody.plant import MultibodyPlant, PropellerInfo
+from pydrake.multibody.tree import JacobianWrtVariable, Joint
 from scipy.optimize import lsq_linear
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
@@ -40,7 +41,7 @@ FLOATING_JOINTS = ("quaternion_floating", "rpy_floating")
 EULER_NAMES = ("phi", "theta", "psi", "x", "y", "z")
 
 
-def floating_joint(plant):
+def floating_joint(plant: MultibodyPlant) -> Joint | None:
     """The plant's one floating joint (quaternion or roll-pitch-yaw), or None.
 
     Parameters
@@ -160,7 +161,8 @@ class FloatingBaseModel(MechanicalModel):
                              f"{plant.num_force_elements() - 1} other force element(s)")
 
     # --- the chart ------------------------------------------------------------------------
-    def to_drake_state(self, q, qdot=None, *, J=None):
+    def to_drake_state(self, q: ArrayLike, qdot: ArrayLike | None = None, *,
+                       J: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Drake's (positions, velocities) of a model state.
 
         Parameters
@@ -190,7 +192,8 @@ class FloatingBaseModel(MechanicalModel):
         vd[self._rest_v] = qdot[6:]
         return qd, vd
 
-    def from_drake_state(self, q_drake, v_drake):
+    def from_drake_state(self, q_drake: ArrayLike,
+                         v_drake: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The model state (q, q̇) of Drake's positions and velocities (any scalar type).
 
         Parameters
@@ -214,7 +217,7 @@ class FloatingBaseModel(MechanicalModel):
                                v_drake[self._rest_v]])
         return q, qdot
 
-    def velocity_jacobian(self, q) -> np.ndarray:
+    def velocity_jacobian(self, q: ArrayLike) -> np.ndarray:
         """J(q) with Drake's v = J q̇ (n × n; rows in Drake's velocity order).
 
         Parameters
@@ -255,7 +258,7 @@ class FloatingBaseModel(MechanicalModel):
         return J
 
     # --- Euler–Lagrange terms ---------------------------------------------------------------
-    def M(self, q) -> np.ndarray:
+    def M(self, q: ArrayLike) -> np.ndarray:
         """M(q) = Jᵀ M_d J.
 
         Parameters
@@ -270,7 +273,7 @@ class FloatingBaseModel(MechanicalModel):
         J = self._set(q)
         return J.T @ self.plant.CalcMassMatrix(self.context) @ J
 
-    def Cqdot(self, q, qdot) -> np.ndarray:
+    def Cqdot(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ = Jᵀ (M_d J̇ q̇ + C_d v).
 
         Parameters
@@ -291,7 +294,7 @@ class FloatingBaseModel(MechanicalModel):
         ctx = self.context
         return J.T @ (self.plant.CalcMassMatrix(ctx) @ jdot_qdot + self.plant.CalcBiasTerm(ctx))
 
-    def g(self, q) -> np.ndarray:
+    def g(self, q: ArrayLike) -> np.ndarray:
         """g(q) = −Jᵀ τ_g.
 
         Parameters
@@ -306,7 +309,7 @@ class FloatingBaseModel(MechanicalModel):
         J = self._set(q)
         return -J.T @ self.plant.CalcGravityGeneralizedForces(self.context)
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """B(q) = Jᵀ [propeller wrenches at unit command, joint actuation] (n × num_inputs).
 
         Parameters
@@ -331,7 +334,8 @@ class FloatingBaseModel(MechanicalModel):
         B_d = np.column_stack(cols + [self._B_actuators]) if cols else self._B_actuators
         return J.T @ B_d
 
-    def hover_input(self, q=None, *, lower=None, upper=None) -> np.ndarray:
+    def hover_input(self, q: ArrayLike | None = None, *, lower: ArrayLike | None = None,
+                    upper: ArrayLike | None = None) -> np.ndarray:
         """Inputs u₀ with B(q) u₀ = g(q) at rest (scipy's bounded least squares).
 
         Parameters

@@ -18,6 +18,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant, PropellerInfo
 
 from sobolev_drake.models.base import MechanicalModel
+from sobolev_drake.models.floating_base import FloatingBaseModel
 from sobolev_drake.models.quadrotor import ROTOR_SPIN, rotor_poses
 from sobolev_drake.models.quadrotor_params import QuadrotorParams
 
@@ -45,7 +46,8 @@ def quadrotor_description(params: QuadrotorParams | None = None) -> str:
             "</geometry></visual></link></model></sdf>")
 
 
-def quadrotor_propellers(plant, params: QuadrotorParams | None = None, *, tilt=None) -> list:
+def quadrotor_propellers(plant: MultibodyPlant, params: QuadrotorParams | None = None, *,
+                         tilt: float | None = None) -> list[PropellerInfo]:
     """The four rotors of (5.123) as Drake ``PropellerInfo`` (command Ω_i²).
 
     Parameters
@@ -68,7 +70,8 @@ def quadrotor_propellers(plant, params: QuadrotorParams | None = None, *, tilt=N
             for X_BR, s in zip(rotor_poses(p.l, alpha), ROTOR_SPIN)]
 
 
-def make_generic_quadrotor_model(params: QuadrotorParams | None = None, *, tilt=None):
+def make_generic_quadrotor_model(params: QuadrotorParams | None = None, *,
+                                 tilt: float | None = None) -> FloatingBaseModel:
     """The thesis quadrotor through the generic path: its description parsed into a plant with a
     quaternion floating base, modelled by ``from_plant(plant, propellers=...)``.
 

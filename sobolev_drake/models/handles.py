@@ -12,13 +12,14 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.geometry import SceneGraph
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
-from pydrake.systems.framework import Diagram, DiagramBuilder, InputPort, OutputPort
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder, InputPort, OutputPort
 
 from sobolev_drake.models._adapter import ThesisForceAdapter
 from sobolev_drake.models.base import MechanicalModel, check_vector
@@ -62,7 +63,8 @@ class PlantHandles:
     x: OutputPort
     adapter: ThesisForceAdapter | None = None
 
-    def set_state(self, context, diagram: Diagram | None, q, qdot) -> None:
+    def set_state(self, context: Context, diagram: Diagram | None, q: ArrayLike,
+                  qdot: ArrayLike) -> None:
         """Write thesis-ordered (q, q̇) into the plant's part of ``context``.
 
         Parameters
@@ -82,7 +84,7 @@ class PlantHandles:
         self.plant.SetPositions(plant_context, self.model.to_drake(q))
         self.plant.SetVelocities(plant_context, self.model.to_drake(qdot))
 
-    def get_state(self, context) -> tuple[np.ndarray, np.ndarray]:
+    def get_state(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
         """Thesis-ordered (q, q̇) read from the plant's part of the root ``context``.
 
         Parameters
@@ -101,7 +103,8 @@ class PlantHandles:
         return q, v
 
 
-def add_state_selector(builder: DiagramBuilder, state: OutputPort, index, name: str) -> OutputPort:
+def add_state_selector(builder: DiagramBuilder, state: OutputPort, index: Sequence[int],
+                       name: str) -> OutputPort:
     """Output port ``x`` with ``x[j] = state[index[j]]``, computed by Drake's C++ ``Selector``.
 
     Used for the thesis-ordered state of a plant whose Drake order is a permutation of it: the
@@ -170,7 +173,7 @@ class UrdfEditor:
             raise KeyError(f"URDF has no {tag} named {name!r}")
         return el
 
-    def set_inertial(self, link: str, mass: float, com, inertia_diag) -> None:
+    def set_inertial(self, link: str, mass: float, com: ArrayLike, inertia_diag: ArrayLike) -> None:
         inertial = self._find("link", link).find("inertial")
         inertial.find("origin").set("xyz", _fmt(com))
         inertial.find("mass").set("value", repr(float(mass)))
@@ -178,10 +181,11 @@ class UrdfEditor:
         inertial.find("inertia").attrib.update(
             ixx=repr(ixx), iyy=repr(iyy), izz=repr(izz), ixy="0", ixz="0", iyz="0")
 
-    def set_joint_origin(self, joint: str, xyz) -> None:
+    def set_joint_origin(self, joint: str, xyz: ArrayLike) -> None:
         self._find("joint", joint).find("origin").set("xyz", _fmt(xyz))
 
-    def set_visual(self, link: str, index: int, *, xyz=None, rpy=None, **geometry) -> None:
+    def set_visual(self, link: str, index: int, *, xyz: ArrayLike | None = None,
+                   rpy: ArrayLike | None = None, **geometry: Mapping[str, ArrayLike]) -> None:
         """Update the ``index``-th visual of ``link``: origin and/or geometry attributes
         (e.g. ``box={"size": ...}``, ``cylinder={"radius": ..., "length": ...}``)."""
         visual = self._find("link", link).findall("visual")[index]
@@ -200,7 +204,8 @@ class UrdfEditor:
 
 
 def build_plant(text: str, gravity: float, builder: DiagramBuilder | None = None,
-                before_finalize: Callable[[MultibodyPlant], None] | None = None):
+                before_finalize: Callable[[MultibodyPlant], None] | None = None
+                ) -> tuple[MultibodyPlant, SceneGraph | None]:
     """Parse URDF ``text`` into a continuous (time_step = 0) MultibodyPlant and finalize it.
 
     With ``builder`` the plant comes with a SceneGraph (visual geometry for Meshcat); without it
@@ -219,7 +224,8 @@ def build_plant(text: str, gravity: float, builder: DiagramBuilder | None = None
     return plant, scene_graph
 
 
-def coordinate_map(plant: MultibodyPlant, joints_and_scales) -> np.ndarray:
+def coordinate_map(plant: MultibodyPlant,
+                   joints_and_scales: Sequence[tuple[str, float]]) -> np.ndarray:
     """T with ``q_drake = T q_thesis`` from thesis-ordered (joint name, scale) pairs.
 
     ``scale`` is the factor from the thesis coordinate to the joint coordinate (e.g. the wheel
@@ -237,7 +243,7 @@ def coordinate_map(plant: MultibodyPlant, joints_and_scales) -> np.ndarray:
     return T
 
 
-def verify_against_closed_forms(model, q, tol: float = 1e-8) -> None:
+def verify_against_closed_forms(model: MechanicalModel, q: ArrayLike, tol: float = 1e-8) -> None:
     """Raise ValueError if the plant's M(q), g(q) (and B(q)) disagree with the model's closed
     forms at ``q`` — catches a plant built with parameters other than ``model.params``.  M, g and
     B are the plant's own (the base class' Drake evaluations, ``model.B_plant`` where a model
@@ -256,7 +262,8 @@ def verify_against_closed_forms(model, q, tol: float = 1e-8) -> None:
                              "same parameters")
 
 
-def attach_adapter(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph, model,
+def attach_adapter(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph | None,
+                   model: MechanicalModel,
                    name: str) -> PlantHandles:
     """Add the generic ThesisForceAdapter for ``model`` and wire it to ``plant``."""
     adapter = builder.AddSystem(ThesisForceAdapter(model))

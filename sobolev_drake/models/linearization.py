@@ -24,7 +24,10 @@ tests (:func:`central_jacobian`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import Propeller, PropellerInfo
 from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
@@ -37,7 +40,8 @@ from sobolev_drake.validation import real_matrix
 __all__ = ["mechanical_rhs", "central_jacobian", "linearize_mechanical"]
 
 
-def mechanical_rhs(model, q, qdot, u, w):
+def mechanical_rhs(model: MechanicalModel, q: ArrayLike, qdot: ArrayLike, u: ArrayLike,
+                   w: ArrayLike) -> np.ndarray:
     """ẋ = [q̇; M(q)⁻¹(B(q) u + w − C(q,q̇)q̇ − g(q) − K(q̇))] in thesis order (cf. (4.30)).
 
     Parameters
@@ -59,7 +63,7 @@ def mechanical_rhs(model, q, qdot, u, w):
     return np.r_[qdot, np.linalg.solve(model.M(q), tau)]
 
 
-def central_jacobian(fun, n, h):
+def central_jacobian(fun: Callable[[np.ndarray], np.ndarray], n: int, h: float) -> np.ndarray:
     """Columns (fun(h e_i) − fun(−h e_i)) / 2h, i = 1..n: the Jacobian of ``fun`` at 0.
 
     Parameters
@@ -80,8 +84,11 @@ def central_jacobian(fun, n, h):
     return np.column_stack([(fun(h * e) - fun(-h * e)) / (2 * h) for e in np.eye(n)])
 
 
-def linearize_mechanical(model, q0, qdot0, u0, w0=None, *, body_wrench=None, h=None, h_u=None,
-                         h_w=None):
+def linearize_mechanical(model: MechanicalModel, q0: ArrayLike, qdot0: ArrayLike, u0: ArrayLike,
+                         w0: ArrayLike | None = None, *,
+                         body_wrench: tuple[str, ArrayLike] | None = None, h: float | None = None,
+                         h_u: float | None = None,
+                         h_w: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, D) of ẋ = f(x, u, w) at (q0, q̇0, u0, w0), by Drake (or central differences).
 
     State x = [q; q̇] in thesis order (size 2n), u the actuator vector of ``model.B`` (size m),

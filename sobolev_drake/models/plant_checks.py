@@ -9,7 +9,7 @@ from pydrake.systems.framework import Context
 __all__ = ["check_plant", "check_context", "constraint_kinds"]
 
 
-def check_plant(plant) -> None:
+def check_plant(plant: object) -> None:
     """TypeError unless ``plant`` is a double MultibodyPlant; ValueError unless finalized."""
     if not isinstance(plant, MultibodyPlant):
         scalars = [s.__name__ for (s,) in MultibodyPlant_.param_list
@@ -24,7 +24,7 @@ def check_plant(plant) -> None:
                          "plant.Finalize() after adding its bodies, joints and actuators")
 
 
-def check_context(plant: MultibodyPlant, context) -> None:
+def check_context(plant: MultibodyPlant, context: object) -> None:
     """TypeError/ValueError naming ``context`` unless it is a double context of ``plant``."""
     fix = ("pass plant.CreateDefaultContext() or plant.GetMyContextFromRoot(diagram_context) "
            "of the diagram holding the plant, or omit it for the plant's defaults")

@@ -43,6 +43,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.geometry import Cylinder
 from pydrake.math import RigidTransform, RotationMatrix
@@ -152,7 +153,7 @@ class QuadrotorModel(MechanicalModel):
         verify_against_closed_forms(self, np.array([0.3, -0.4, 0.5, 1.0, 2.0, 3.0]))
 
     # --- thesis closed forms -------------------------------------------------------------------
-    def M_closed_form(self, q) -> np.ndarray:
+    def M_closed_form(self, q: ArrayLike) -> np.ndarray:
         """M(q) = blockdiag(Wᵀ I W, m I₃) of (5.123).
 
         Parameters
@@ -178,7 +179,7 @@ class QuadrotorModel(MechanicalModel):
         M[3:, 3:] = self.params.m * np.eye(3)
         return M
 
-    def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+    def Cqdot_closed_form(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ = [Wᵀ(I Ẇ η̇ + ω × I ω); 0], ω = W η̇ (Christoffel C of M, see module doc).
 
         Parameters
@@ -200,7 +201,7 @@ class QuadrotorModel(MechanicalModel):
         w = W @ eta_dot
         return np.r_[W.T @ (I @ Wdot @ eta_dot + np.cross(w, I @ w)), np.zeros(3)]
 
-    def g_closed_form(self, q) -> np.ndarray:
+    def g_closed_form(self, q: ArrayLike) -> np.ndarray:
         """g(q) = [0 0 0 0 0 m g] of (5.123).
 
         Parameters
@@ -242,7 +243,7 @@ class QuadrotorModel(MechanicalModel):
             B0[:3, :] += (-ROTOR_SPIN * p.d * np.sin(self.tilt) * ROTOR_DIRECTIONS.T)
         return B0
 
-    def B_closed_form(self, q) -> np.ndarray:
+    def B_closed_form(self, q: ArrayLike) -> np.ndarray:
         """B(q) = blockdiag(Wᵀ, R) B₀ of (5.123).
 
         Parameters
@@ -303,7 +304,7 @@ class QuadrotorModel(MechanicalModel):
             cols.append(np.r_[R_BR @ torque + np.cross(p_BR, f_B), f_B])
         return np.column_stack(cols)
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """B(q) (6×4, thesis order) from Drake's spatial-velocity Jacobian of the body:
         B = Tᵀ J_Bᵀ blockdiag(R_WB, R_WB) W_B, with W_B the rotor wrenches moved to the body
         origin (:meth:`body_wrench_matrix`).  Same as summing Jᵢᵀ wrenchᵢ over the rotor frames.
@@ -327,7 +328,7 @@ class QuadrotorModel(MechanicalModel):
         W_B = self._wrench_B
         return self.T.T @ (J.T @ np.vstack([R_WB @ W_B[:3], R_WB @ W_B[3:]]))
 
-    def B_per_rotor_jacobians(self, q) -> np.ndarray:
+    def B_per_rotor_jacobians(self, q: ArrayLike) -> np.ndarray:
         """B(q) column by column, column i = Jᵢᵀ [τ_W; f_W] with Jᵢ the Jacobian of rotor frame i
         (slower reference implementation of :meth:`B`).
 
@@ -374,7 +375,7 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
     #: the adapter applies the force that makes the plant follow this model's equations
     follows_own_equations = True
 
-    def M(self, q) -> np.ndarray:
+    def M(self, q: ArrayLike) -> np.ndarray:
         """M(q) = blockdiag(W I Wᵀ, m I₃).
 
         Parameters
@@ -388,7 +389,7 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
         """
         return self._mass_matrix(q, self.euler_matrix)
 
-    def Cqdot(self, q, qdot) -> np.ndarray:
+    def Cqdot(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ of :meth:`M` (Christoffel symbols of the first kind).
 
         Parameters
@@ -403,7 +404,7 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
         q, qdot = check_vector("q", q, 6), check_vector("qdot", qdot, 6)
         return np.r_[angular_coriolis(self._inertia(), q[:3], qdot[:3], self.euler_matrix), np.zeros(3)]
 
-    def B_plant(self, q) -> np.ndarray:
+    def B_plant(self, q: ArrayLike) -> np.ndarray:
         """The simulated plant's B(q) (:meth:`QuadrotorModel.B`, Drake's Jacobians).
 
         Parameters
@@ -417,7 +418,7 @@ class ThesisPrintedQuadrotorModel(QuadrotorModel):
         """
         return QuadrotorModel.B(self, q)
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """B(q) with the torque rows W τ_B (in place of the plant's Wᵀ τ_B).
 
         Parameters
@@ -440,8 +441,9 @@ def _model_class(euler_matrix):
     return QuadrotorModel if euler_matrix == "physical" else ThesisPrintedQuadrotorModel
 
 
-def make_quadrotor_model(params: QuadrotorParams | None = None, *, tilt=None,
-                         reaction_torque: str = "thesis", euler_matrix: str = "physical") -> QuadrotorModel:
+def make_quadrotor_model(params: QuadrotorParams | None = None, *, tilt: float | None = None,
+                         reaction_torque: str = "thesis",
+                         euler_matrix: str = "physical") -> QuadrotorModel:
     """Standalone QuadrotorModel on its own plant (no SceneGraph).
 
     Parameters
@@ -458,7 +460,8 @@ def make_quadrotor_model(params: QuadrotorParams | None = None, *, tilt=None,
     return _model_class(euler_matrix)(None, params, tilt=tilt, reaction_torque=reaction_torque)
 
 
-def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None, *, tilt=None,
+def add_quadrotor(builder: DiagramBuilder, params: QuadrotorParams | None = None, *,
+                  tilt: float | None = None,
                   reaction_torque: str = "thesis", euler_matrix: str = "physical") -> PlantHandles:
     """Add the quadrotor (MultibodyPlant + SceneGraph + adapter) to ``builder``.
 

@@ -11,6 +11,7 @@ Drake's), :func:`closed_form_linearization` is the hand Jacobian of (5.123);
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -31,7 +32,8 @@ def _params():
     return QuadrotorParams.chapter6_nominal()
 
 
-def linearize(params=None, *, tilt=None):
+def linearize(params: QuadrotorParams | None = None, *,
+              tilt: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, D) at hover of the Drake quadrotor, by Drake's AutoDiff linearization of its
     plant; the rotor inputs act as the body-fixed wrench ``model.body_wrench_matrix()``.
 
@@ -55,7 +57,9 @@ def linearize(params=None, *, tilt=None):
                                 body_wrench=("body", model.body_wrench_matrix()))
 
 
-def closed_form_linearization(m, Ixx, Iyy, Izz, params=None, **_):
+def closed_form_linearization(m: float, Ixx: float, Iyy: float, Izz: float,
+                              params: QuadrotorParams | None = None,
+                              **_: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Hover Jacobian of (5.123), thesis (6.44)–(6.45).
 
     A has ẍ = g θ, ÿ = −g ϕ; B = [0; M0⁻¹ B0]; D = [0; M0⁻¹] with M0 = diag(Ixx, Iyy, Izz, m, m, m).
@@ -91,7 +95,7 @@ class _B0Holder:  # the attributes QuadrotorModel.B0_closed_form reads, without 
         self.params, self.tilt = p, p.alpha
 
 
-def input_scale(params=None):
+def input_scale(params: QuadrotorParams | None = None) -> float:
     """Ω²_hover of the vehicle: the unit of the normalized input Ω²/Ω²_hover.
 
     Parameters
@@ -106,7 +110,7 @@ def input_scale(params=None):
     return (params or _params()).hover_input()
 
 
-def hinf_input_weight(rho, params=None):
+def hinf_input_weight(rho: float, params: QuadrotorParams | None = None) -> np.ndarray:
     """R on Ω² of an H∞ design weighting the normalized input Ω²/Ω²_hover by ρ: ρ / Ω²_hover².
 
     Parameters
@@ -125,7 +129,9 @@ def hinf_input_weight(rho, params=None):
     return float(rho) / input_scale(params) ** 2 * np.eye(4)
 
 
-def vertices(names=UNCERTAIN, spread=SPREAD, params=None):
+def vertices(names: Sequence[str] = UNCERTAIN, spread: float = SPREAD,
+             params: QuadrotorParams | None = None
+             ) -> list[tuple[dict[str, float], tuple[np.ndarray, np.ndarray, np.ndarray]]]:
     """Closed-form linearizations at the 2^k corners of the parameter box (Corollary 1).
 
     Parameters

@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pydrake.math as drake_math
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, Variable
@@ -36,7 +37,7 @@ __all__ = ["ScalarTerms", "scalar_type", "scalar_vector", "quiet", "solve", "inv
            "pseudo_inverse"]
 
 
-def scalar_type(*arrays):
+def scalar_type(*arrays: ArrayLike) -> type:
     """The Drake scalar type of the entries: ``AutoDiffXd`` or ``Expression`` when any entry is
     one (a ``Variable`` counts as an Expression), else ``float``.
 
@@ -62,7 +63,7 @@ def scalar_type(*arrays):
     return float
 
 
-def quiet(scalar):
+def quiet(scalar: type) -> contextlib.AbstractContextManager[object]:
     """Context that silences numpy's "invalid value" warning for ``Expression`` arithmetic.
 
     numpy checks the FPU's flags after an object-array loop, and Drake's symbolic arithmetic
@@ -81,7 +82,7 @@ def quiet(scalar):
     return np.errstate(invalid="ignore") if scalar is Expression else contextlib.nullcontext()
 
 
-def scalar_vector(name: str, value, size: int) -> np.ndarray:
+def scalar_vector(name: str, value: ArrayLike, size: int) -> np.ndarray:
     """``check_vector`` for numbers; an array of Drake scalars (``AutoDiffXd``, ``Expression``,
     numpy dtype object) is checked for its size only and returned as is.
 
@@ -107,7 +108,7 @@ def scalar_vector(name: str, value, size: int) -> np.ndarray:
     return arr
 
 
-def inverse(A) -> np.ndarray:
+def inverse(A: ArrayLike) -> np.ndarray:
     """A⁻¹ for a double matrix (LAPACK) or a matrix of Drake scalars (``pydrake.math.inv``).
 
     Parameters
@@ -123,7 +124,7 @@ def inverse(A) -> np.ndarray:
     return np.linalg.inv(A) if A.dtype != object else drake_math.inv(A)
 
 
-def solve(A, b) -> np.ndarray:
+def solve(A: ArrayLike, b: ArrayLike) -> np.ndarray:
     """A⁻¹ b: LAPACK's ``solve`` when both are double, else :func:`inverse` times b.
 
     Parameters
@@ -143,7 +144,7 @@ def solve(A, b) -> np.ndarray:
     return inverse(A) @ b
 
 
-def pseudo_inverse(A) -> np.ndarray:
+def pseudo_inverse(A: ArrayLike) -> np.ndarray:
     """Moore–Penrose inverse: ``numpy.linalg.pinv`` for doubles; for Drake scalars the
     full-rank closed forms Aᵀ(AAᵀ)⁻¹ (wide) or (AᵀA)⁻¹Aᵀ (tall), equal to it when A has full
     rank (the actuation assumptions of the laws).
@@ -207,7 +208,8 @@ class ScalarTerms:
             self._plant = (plant, context)
         return self._plant
 
-    def plant_terms(self, q, qdot):
+    def plant_terms(self, q: ArrayLike,
+                    qdot: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(M, C q̇, g) of the model's MultibodyPlant in thesis order: what the base class'
         ``M``, ``Cqdot`` and ``g`` return, whatever the model overrides.
 
@@ -239,7 +241,7 @@ class ScalarTerms:
                 "in double (no ToAutoDiffXd/ToSymbolic, no Linearize)") from exc
 
     # --- the model's equations --------------------------------------------------------------
-    def mass_and_bias(self, q, qdot):
+    def mass_and_bias(self, q: ArrayLike, qdot: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(M(q), h = C(q, q̇) q̇ + g(q) + K(q̇)) of the model's equations.
 
         Parameters
@@ -262,7 +264,7 @@ class ScalarTerms:
             h = Cqdot + (self._call("g", q) if own["g"] else g)
         return M, h + self.friction(qdot)
 
-    def Cqdot(self, q, qdot) -> np.ndarray:
+    def Cqdot(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ of the model.
 
         Parameters
@@ -278,7 +280,7 @@ class ScalarTerms:
             return self._call("Cqdot", q, qdot)
         return self.plant_terms(q, qdot)[1]
 
-    def C_times(self, q, qdot, v) -> np.ndarray:
+    def C_times(self, q: ArrayLike, qdot: ArrayLike, v: ArrayLike) -> np.ndarray:
         """C(q, q̇) v by polarization, as ``MechanicalModel.C_times``.
 
         Parameters
@@ -292,7 +294,7 @@ class ScalarTerms:
         """
         return 0.25 * (self.Cqdot(q, qdot + v) - self.Cqdot(q, qdot - v))
 
-    def friction(self, qdot) -> np.ndarray:
+    def friction(self, qdot: ArrayLike) -> np.ndarray:
         """K(q̇): zeros (base class), D q̇ (PlantModel) or the model's ``friction``.
 
         Parameters
@@ -310,7 +312,7 @@ class ScalarTerms:
             return self.model.damping * qdot
         return self._call("friction", qdot)
 
-    def input_matrix(self, q) -> np.ndarray:
+    def input_matrix(self, q: ArrayLike) -> np.ndarray:
         """B(q): a PlantModel's constant actuation matrix, else the model's ``B``.
 
         Parameters

@@ -19,6 +19,7 @@ import numpy as np
 from sobolev_drake.synthesis import regions
 from sobolev_drake.synthesis.closed_loop_bounds import FilteredDisturbancePlant, LoopDesign
 from sobolev_drake.synthesis.lmi import InfeasibleLMIError
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.synthesis.sobolev import (disturbance_model_degeneracy, winf_disturbance_augmented,
                                              winf_disturbance_thesis, winf_output_feedback,
                                              winf_state_feedback)
@@ -69,7 +70,7 @@ class DesignedController(NamedTuple):
     result: Any
 
 
-def synthesize(design, **options):
+def synthesize(design: LoopDesign, **options: Any) -> SynthesisResult:
     """Solve one design of Table 6.1 on (6.41), chosen by its fields.
 
     Parameters
@@ -96,7 +97,7 @@ def _controller(design, r):
     return DesignedController(design, r.K if design.feedback == "sf" else r.controller, r)
 
 
-def design():
+def design() -> tuple[dict[str, DesignedController], list[str]]:
     """Synthesize the four controllers of Table 6.1 and diagnose (6.31) as written.
 
     Returns
@@ -122,7 +123,8 @@ def design():
     return out, notes
 
 
-def design_well_posed(radius=WELL_POSED_DISK, backend=None):
+def design_well_posed(radius: float = WELL_POSED_DISK,
+                      backend: str | None = None) -> dict[str, DesignedController]:
     """The disturbance-model designs with a disk pole region (6.39) of ``radius``.
 
     A bounded controller bandwidth: the delivered controllers are certified tightly.  The disk

@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.framework import DiagramBuilder
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
@@ -120,7 +121,7 @@ class TwoWheeledModel(MechanicalModel):
         super().__init__(plant, coordinate_map=T, dof_names=["phi", "theta"], name="two_wheeled")
         verify_against_closed_forms(self, np.array([0.3, -0.8]))
 
-    def M_closed_form(self, q) -> np.ndarray:
+    def M_closed_form(self, q: ArrayLike) -> np.ndarray:
         """Inertia matrix M(q) of (4.30).
 
         Parameters
@@ -138,7 +139,7 @@ class TwoWheeledModel(MechanicalModel):
         m12 = p.m * p.l * p.r * np.cos(q[1])
         return np.array([[(p.M + p.m) * p.r**2 + p.Ir, m12], [m12, p.m * p.l**2 + p.Ip]])
 
-    def C_closed_form(self, q, qdot) -> np.ndarray:
+    def C_closed_form(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) of (4.30), with C q̇ = [−m l r sin θ θ̇², 0].
 
         Parameters
@@ -156,7 +157,7 @@ class TwoWheeledModel(MechanicalModel):
         p = self.params
         return np.array([[0.0, -p.m * p.l * p.r * np.sin(q[1]) * qdot[1]], [0.0, 0.0]])
 
-    def Cqdot_closed_form(self, q, qdot) -> np.ndarray:
+    def Cqdot_closed_form(self, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """C(q, q̇) q̇ from :meth:`C_closed_form`.
 
         Parameters
@@ -171,7 +172,7 @@ class TwoWheeledModel(MechanicalModel):
         """
         return self.C_closed_form(q, qdot) @ check_vector("qdot", qdot, 2)
 
-    def g_closed_form(self, q) -> np.ndarray:
+    def g_closed_form(self, q: ArrayLike) -> np.ndarray:
         """G(q) = [0, −m g l sin θ] of (4.30).
 
         Parameters
@@ -188,7 +189,7 @@ class TwoWheeledModel(MechanicalModel):
         p = self.params
         return np.array([0.0, -p.m * p.g * p.l * np.sin(q[1])])
 
-    def friction(self, qdot) -> np.ndarray:
+    def friction(self, qdot: ArrayLike) -> np.ndarray:
         """K(q̇) = [k ϕ̇, −k ϕ̇] of (4.30) (left-hand side).
 
         Parameters
@@ -204,7 +205,7 @@ class TwoWheeledModel(MechanicalModel):
         qdot = check_vector("qdot", qdot, 2)
         return self.params.k * qdot[0] * np.array([1.0, -1.0])
 
-    def B(self, q) -> np.ndarray:
+    def B(self, q: ArrayLike) -> np.ndarray:
         """F(q) = [1, −1]ᵀ: motor torque on the wheel, reaction on the body.
 
         Parameters

@@ -9,14 +9,20 @@ compares them with the Drake model.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from sobolev_drake.models.two_wheeled import TwoWheeledParams, make_two_wheeled_model
 
+#: a vectorized map of states X (Q, 3) to f, g or k
+_StateMap = Callable[[np.ndarray], np.ndarray]
+
 __all__ = ["design_model", "cross_check_design_model"]
 
 
-def design_model(params=None):
+def design_model(params: TwoWheeledParams | None = None
+                 ) -> tuple[_StateMap, _StateMap, _StateMap]:
     """Vectorized f, g, k of (4.30) for x = [θ ϕ̇ θ̇].
 
     Parameters
@@ -64,7 +70,7 @@ def design_model(params=None):
     return f, g, k
 
 
-def cross_check_design_model(points=None) -> float:
+def cross_check_design_model(points: np.ndarray | None = None) -> float:
     """Max |difference| between the closed-form f, g, k and the ``TwoWheeledModel`` (Drake) terms.
 
     Parameters

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from sobolev_drake.models.linearization import linearize_mechanical
-from sobolev_drake.models.two_wheeled import TwoWheeledParams, make_two_wheeled_model
+from sobolev_drake.models.two_wheeled import (TwoWheeledModel, TwoWheeledParams,
+                                               make_two_wheeled_model)
 
 __all__ = ["STATE_REDUCTION", "linearize", "closed_form_linearization"]
 
@@ -21,7 +22,8 @@ __all__ = ["STATE_REDUCTION", "linearize", "closed_form_linearization"]
 STATE_REDUCTION = np.array([[0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
 
 
-def linearize(model=None, h=None):
+def linearize(model: TwoWheeledModel | None = None,
+              h: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, D) at the upright: Drake's AutoDiff linearization of the model's plant (the
     friction K(q̇) = k ϕ̇ [1, −1] enters as its matrix).
 
@@ -47,7 +49,7 @@ def linearize(model=None, h=None):
     return A[np.ix_(keep, keep)], B[keep], D[keep]
 
 
-def closed_form_linearization(params=None):
+def closed_form_linearization(params: TwoWheeledParams | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Hand Jacobian of (4.30) at x = 0: [ϕ̈; θ̈] = M0⁻¹([0; m g l] θ − [k; −k] ϕ̇ + F u + w).
 
     Parameters

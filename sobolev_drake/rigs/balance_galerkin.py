@@ -8,7 +8,9 @@ Scenario: x(0) = :data:`X0` (θ = π/4, at rest); the disturbance torques :data:
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
@@ -18,6 +20,7 @@ from sobolev_drake import viz
 from sobolev_drake.models.two_wheeled import add_two_wheeled
 from sobolev_drake.norms import iadu, ise, settling_time
 from sobolev_drake.simulation import simulate
+from sobolev_drake.synthesis.galerkin import GalerkinResult
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.galerkin_controller import GalerkinController
 
@@ -32,7 +35,8 @@ SETTLING = {"fraction": 0.05, "crossing": "next_sample"}
 SETTLE_BEFORE = 7.0  # the settling time of a flight is read before the first pulse
 
 
-def fly(law, duration, record=False, out_dir=None, label=""):
+def fly(law: GalerkinResult, duration: float, record: bool = False,
+        out_dir: str | os.PathLike[str] | None = None, label: str = "") -> dict[str, Any]:
     """Fly ``law`` from :data:`X0` through :data:`PULSES` on the nonlinear vehicle.
 
     Parameters
@@ -81,7 +85,7 @@ def fly(law, duration, record=False, out_dir=None, label=""):
     return out
 
 
-def flight_indices(sim):
+def flight_indices(sim: dict[str, Any]) -> dict[str, float]:
     """The Table 4.2 indices of a flight and what explains them.
 
     Parameters

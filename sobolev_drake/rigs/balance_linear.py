@@ -9,6 +9,7 @@ the disturbances start (:data:`DISTURBANCE_START`).  See docs/experiments/balanc
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
@@ -18,6 +19,7 @@ from sobolev_drake.harness import LoggedLoop
 from sobolev_drake.models.two_wheeled import add_two_wheeled
 from sobolev_drake.models.two_wheeled_linear import STATE_REDUCTION
 from sobolev_drake.simulation import simulate
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
@@ -73,7 +75,8 @@ class BalanceLinearRig(LoggedLoop):
         self.build(b, (("x", self.h.x), ("u", self.ctrl.GetOutputPort("u")), ("w", self.w.get_output_port())),
                     log_period, record)
 
-    def run(self, gains, duration, *, theta0=THETA0):
+    def run(self, gains: dict[str, Any], duration: float, *,
+            theta0: float = THETA0) -> dict[str, Any]:
         """Fly the controller ``gains`` for ``duration`` s from θ(0) = ``theta0``.
 
         Parameters
@@ -103,7 +106,7 @@ class BalanceLinearRig(LoggedLoop):
         return data
 
 
-def result_gains(res):
+def result_gains(res: SynthesisResult) -> dict[str, Any]:
     """The ``set_gains`` keywords of a synthesis result for :meth:`BalanceLinearRig.run`.
 
     Parameters
@@ -121,7 +124,7 @@ def result_gains(res):
     return {"controller": tuple(np.asarray(m) for m in res.controller)}
 
 
-def theta_settling_time(d, fraction=SETTLE_FRACTION):
+def theta_settling_time(d: dict[str, Any], fraction: float = SETTLE_FRACTION) -> float:
     """Settling time of θ of one flight: the last time before :data:`DISTURBANCE_START` with
     |θ| > ``fraction`` · |:data:`THETA0`|, crossing interpolated (Figure 6.2's 2 % criterion).
 
@@ -140,7 +143,7 @@ def theta_settling_time(d, fraction=SETTLE_FRACTION):
                                until=DISTURBANCE_START)
 
 
-def flight_indices(d):
+def flight_indices(d: dict[str, Any]) -> dict[str, float]:
     """Table 6.2 indices of one flight (x logged as [ϕ θ ϕ̇ θ̇]).
 
     ISE θ, ISE ϕ̇, IADU, the θ settling times (2 %, 1 %, 5 %), max |u|, max |θ| and the

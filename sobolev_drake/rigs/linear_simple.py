@@ -11,6 +11,7 @@ horizon).  See docs/experiments/linear-simple.md.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -19,7 +20,9 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.harness import add_log_sinks
 from sobolev_drake.models.simple_linear import SIMPLE, X0
-from sobolev_drake.synthesis.closed_loop_bounds import closed_loop_matrices, initial_state
+from sobolev_drake.synthesis.closed_loop_bounds import (LoopDesign, closed_loop_matrices,
+                                                       initial_state)
+from sobolev_drake.synthesis.problem import DynamicController
 from sobolev_drake.systems.linear_controllers import LinearDynamicOutputFeedback, LinearStateFeedback
 
 __all__ = ["NOISE_WINDOW", "simulate", "simulate_exact"]
@@ -33,7 +36,8 @@ def _noise(t, seed):
     return np.where((t >= NOISE_WINDOW[0]) & (t <= NOISE_WINDOW[1]), rng.standard_normal(t.size), 0.0)
 
 
-def simulate(design, data, duration, seed=0, dt_noise=1e-3):
+def simulate(design: LoopDesign, data: np.ndarray | DynamicController | tuple[np.ndarray, ...],
+             duration: float, seed: int = 0, dt_noise: float = 1e-3) -> dict[str, np.ndarray]:
     """The closed loop as a Drake diagram (``LinearSystem`` plant and filter, controller
     LeafSystem), integrated with steps of at most ``dt_noise``; x_K(0) = 0.
 
@@ -94,7 +98,10 @@ def simulate(design, data, duration, seed=0, dt_noise=1e-3):
     return res
 
 
-def simulate_exact(design, data, duration, seed=0, dt=1e-3, *, x0=X0, xk0=None, noise=True):
+def simulate_exact(design: LoopDesign,
+                   data: np.ndarray | DynamicController | tuple[np.ndarray, ...], duration: float,
+                   seed: int = 0, dt: float = 1e-3, *, x0: ArrayLike = X0,
+                   xk0: ArrayLike | None = None, noise: bool = True) -> dict[str, np.ndarray]:
     """Exact zero-order-hold discretization of the linear closed loop (v is held over dt).
 
     The regularized output-feedback controllers have fast modes (|eig| ~ 1e5) that make an

@@ -11,20 +11,28 @@ unmatched disturbance of Assumption 8 along a run (Fig. 5.7).
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.framework import DiagramBuilder, EventStatus, LeafSystem
 from scipy.linalg import null_space
 
 from sobolev_drake import viz
 from sobolev_drake.harness import add_log_sinks
+from sobolev_drake.models.base import MechanicalModel
+from sobolev_drake.models.handles import PlantHandles
 from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface
 from sobolev_drake.synthesis.mechanical import winf_gamma
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
+from sobolev_drake.systems.inner_laws import HinfLaw, SobolevLaw
 from sobolev_drake.systems.mechanical_controller import MechanicalController
+from sobolev_drake.systems.mechanical_law import MechanicalLaw
+from sobolev_drake.systems.partition import Partition
 from sobolev_drake.tuning import match_by_regula_falsi
 
 __all__ = ["MechanicalLoop", "build_loop", "run_loop", "MatchedComparison", "compare_with_matched_hinf",
@@ -67,8 +75,12 @@ class MechanicalLoop:
     info: dict = field(default_factory=dict)
 
 
-def build_loop(add_plant: Callable, controller_model, partition, inner, reference, disturbance, *,
-               lower=None, upper=None, allocation=None, record=False) -> MechanicalLoop:
+def build_loop(add_plant: Callable[[DiagramBuilder], PlantHandles],
+               controller_model: MechanicalModel, partition: Partition,
+               inner: SobolevLaw | HinfLaw, reference: LeafSystem, disturbance: LeafSystem, *,
+               lower: ArrayLike | None = None, upper: ArrayLike | None = None,
+               allocation: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+               record: bool = False) -> MechanicalLoop:
     """Plant in closed loop with a MechanicalController on ``controller_model``.
 
     Parameters
@@ -119,8 +131,9 @@ def build_loop(add_plant: Callable, controller_model, partition, inner, referenc
     return MechanicalLoop(diagram, sim, h, ctrl, sinks, meshcat, recorder)
 
 
-def run_loop(loop: MechanicalLoop, inner, duration, q0, qd0, *, label="", accuracy=1e-4,
-             max_step=0.05, evals_per_second=20000):
+def run_loop(loop: MechanicalLoop, inner: SobolevLaw | HinfLaw, duration: float, q0: ArrayLike,
+             qd0: ArrayLike, *, label: str = "", accuracy: float = 1e-4,
+             max_step: float = 0.05, evals_per_second: int = 20000) -> dict[str, Any]:
     """Reset the loop, swap the inner law, simulate; return the logged arrays (rows = samples).
 
     A simulation that fails (divergence, NaN, or more than ``evals_per_second`` derivative
@@ -226,9 +239,14 @@ class MatchedComparison:
     recording: object = None
 
 
-def compare_with_matched_hinf(loop, w_inner, duration, q0, qd0, indices, *, match="IADU",
-                              omega_u0=None, target_if_w_failed=None, iters=6, rtol=0.02,
-                              decreasing=True, record_to=None) -> MatchedComparison:
+def compare_with_matched_hinf(loop: MechanicalLoop, w_inner: SobolevLaw, duration: float,
+                              q0: ArrayLike, qd0: ArrayLike,
+                              indices: Callable[[dict[str, Any]], dict[str, float]], *,
+                              match: str = "IADU", omega_u0: float | None = None,
+                              target_if_w_failed: float | None = None, iters: int = 6,
+                              rtol: float = 0.02, decreasing: bool = True,
+                              record_to: str | os.PathLike[str] | None = None
+                              ) -> MatchedComparison:
     """Fly the W2/W∞ law, then the classic H∞ law on the same surface with ωu searched so that
     one index equals the W2/W∞ run's (the thesis' comparison rule, e.g. the same IADU).
 
@@ -289,7 +307,7 @@ def compare_with_matched_hinf(loop, w_inner, duration, q0, qd0, indices, *, matc
     return MatchedComparison(w_run, w_idx, h_run, indices(h_run), wu, hist, target, surface, recording)
 
 
-def tracked_errors(run, law):
+def tracked_errors(run: dict[str, Any], law: MechanicalLaw) -> tuple[np.ndarray, np.ndarray]:
     """Tracking errors of a logged run.
 
     Parameters
@@ -310,7 +328,8 @@ def tracked_errors(run, law):
     return q[:, idx] - run["ref"][:, :m], qd[:, idx] - run["ref"][:, m:2 * m]
 
 
-def sobolev_bound(run, law, truth_model):
+def sobolev_bound(run: dict[str, Any], law: MechanicalLaw,
+                  truth_model: MechanicalModel) -> dict[str, float | bool]:
     """Theorem 3 on a logged W2/W∞ run of a fully actuated or reduced law.
 
     ‖z‖²_W (z = ∫q̃c, with ë from the truth's forward dynamics) against γ²‖δ̄‖²_L2 + 2V(x0),
@@ -364,7 +383,7 @@ def sobolev_bound(run, law, truth_model):
             "rhs": gamma2 * wl2 + 2 * V0, "holds": bool(z2 <= gamma2 * wl2 + 2 * V0)}
 
 
-def left_annihilator(B) -> np.ndarray:
+def left_annihilator(B: ArrayLike) -> np.ndarray:
     """Full-rank left annihilator B⊥ of Assumption 8 (orthonormal rows, B⊥ B = 0).
 
     Parameters
@@ -381,7 +400,8 @@ def left_annihilator(B) -> np.ndarray:
     return null_space(B.T).T
 
 
-def bperp_signal(run, model, law, max_points: int = 1500):
+def bperp_signal(run: dict[str, Any], model: MechanicalModel, law: MechanicalLaw,
+                 max_points: int = 1500) -> tuple[np.ndarray, np.ndarray]:
     """(t, ‖B⊥(w − d)‖²) of Fig. 5.7 on at most ``max_points`` logged samples.
 
     d = g + M[0; q̈cr] + C(q, q̇)[0; q̇cr] ((5.65)), B⊥ of the controller model.

@@ -15,20 +15,28 @@ a linear state feedback designed at hover (e.g. Drake's LQR), one diagram per fl
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, Propeller
+from pydrake.geometry import Meshcat
+from pydrake.multibody.plant import (AddMultibodyPlantSceneGraph, MultibodyPlant, Propeller,
+                                     PropellerInfo)
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import (DiagramBuilder, InputPort, LeafSystem, OutputPort,
+                                       System)
 from pydrake.systems.primitives import (AffineSystem, ConstantVectorSource, LogVectorOutput,
                                         Multiplexer, Saturation, Linearize)
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.euler_chart import euler_to_quaternion
 from sobolev_drake.synthesis import winf_state_feedback
+from sobolev_drake.synthesis.problem import SynthesisResult
+from sobolev_drake.systems.inner_laws import SobolevLaw
 from sobolev_drake.systems.floating_state import FloatingBaseState
 from sobolev_drake.systems.multirotor_control import MultirotorController
 
@@ -60,24 +68,27 @@ class MultirotorHandles:
     infos: list
 
     @property
-    def command(self):
+    def command(self) -> InputPort:
         """The propeller command input port."""
         return self.propeller.get_command_input_port()
 
     @property
-    def x(self):
+    def x(self) -> OutputPort:
         """The model state output [ϕ θ ψ x y z, rates]."""
         return self.state.get_output_port(0)
 
     @property
-    def disturbance(self):
+    def disturbance(self) -> InputPort:
         """The plant's generalized-force input (Drake's velocity order: [torque; world force]
         of the floating body's joint)."""
         return self.plant.get_applied_generalized_force_input_port()
 
 
-def add_multirotor(builder: DiagramBuilder, description: str, propellers, *, file_type="sdf",
-                   command_upper=None, max_pitch=None) -> MultirotorHandles:
+def add_multirotor(builder: DiagramBuilder, description: str,
+                   propellers: Callable[[MultibodyPlant], Iterable[PropellerInfo]], *,
+                   file_type: str = "sdf",
+                   command_upper: float | ArrayLike | None = None,
+                   max_pitch: float | None = None) -> MultirotorHandles:
     """Add a multirotor (plant + SceneGraph + Propeller + state conversion) to ``builder``.
 
     Parameters
@@ -133,7 +144,8 @@ class HoverLinearization:
     u0: np.ndarray
 
 
-def linearize_hover(handles: MultirotorHandles, position=(0.0, 0.0, 0.0), yaw=0.0) -> HoverLinearization:
+def linearize_hover(handles: MultirotorHandles, position: ArrayLike = (0.0, 0.0, 0.0),
+                    yaw: float = 0.0) -> HoverLinearization:
     """Linearize plant + propellers at hover by Drake's ``Linearize`` and express it in the
     minimal Euler chart.
 
@@ -205,8 +217,9 @@ def reference_state_selector() -> np.ndarray:
     return S
 
 
-def add_state_feedback(builder, handles: MultirotorHandles, K, u0, reference_port=None, *,
-                       lower=None, upper=None):
+def add_state_feedback(builder: DiagramBuilder, handles: MultirotorHandles, K: ArrayLike,
+                       u0: ArrayLike, reference_port: OutputPort | None = None, *,
+                       lower: ArrayLike | None = None, upper: ArrayLike | None = None) -> System:
     """u = sat(u0 − K (x_e − x_ref)) on the propeller commands (Drake primitives only).
 
     Parameters
@@ -250,8 +263,10 @@ def add_state_feedback(builder, handles: MultirotorHandles, K, u0, reference_por
     return sat
 
 
-def add_hover_winf(builder, handles: MultirotorHandles, reference_port, Gamma0, Gamma1, *,
-                   disturbance=None, **options):
+def add_hover_winf(builder: DiagramBuilder, handles: MultirotorHandles,
+                   reference_port: OutputPort | None, Gamma0: ArrayLike, Gamma1: ArrayLike, *,
+                   disturbance: ArrayLike | None = None,
+                   **options: Any) -> tuple[System, SynthesisResult]:
     """The linear path in one call: :func:`linearize_hover` (minimal Euler chart),
     ``sd.winf_state_feedback`` on it, and the gain acting on the plant's ports through
     :func:`add_state_feedback` (u = sat(u0 + K (x_e − x_ref)), the synthesis' u = +K x).
@@ -285,7 +300,8 @@ def add_hover_winf(builder, handles: MultirotorHandles, reference_port, Gamma0, 
     return add_state_feedback(builder, handles, -result.K, lin.u0, reference_port), result
 
 
-def add_w_controller(builder, handles: MultirotorHandles, inner, reference_port, **kwargs):
+def add_w_controller(builder: DiagramBuilder, handles: MultirotorHandles, inner: SobolevLaw,
+                     reference_port: OutputPort, **kwargs: Any) -> MultirotorController:
     """The nonlinear W2/W∞ position law with bounded allocation (:class:`MultirotorController`)
     between the state conversion and the propellers.
 
@@ -313,9 +329,13 @@ def add_w_controller(builder, handles: MultirotorHandles, inner, reference_port,
     return ctrl
 
 
-def fly_multirotor(description, propellers, reference, disturbance, duration, *, controller,
-                   file_type="sdf", command_upper=None, x0=None, accuracy=1e-5, max_step=0.01,
-                   meshcat=None):
+def fly_multirotor(description: str,
+                   propellers: Callable[[MultibodyPlant], Iterable[PropellerInfo]],
+                   reference: LeafSystem, disturbance: LeafSystem, duration: float, *,
+                   controller: Callable[[DiagramBuilder, MultirotorHandles, OutputPort], System],
+                   file_type: str = "sdf", command_upper: float | ArrayLike | None = None,
+                   x0: ArrayLike | None = None, accuracy: float = 1e-5, max_step: float = 0.01,
+                   meshcat: Meshcat | None = None) -> dict[str, Any]:
     """Build one closed loop, fly it from ``x0`` (default the reference at t = 0), return logs.
 
     Parameters

@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import MatrixGain
 
+from sobolev_drake.campaign.case import Case
 from sobolev_drake.harness import LoggedLoop
 from sobolev_drake.models.quadrotor import QuadrotorParams, add_quadrotor
 from sobolev_drake.norms import iadu, ise
@@ -34,7 +37,9 @@ U_MAX_FACTOR = 4.0  # Ω² ≤ 4 Ω²_hover (rotor speed ≤ 2 × hover), docs/d
 DIVERGED_TILT = np.radians(80.0)  # a run is stopped (and its ISE set to inf) beyond this tilt
 
 
-def disturbance_pulses(step=10.0, step_from=10.0, sine=10.0, sine_omega=0.4 * np.pi, sine_from=25.0):
+def disturbance_pulses(step: float = 10.0, step_from: float = 10.0, sine: float = 10.0,
+                       sine_omega: float = 0.4 * np.pi,
+                       sine_from: float = 25.0) -> list[dict[str, Any]]:
     """The scenario's generalized-force pulses (defaults): δy = ``step`` N for 5 s from
     ``step_from``, then δz = ``sine`` sin(``sine_omega`` t) N for 5 s from ``sine_from``.
 
@@ -61,7 +66,8 @@ def disturbance_pulses(step=10.0, step_from=10.0, sine=10.0, sine_omega=0.4 * np
              "to": float(sine_from) + 5.0}]
 
 
-def drawn_scenario(rng_initial, rng_disturbance):
+def drawn_scenario(rng_initial: np.random.Generator,
+                   rng_disturbance: np.random.Generator) -> tuple[np.ndarray, list[dict[str, Any]]]:
     """A random version of the scenario (a campaign seed's): q(0) = :data:`Q0` + ±0.1 rad on
     each angle and ±0.5 m on each position; step and sine amplitudes 5–15 N, their start
     times ±2 s around 10 s and 25 s and the sine's frequency ±25 % around 0.2 Hz (uniform).
@@ -127,7 +133,7 @@ class QuadrotorHoverRig(LoggedLoop):
                         ("u_raw", self.ctrl.GetOutputPort("u_raw")), ("w", self.w.get_output_port())),
                     log_period, record)
 
-    def run(self, K, duration, q0=None):
+    def run(self, K: ArrayLike, duration: float, q0: ArrayLike | None = None) -> dict[str, Any]:
         """Fly Ω² = Ω²_hover + K (x̂ − x̂_r) for ``duration`` s from q(0) = ``q0``, q̇(0) = 0.
 
         Parameters
@@ -168,7 +174,7 @@ class QuadrotorHoverRig(LoggedLoop):
         return EventStatus.Succeeded()
 
 
-def flight_indices(d):
+def flight_indices(d: dict[str, Any]) -> dict[str, float | bool]:
     """Table 6.4 indices of one flight of :class:`QuadrotorHoverRig`.
 
     ISE ∫eᵀe over the 12 error states (inf for a diverged run), IADU ∫Σ|dΩ_i/dt| with
@@ -204,7 +210,7 @@ CAMPAIGN_INDICES = {"ISE": "ise", "IADU": "iadu", "saturated [s]": "saturation_s
                     "final position error [m]": "final_position_error_m", "max tilt [deg]": "max_tilt_deg"}
 
 
-def check_campaign_gain(label, K):
+def check_campaign_gain(label: str, K: object) -> None:
     """Raise ``ValueError`` unless ``K`` is a finite 4 × 12 float gain, what a campaign's
     synthesis pins and :func:`campaign_flight` flies.
 
@@ -220,7 +226,7 @@ def check_campaign_gain(label, K):
                          f"{getattr(K, 'shape', '')}")
 
 
-def campaign_flight(K, duration, case):
+def campaign_flight(K: ArrayLike, duration: float, case: Case) -> dict[str, Any]:
     """Fly K on the scenario a campaign case draws, and return the case's record.
 
     The truth is ``QuadrotorParams.chapter6_nominal()`` with the parameters of

@@ -3,14 +3,17 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 __all__ = ["plot_flights"]
 
 
-def plot_flights(runs, out_dir, name):
+def plot_flights(runs: dict[str, dict[str, Any]], out_dir: str | os.PathLike[str],
+                 name: str) -> dict[str, Path]:
     """Write ``<name>_path3d.png``, ``<name>_attitude.png`` and ``<name>_inputs.png``.
 
     Parameters

@@ -6,18 +6,23 @@ swapping that controller for the library's is the one line ``make_controller`` r
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import DiagramBuilder, System
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource, ZeroOrderHold
+from pydrake.trajectories import Trajectory
 
 from sobolev_drake.models.serial_chain import seven_link_arm
 
 __all__ = ["fly_seven_link_arm"]
 
 
-def fly_seven_link_arm(make_controller, desired, q0, duration: float, *, time_step: float = 0.0,
+def fly_seven_link_arm(make_controller: Callable[[MultibodyPlant], System], desired: Trajectory,
+                       q0: ArrayLike, duration: float, *, time_step: float = 0.0,
                        zoh: float | None = None, log_period: float = 1e-3) -> dict:
     """Fly the 7-joint arm from ``q0`` (at rest) tracking ``desired`` with
     ``make_controller(controller_plant)``.

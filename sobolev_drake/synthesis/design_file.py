@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import os
 import zipfile
 from pathlib import Path
 
@@ -92,7 +93,7 @@ def _suffix(path):
     return path, path.suffix
 
 
-def save_result(result, path):
+def save_result(result: SynthesisResult, path: str | os.PathLike[str]) -> Path:
     """Write ``result`` to ``path`` (``.json`` or ``.npz``) atomically.
 
     Parameters
@@ -153,7 +154,7 @@ def save_result(result, path):
     return write_bytes_atomic(path, buffer.getvalue())
 
 
-def load_result(path):
+def load_result(path: str | os.PathLike[str]) -> SynthesisResult:
     """The :class:`SynthesisResult` saved in ``path`` by :func:`save_result`.
 
     Parameters

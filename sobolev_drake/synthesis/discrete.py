@@ -29,9 +29,11 @@ is not covered (that needs the lifted sampled-data norm).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import control as ct
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg
 
 from ..validation import positive_scalar
@@ -98,7 +100,8 @@ def _abcd(A, B, C, D):
     return A, B, C, as_matrix("D", D, (C.shape[0], B.shape[1]))
 
 
-def bilinear_to_continuous(A, B, C, D, dt):
+def bilinear_to_continuous(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+                           dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Norm-preserving bilinear map of a discrete system to continuous time (module docstring).
 
     Parameters
@@ -139,7 +142,8 @@ def bilinear_to_continuous(A, B, C, D, dt):
     return alpha * Ei @ (A - np.eye(A.shape[0])), r * Ei @ B, r * C @ Ei, D - C @ Ei @ B
 
 
-def bilinear_to_discrete(A, B, C, D, dt):
+def bilinear_to_discrete(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+                         dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Inverse of :func:`bilinear_to_continuous`.
 
     Parameters
@@ -169,7 +173,8 @@ def bilinear_to_discrete(A, B, C, D, dt):
     return (alpha * np.eye(A.shape[0]) + A) @ Fi, r * Fi @ B, r * C @ Fi, D + C @ Fi @ B
 
 
-def discrete_state_space(system, dt=None):
+def discrete_state_space(system: object, dt: float | None = None
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
     """(A, B, C, D, dt) of a discrete-time linear system.
 
     Parameters
@@ -213,7 +218,8 @@ def discrete_state_space(system, dt=None):
     return (*_abcd(A, B, C, D), positive_scalar("dt", dt))
 
 
-def sampled_data_plant(plant, dt, *, computation_delay=False):
+def sampled_data_plant(plant: GeneralizedPlant, dt: float, *, computation_delay: bool = False
+                       ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], int, int]:
     """Zero-order-hold discretization of a continuous generalized plant (module docstring).
 
     Parameters
@@ -273,7 +279,8 @@ def sampled_data_plant(plant, dt, *, computation_delay=False):
     return (A, B, C, D), ny, nu
 
 
-def discrete_hinf_norm(A, B, C, D, *, points=SWEEP_POINTS):
+def discrete_hinf_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *,
+                       points: int = SWEEP_POINTS) -> tuple[float, float]:
     """H∞ norm of a stable discrete system: (ab13dd estimate, unit-circle sweep peak).
 
     Parameters
@@ -305,7 +312,8 @@ def discrete_hinf_norm(A, B, C, D, *, points=SWEEP_POINTS):
     return float(gpeak), float(max(s.max(), peak(fine)[0].max()))
 
 
-def hinf_discrete(plant, nmeas, ncon, *, dt=None, computation_delay=False, **options):
+def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: float | None = None,
+                  computation_delay: bool = False, **options: Any) -> DiscreteSynthesisResult:
     """H∞ (or W∞) output-feedback controller of a discrete plant, certified in z.
 
     Parameters

@@ -25,11 +25,13 @@ from dataclasses import dataclass
 
 import control as ct
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import positive_scalar
 from .certificates import as_matrix
 from .interop import generalized_plant, is_linear_system, state_space_matrices
-from .problem import GeneralizedPlant
+from .discrete import DiscreteSynthesisResult
+from .problem import GeneralizedPlant, SynthesisResult
 
 __all__ = ["PoleSummary", "LoopMargins", "LoopAnalysis", "loop_analysis", "POLE_FACTOR"]
 
@@ -64,7 +66,7 @@ class PoleSummary:
     max_real: float
 
     @classmethod
-    def of(cls, A, dt=None):
+    def of(cls, A: ArrayLike, dt: float | None = None) -> PoleSummary:
         """Summary of the eigenvalues of ``A`` (empty: NaN extremes).
 
         Parameters
@@ -179,11 +181,11 @@ class LoopAnalysis:
     dt: float | None = None
 
     @property
-    def stable(self):
+    def stable(self) -> bool:
         """True when every closed-loop pole has a negative real part."""
         return bool(self.closed_loop.max_real < 0)
 
-    def table(self):
+    def table(self) -> str:
         """A short markdown table of poles and margins.
 
         Returns
@@ -375,8 +377,10 @@ def _responses(cl_sys, slow, fast):
     return t, step, imp
 
 
-def loop_analysis(result, plant, *, C=None, omega=None, bandwidth=None,
-                  pole_factor=POLE_FACTOR, gain_limit=None):
+def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: object, *,
+                  C: ArrayLike | None = None, omega: ArrayLike | None = None,
+                  bandwidth: float | None = None, pole_factor: float = POLE_FACTOR,
+                  gain_limit: float | None = None) -> LoopAnalysis:
     """Poles, margins, S/T/KS and performance-channel singular values of a designed loop.
 
     Parameters

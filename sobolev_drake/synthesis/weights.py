@@ -29,6 +29,7 @@ Limits, and what the tests measure (tests/synthesis/test_loop_analysis.py):
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import positive_scalar, real_vector
 
@@ -45,7 +46,8 @@ def _per_dof(name, value, n):
     return v
 
 
-def winf_weights(bandwidth, damping, *, dof=None, effort=1.0):
+def winf_weights(bandwidth: float | ArrayLike, damping: float | ArrayLike, *, dof: int | None = None,
+                 effort: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Γ0, Γ1 for a W∞ design whose degrees of freedom close at (bandwidth, damping).
 
     Parameters

@@ -22,8 +22,10 @@ go to scipy's BVLS).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import lapack as _lapack
 from scipy.optimize import lsq_linear
 
@@ -34,7 +36,8 @@ from sobolev_drake.native import kernel
 __all__ = ["bounded_least_squares", "box_qp_active_set", "bvls_with_regularization", "check_problem"]
 
 
-def check_problem(B, u, lo, hi):
+def check_problem(B: ArrayLike, u: ArrayLike, lo: ArrayLike, hi: ArrayLike
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     B, u = real_array("B", B), real_array("u", u)
     if B.ndim != 2 or B.shape[0] == 0 or B.shape[1] == 0:
         raise ValueError(f"B must be a non-empty 2-D matrix (n × m), got shape {B.shape}")
@@ -112,7 +115,8 @@ def _box_qp_pdas(H, g, l, h, low, up, max_iter=25):
     return None
 
 
-def box_qp_active_set(H, g, l, h, max_iter):
+def box_qp_active_set(H: np.ndarray, g: np.ndarray, l: np.ndarray, h: np.ndarray, max_iter: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
     """Primal active-set method for min ½sᵀHs − gᵀs, l ≤ s ≤ h, H ≻ 0 (Nocedal–Wright §16.5).
 
     Returns (s, at_lower, at_upper, iterations) or None if it did not converge (cycling).
@@ -183,8 +187,10 @@ def _box_qp_osqp(H, g, l, h):
     return _box_qp_pdas(H, g, l, h, low, up, max_iter=1)
 
 
-def bounded_least_squares(B, u, lo, hi, *, regularization: float = 1e-12, warm_start=None,
-                          method: str = "pdas", return_info: bool = False):
+def bounded_least_squares(B: ArrayLike, u: ArrayLike, lo: ArrayLike, hi: ArrayLike, *,
+                          regularization: float = 1e-12, warm_start: ArrayLike | None = None,
+                          method: str = "pdas", return_info: bool = False
+                          ) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
     """τ̄ = argmin ‖u − Bτ̄‖² s.t. lo ≤ τ̄ ≤ hi (thesis (7.84)–(7.86)).
 
     Parameters
@@ -474,7 +480,8 @@ def _polish(A, b, s, low, up, l, h):
     return s
 
 
-def bvls_with_regularization(A, b, l, h, eps):
+def bvls_with_regularization(A: np.ndarray, b: np.ndarray, l: ArrayLike, h: ArrayLike,
+                             eps: float) -> np.ndarray:
     if eps > 0:
         A = np.vstack([A, math.sqrt(eps) * np.eye(A.shape[1])])
         b = np.concatenate([b, np.zeros(A.shape[1])])

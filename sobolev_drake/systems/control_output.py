@@ -19,10 +19,11 @@ It also accepts Drake's controller port names (``estimated_state``, ``desired_st
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.math import max as _smax, min as _smin
 from pydrake.symbolic import Expression
-from pydrake.systems.framework import BasicVector_
+from pydrake.systems.framework import BasicVector_, InputPort, OutputPort
 
 from sobolev_drake.systems.scalar_time import template_signature
 from sobolev_drake.validation import positive_scalar
@@ -33,7 +34,7 @@ __all__ = ["ControlOutput", "SCALARS", "clip", "template_signature", "value_of",
 SCALARS = (AutoDiffXd, Expression)
 
 
-def vector_of(T, values):
+def vector_of(T: type, values: ArrayLike) -> np.ndarray:
     """``values`` as a vector of scalar type ``T`` (float array, or object array of ``T``).
 
     Parameters
@@ -53,7 +54,7 @@ def vector_of(T, values):
     return np.array([v if isinstance(v, T) else T(float(v)) for v in values], dtype=object)
 
 
-def value_of(vector, T):
+def value_of(vector: BasicVector_, T: type) -> np.ndarray:
     """The entries of a ``BasicVector_[T]``: a read-only view for float, a copy otherwise
     (pydrake cannot reference object arrays).
 
@@ -71,7 +72,7 @@ def value_of(vector, T):
     return vector.get_value() if T is float else vector.CopyToVector()
 
 
-def clip(u, bounds):
+def clip(u: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
     """``u`` clipped to ``bounds`` = (lo, hi) elementwise (None: unchanged), for any scalar type
     (Drake's ``min``/``max`` for AutoDiffXd and Expression).
 
@@ -174,19 +175,19 @@ class ControlOutput:
         target = self._drake_names.get(name)
         return target if target is not None and has(target) else name
 
-    def GetInputPort(self, port_name):  # noqa: N802  (Drake's name)
+    def GetInputPort(self, port_name: str) -> InputPort:  # noqa: N802  (Drake's name)
         return super().GetInputPort(self._drake_name(port_name, super().HasInputPort))
 
-    def GetOutputPort(self, port_name):  # noqa: N802
+    def GetOutputPort(self, port_name: str) -> OutputPort:  # noqa: N802
         return super().GetOutputPort(self._drake_name(port_name, super().HasOutputPort))
 
-    def HasInputPort(self, port_name):  # noqa: N802
+    def HasInputPort(self, port_name: str) -> bool:  # noqa: N802
         return super().HasInputPort(self._drake_name(port_name, super().HasInputPort))
 
-    def HasOutputPort(self, port_name):  # noqa: N802
+    def HasOutputPort(self, port_name: str) -> bool:  # noqa: N802
         return super().HasOutputPort(self._drake_name(port_name, super().HasOutputPort))
 
-    def get_input_port_estimated_state(self):
+    def get_input_port_estimated_state(self) -> InputPort:
         """The measured-signal input (Drake's ``estimated_state``: ``x``, or ``y``).
 
         Returns
@@ -195,7 +196,7 @@ class ControlOutput:
         """
         return self.GetInputPort("estimated_state")
 
-    def get_input_port_desired_state(self):
+    def get_input_port_desired_state(self) -> InputPort:
         """The reference input ``x_r`` (Drake's ``desired_state``; needs ``reference_port``).
 
         Returns
@@ -204,7 +205,7 @@ class ControlOutput:
         """
         return self.GetInputPort("desired_state")
 
-    def get_output_port_control(self):
+    def get_output_port_control(self) -> OutputPort:
         """The command output ``u`` (Drake's ``control``).
 
         Returns

@@ -14,14 +14,18 @@ Before the first update (at t = 0) the command is u_op.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.systems.primitives import AffineSystem
 
+from sobolev_drake.synthesis.discrete import DiscreteSynthesisResult
 from sobolev_drake.validation import real_matrix, real_vector
 
 __all__ = ["discrete_controller_system"]
 
 
-def discrete_controller_system(result, *, y_op=None, u_op=None, S=None):
+def discrete_controller_system(result: DiscreteSynthesisResult, *, y_op: ArrayLike | None = None,
+                               u_op: ArrayLike | None = None,
+                               S: ArrayLike | None = None) -> AffineSystem:
     """Drake ``AffineSystem`` (period ``result.dt``) running a discrete-time controller.
 
     Parameters

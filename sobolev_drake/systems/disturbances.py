@@ -25,13 +25,14 @@ from __future__ import annotations
 import contextlib
 import math
 from functools import lru_cache
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
 from pydrake.symbolic import Expression
-from pydrake.systems.framework import BasicVector_, LeafSystem_, ValueProducer
+from pydrake.systems.framework import BasicVector_, Context, LeafSystem_, ValueProducer
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.models.base import check_vector
@@ -52,7 +53,7 @@ def _pulse_number(k, key, value, what) -> float:
         raise TypeError(f"pulses[{k}][{key!r}] must be {what}, got {value!r}") from None
 
 
-def normalize_pulse(pulse, n: int, k: int = 0) -> dict:
+def normalize_pulse(pulse: dict[str, Any], n: int, k: int = 0) -> dict:
     """Check one pulse and return {index, value, from, to} (value float or callable)."""
     if not isinstance(pulse, dict):
         raise TypeError(f"pulses[{k}] must be a dict {{index, value, from, to}}, got {type(pulse).__name__}")
@@ -301,7 +302,7 @@ def CartesianForceAtBody_(T):   # the class for scalar type T (float, AutoDiffXd
 
         __signature__ = template_signature(_construct)
 
-        def jacobian(self, q, *, thesis: bool = True) -> np.ndarray:
+        def jacobian(self, q: ArrayLike, *, thesis: bool = True) -> np.ndarray:
             """6×n Jacobian [W_D; J_P] (angular rows first) at configuration q.
 
             Parameters
@@ -322,7 +323,8 @@ def CartesianForceAtBody_(T):   # the class for scalar type T (float, AutoDiffXd
                                                        self.p_BQ, world, world)
             return J @ self.model.T if thesis else J
 
-        def generalized_force(self, q, force, torque=None, *, thesis: bool = True) -> np.ndarray:
+        def generalized_force(self, q: ArrayLike, force: ArrayLike, torque: ArrayLike | None = None,
+                              *, thesis: bool = True) -> np.ndarray:
             """ϑ = J_Pᵀ f + W_Dᵀ τ for configuration q.
 
             Parameters
@@ -464,7 +466,7 @@ def HeldGaussianNoise_(T):   # the class for scalar type T (float, AutoDiffXd, E
         def _update(self, context, discrete_state):
             discrete_state.get_mutable_vector(0).SetFromVector([self._index(context.get_time())])
 
-        def set_seed(self, context, seed: int) -> None:
+        def set_seed(self, context: Context, seed: int) -> None:
             """Use ``seed`` in ``context`` (this system's), holding the sample of its time.
 
             Parameters

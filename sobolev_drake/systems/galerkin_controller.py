@@ -26,7 +26,10 @@ function that failed.  For a linear analysis of such a law use its gain at the o
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.symbolic import Expression, Variable
 from pydrake.systems.framework import LeafSystem_, SystemScalarConverter
 from pydrake.systems.scalar_conversion import TemplateSystem
@@ -37,7 +40,7 @@ from sobolev_drake.systems.control_output import (SCALARS, ControlOutput, templa
 __all__ = ["GalerkinController", "selection_matrix"]
 
 
-def selection_matrix(indices, size: int) -> np.ndarray:
+def selection_matrix(indices: Sequence[int], size: int) -> np.ndarray:
     """Rows of the identity: x_design = S x picks ``indices`` of a state of length ``size``.
 
     Parameters
@@ -166,7 +169,7 @@ def GalerkinController_(T):  # noqa: N802  (Drake's template naming)
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other._law, converter=converter, **other._kw)
 
-        def design_state(self, x) -> np.ndarray:
+        def design_state(self, x: ArrayLike) -> np.ndarray:
             """The design state S x + o of a plant state ``x``.
 
             Parameters

@@ -9,14 +9,15 @@ free weight, the σ-gain 1/ωu², is then searched (e.g. with
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.synthesis.mechanical import SobolevGains, hinf_mechanical_gains
-from sobolev_drake.systems.mechanical_law import HinfLaw
+from sobolev_drake.systems.mechanical_law import HinfLaw, MechanicalLaw
 
 __all__ = ["matched_hinf_law", "omega_u_guess"]
 
 
-def matched_hinf_law(surface, omega_u: float) -> HinfLaw:
+def matched_hinf_law(surface: tuple[float, float, float], omega_u: float) -> HinfLaw:
     """The H∞ inner law on ``surface`` = (ω1, ω2, ω3) with input weight ωu and γ = 2ωu.
 
     Parameters
@@ -34,7 +35,7 @@ def matched_hinf_law(surface, omega_u: float) -> HinfLaw:
     return HinfLaw(hinf_mechanical_gains(w1, w2, w3, omega_u, 2.0 * omega_u))
 
 
-def omega_u_guess(law, gains: SobolevGains, q0, qd0) -> float:
+def omega_u_guess(law: MechanicalLaw, gains: SobolevGains, q0: ArrayLike, qd0: ArrayLike) -> float:
     """First ωu of the search: 1/ωu² ≈ the W law's ė gain in force units.
 
     The mean over the controlled DOF of diag(M̄)·diag(Y3⁻¹Q), M̄ the reduced inertia (5.5) for a

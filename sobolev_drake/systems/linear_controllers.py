@@ -42,13 +42,17 @@ is one line.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg
-from pydrake.systems.framework import BasicVector_, LeafSystem_
+from pydrake.systems.framework import BasicVector_, Context, ContinuousState, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.systems.control_output import (ControlOutput, template_signature,
                                                   value_of, vector_of)
+from sobolev_drake.synthesis.problem import DynamicController, SynthesisResult
 from sobolev_drake.validation import bounds_pair, positive_scalar, real_matrix
 
 __all__ = ["LinearStateFeedback", "LinearDynamicOutputFeedback", "controller_system"]
@@ -142,7 +146,7 @@ def LinearStateFeedback_(T):  # noqa: N802  (Drake's template naming)
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.K, converter=converter, **other._kw)
 
-        def set_gains(self, context, K):
+        def set_gains(self, context: Context, K: ArrayLike) -> None:
             """Write K (shape nu x nx) into this system's parameter in ``context`` (its own
             context).
 
@@ -156,7 +160,7 @@ def LinearStateFeedback_(T):  # noqa: N802  (Drake's template naming)
             K = _mat("K", K, self.K.shape)
             context.get_mutable_numeric_parameter(self._K_index).SetFromVector(vector_of(T, K))
 
-        def gains(self, context):
+        def gains(self, context: Context) -> np.ndarray:
             """The gain matrix K currently held by ``context``.
 
             Parameters
@@ -306,7 +310,9 @@ def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
             Impl._construct(self, *other._args, converter=converter, **other._kw)
 
         @classmethod
-        def from_controller(cls, controller, **kw):
+        def from_controller(cls,
+                            controller: DynamicController | SynthesisResult | tuple[ArrayLike, ...],
+                            **kw: Any) -> LinearDynamicOutputFeedback:
             """From a synthesis ``DynamicController``, an output-feedback ``SynthesisResult`` or
             any (AK, BK, CK, DK) iterable.
 
@@ -334,7 +340,8 @@ def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
                 mats += (E[:nk, :nk], E[:nk, nk:])
             return np.concatenate([m.ravel() for m in mats])
 
-        def set_gains(self, context, controller):
+        def set_gains(self, context: Context,
+                      controller: DynamicController | tuple[ArrayLike | None, ...]) -> None:
             """Write ``controller`` = (AK, BK, CK, DK) (a ``DynamicController`` or any iterable;
             DK may be None for 0) into this system's parameter in ``context`` (its own context).
 
@@ -371,7 +378,7 @@ def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
                 k += a * b
             return out
 
-        def gains(self, context):
+        def gains(self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
             """(AK, BK, CK, DK) currently held by ``context``.
 
             Parameters
@@ -397,7 +404,8 @@ def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
                 y = self.S @ y
             return y - self.y_op
 
-        def DoCalcTimeDerivatives(self, context, derivatives):  # noqa: N802
+        def DoCalcTimeDerivatives(self, context: Context,  # noqa: N802
+                                  derivatives: ContinuousState) -> None:
             if self.period is None:
                 AK, BK, _, _ = self.gains(context)
                 derivatives.get_mutable_vector().SetFromVector(self._scalar_math(
@@ -422,8 +430,12 @@ def LinearDynamicOutputFeedback_(T):  # noqa: N802  (Drake's template naming)
 LinearDynamicOutputFeedback = LinearDynamicOutputFeedback_[None]
 
 
-def controller_system(result, *, x_op=None, u_op=None, y_op=None, S=None, u_min=None,
-                      u_max=None, period=None, computation_delay=False):
+def controller_system(result: SynthesisResult | DynamicController | ArrayLike, *,
+                      x_op: ArrayLike | None = None, u_op: ArrayLike | None = None,
+                      y_op: ArrayLike | None = None, S: ArrayLike | None = None,
+                      u_min: ArrayLike | None = None, u_max: ArrayLike | None = None,
+                      period: float | None = None, computation_delay: bool = False
+                      ) -> LinearStateFeedback | LinearDynamicOutputFeedback:
     """A ready-to-connect Drake system for a synthesized linear controller around an
     operating point.
 

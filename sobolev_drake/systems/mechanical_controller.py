@@ -69,8 +69,11 @@ from __future__ import annotations
 import inspect
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector_, LeafSystem_, ValueProducer
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import (BasicVector_, Context, ContinuousState, LeafSystem_,
+                                       ValueProducer)
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.models.base import MechanicalModel, check_vector
@@ -273,8 +276,11 @@ def MechanicalController_(T):
                             converter=converter)
 
         @classmethod
-        def from_plant(cls, plant, inner, *, context=None, lower=None, upper=None,
-                       period=None, computation_delay=False):
+        def from_plant(cls, plant: MultibodyPlant, inner: SobolevLaw | HinfLaw, *,
+                       context: Context | None = None, lower: ArrayLike | None = None,
+                       upper: ArrayLike | None = None,
+                       period: float | None = None,
+                       computation_delay: bool = False) -> MechanicalController:
             """The controller of a fully actuated MultibodyPlant, every DOF controlled: the
             one-line replacement of ``InverseDynamicsController(plant, kp, ki, kd, ...)``.
 
@@ -315,7 +321,7 @@ def MechanicalController_(T):
             except RuntimeError:
                 return self.GetMyMutableContextFromRoot(context)
 
-        def law_of(self, context) -> MechanicalLaw:
+        def law_of(self, context: Context) -> MechanicalLaw:
             """The law a context evaluates (the constructor's unless :meth:`set_inner` changed
             it there).
 
@@ -330,7 +336,7 @@ def MechanicalController_(T):
             """
             return self._my_context(context).get_abstract_parameter(self._law_index).get_value().law
 
-        def set_inner(self, inner, context=None) -> None:
+        def set_inner(self, inner: SobolevLaw | HinfLaw, context: Context | None = None) -> None:
             """Swap the inner law in one context (same model, partition, allocation and
             bounds), so one diagram serves a tuning sweep (Python LeafSystems are not
             garbage-collected in drake 1.51).
@@ -381,7 +387,7 @@ def MechanicalController_(T):
                 out = (u_star, law.allocate(u_star, q, qd), law.integral_derivative(q, ref))
             value.set_value(out)
 
-        def DoCalcTimeDerivatives(self, context, derivatives):
+        def DoCalcTimeDerivatives(self, context: Context, derivatives: ContinuousState) -> None:
             if self.period is not None:         # sampled: no continuous state
                 return
             derivatives.get_mutable_vector().SetFromVector(self._outputs.Eval(context)[2])

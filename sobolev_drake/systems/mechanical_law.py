@@ -17,6 +17,7 @@ import math
 from typing import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import lsq_linear
 
 from sobolev_drake.models.base import check_vector
@@ -114,7 +115,7 @@ class MechanicalLaw:
             self._check_group("regulated", law.regulated, self.nr)
             self._check_group("stabilized", law.stabilized, self.ns)
 
-    def with_inner(self, law) -> "MechanicalLaw":
+    def with_inner(self, law: SobolevLaw | HinfLaw) -> MechanicalLaw:
         """This law with another inner law: same model, partition, allocation, bounds and
         dynamics (whose per-state caches do not depend on the gains); sizes are checked.
 
@@ -140,7 +141,7 @@ class MechanicalLaw:
             raise ValueError(f"{name} gains are for {gains.n} DOF, partition has {size}")
 
     # --- errors ----------------------------------------------------------------------------
-    def split_reference(self, reference):
+    def split_reference(self, reference: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Split the stacked reference of the tracked DOF.
 
         Parameters
@@ -155,7 +156,7 @@ class MechanicalLaw:
         r = check_vector("reference", reference, 3 * self.n_ref)
         return r[:self.n_ref], r[self.n_ref:2 * self.n_ref], r[2 * self.n_ref:]
 
-    def integral_derivative(self, q, reference) -> np.ndarray:
+    def integral_derivative(self, q: ArrayLike, reference: ArrayLike) -> np.ndarray:
         """d/dt ∫q̃c = q_c − q_cr.
 
         Parameters
@@ -205,7 +206,7 @@ class MechanicalLaw:
                 scalar_vector("e_int", e_int, self.nc),
                 scalar_vector("reference", reference, 3 * self.n_ref))
 
-    def scalar_terms(self, scalar) -> ScalarTerms:
+    def scalar_terms(self, scalar: type) -> ScalarTerms:
         """The model's terms for a scalar type (made once per type and shared with the laws of
         :meth:`with_inner`), as the generic law uses them.
 
@@ -432,7 +433,7 @@ class MechanicalLaw:
             return red + extra[ic]
         return M @ acc + h - Cw + extra
 
-    def allocate(self, u_star, q, qdot) -> np.ndarray:
+    def allocate(self, u_star: ArrayLike, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds).
 
         With ``lower``/``upper`` the least-squares solution is returned when it is within

@@ -29,16 +29,22 @@ controller keeps the generic law.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.systems.inner_laws import SobolevLaw
 
+if TYPE_CHECKING:   # mechanical_law imports this module
+    from sobolev_drake.systems.mechanical_law import MechanicalLaw
+
 __all__ = ["FloatSample", "compiled_desired_acceleration"]
 
 
-def compiled_desired_acceleration(law):
+def compiled_desired_acceleration(law: MechanicalLaw
+                                  ) -> Callable[[list, list, list, list], list] | None:
     """``f(q, qdot, e_int, reference) -> list``: :meth:`MechanicalLaw.desired_acceleration_scalar`
     by the compiled kernel (``_rnea.desired_acceleration``, the same operations in the same
     order: equal to the bit on Python < 3.12, whose ``sum`` is not compensated, to rounding
@@ -154,7 +160,7 @@ class FloatSample:
             "damping": np.asarray(damping, float).tolist()})
 
     @classmethod
-    def of(cls, law):
+    def of(cls, law: MechanicalLaw) -> FloatSample | None:
         """The float path of ``law``, or None when it does not cover the law.
 
         Parameters

@@ -25,9 +25,12 @@ Any number of rotors works (``B(q)`` has one column per rotor); the model is a
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem, ValueProducer
+from pydrake.systems.framework import Context, ContinuousState, LeafSystem, ValueProducer
 
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.systems.mechanical_law import MechanicalLaw
@@ -81,7 +84,7 @@ class MultirotorLaw:
     def _allocate(self, u_star, q, qdot):
         return allocate(self.law.dynamics.input_matrix(q), u_star, self.lower, self.upper)
 
-    def attitude_reference(self, force, psi) -> np.ndarray:
+    def attitude_reference(self, force: ArrayLike, psi: float) -> np.ndarray:
         """[ϕ_d, θ_d] pointing the body z axis along ``force`` at yaw ``psi`` (tilt limited).
 
         Parameters
@@ -107,7 +110,7 @@ class MultirotorLaw:
         return np.array([np.arcsin(np.clip(-f[1], -1.0, 1.0)), np.arctan2(f[0], f[2])])
 
     @staticmethod
-    def full_reference(reference, attitude) -> np.ndarray:
+    def full_reference(reference: ArrayLike, attitude: ArrayLike) -> np.ndarray:
         """The MechanicalLaw reference of [ψ x y z ϕ θ] (values, rates, accelerations): the
         tracked reference and the attitude reference (zero rates).
 
@@ -128,7 +131,8 @@ class MultirotorLaw:
         out[0, 4:] = attitude
         return out.ravel()
 
-    def command(self, q, qdot, e_int, reference):
+    def command(self, q: ArrayLike, qdot: ArrayLike, e_int: ArrayLike,
+                reference: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(τ, u*, [ϕ_d θ_d]) at one state.
 
         Parameters
@@ -153,7 +157,7 @@ class MultirotorLaw:
         u_star = self.law.generalized_input(q, qdot, e_int, self.full_reference(reference, attitude))
         return self._allocate(u_star, q, qdot), u_star, attitude
 
-    def integral_derivative(self, q, reference) -> np.ndarray:
+    def integral_derivative(self, q: ArrayLike, reference: ArrayLike) -> np.ndarray:
         """d/dt ∫e = [ψ x y z] − their references.
 
         Parameters
@@ -220,7 +224,7 @@ class MultirotorController(LeafSystem):
         e = context.get_continuous_state_vector().CopyToVector()
         value.set_value(self.law.command(x[:6], x[6:], e, self.get_input_port(1).Eval(context)))
 
-    def DoCalcTimeDerivatives(self, context, derivatives):
+    def DoCalcTimeDerivatives(self, context: Context, derivatives: ContinuousState) -> None:
         x = self.get_input_port(0).Eval(context)
         r = self.get_input_port(1).Eval(context)
         derivatives.get_mutable_vector().SetFromVector(self.law.integral_derivative(x[:6], r))
@@ -230,7 +234,7 @@ class MultirotorController(LeafSystem):
                             "allocation and tilt limit are not differentiable; linearize the plant "
                             "at hover (rigs.multirotor.linearize_hover) instead")
 
-    def ToAutoDiffXd(self):
+    def ToAutoDiffXd(self) -> NoReturn:
         """Refused (see the class docstring).
 
         Raises
@@ -240,7 +244,7 @@ class MultirotorController(LeafSystem):
         """
         raise self._refuse("AutoDiffXd")
 
-    def ToSymbolic(self):
+    def ToSymbolic(self) -> NoReturn:
         """Refused (see the class docstring).
 
         Raises

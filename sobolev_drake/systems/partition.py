@@ -18,10 +18,13 @@ matrix is called rank-deficient only when it is so to rounding.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.validation import index_tuple
 
 __all__ = ["Partition", "check_actuation"]
@@ -121,7 +124,9 @@ def _rank(M) -> int:
     return int(np.linalg.matrix_rank(M)) if M.size else 0
 
 
-def check_actuation(model, partition: Partition, B_of_q, operating_points) -> None:
+def check_actuation(model: MechanicalModel, partition: Partition,
+                    B_of_q: Callable[[np.ndarray], ArrayLike],
+                    operating_points: Sequence[ArrayLike]) -> None:
     """Raise ``ValueError`` if ``partition`` asks the inputs for what they cannot do.
 
     Parameters

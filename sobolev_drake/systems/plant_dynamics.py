@@ -10,7 +10,10 @@ pass (the compiled kernel when available, else Drake's CalcInverseDynamics).
 
 from __future__ import annotations
 
+from types import ModuleType
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.native.rnea import cached_tree_kernel
@@ -43,7 +46,7 @@ class PlantDynamics:
         self.permutation = self.permutation_maps(getattr(model, "T", None)) if self.fast else None
         self._cache = {}
 
-    def mass_and_bias(self, q, qdot):
+    def mass_and_bias(self, q: ArrayLike, qdot: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(M(q), h = C q̇ + g + friction) at one state.
 
         One context update when the model uses the base class' Drake evaluations (the common
@@ -67,7 +70,7 @@ class PlantDynamics:
         self._cache["dyn_key"], self._cache["dyn"] = key, out
         return out
 
-    def inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
+    def inverse_dynamics(self, q: ArrayLike, qdot: ArrayLike, acc: ArrayLike) -> np.ndarray:
         """M(q) acc + C(q, q̇) q̇ + g(q) (+ friction): the generalized force for a desired
         acceleration (full-state form of (5.26)); M, h cached per (q, q̇).
 
@@ -86,7 +89,7 @@ class PlantDynamics:
         M, h = self.mass_and_bias(q, qdot)
         return M @ acc + h
 
-    def recursive_inverse_dynamics(self, q, qdot, acc) -> np.ndarray:
+    def recursive_inverse_dynamics(self, q: ArrayLike, qdot: ArrayLike, acc: ArrayLike) -> np.ndarray:
         """:meth:`inverse_dynamics` by a recursive Newton–Euler pass (gravity through the
         plant's force elements, no mass matrix): equal to rounding, much cheaper when only the
         force is needed once per state (the tilt-rotor law's u* per sample).  Models without the
@@ -117,7 +120,7 @@ class PlantDynamics:
         tau = np.array(compiled[0].inverse_dynamics(compiled[1], q, qdot, acc))   # thesis order
         return tau if self.model.frictionless else tau + self.model.friction(qdot)
 
-    def compiled_inverse_dynamics(self):
+    def compiled_inverse_dynamics(self) -> tuple[ModuleType, object] | None:
         """(kernel module, capsule) of the compiled Newton–Euler pass in thesis order, or None
         (kernel not built or switched off, a plant it does not cover, no permutation map).
 
@@ -132,7 +135,7 @@ class PlantDynamics:
             return None
         return cached_tree_kernel(self._cache, self.model, self.permutation[0][:self.n])
 
-    def recursive_inverse_dynamics_drake(self, q, qdot, acc) -> np.ndarray:
+    def recursive_inverse_dynamics_drake(self, q: ArrayLike, qdot: ArrayLike, acc: ArrayLike) -> np.ndarray:
         """:meth:`recursive_inverse_dynamics` by Drake's CalcInverseDynamics (the kernel's
         reference; ``benchmarks/speed_tiers.py``: ≈ 2× faster than :meth:`inverse_dynamics`).
 
@@ -164,7 +167,7 @@ class PlantDynamics:
         tau = plant.CalcInverseDynamics(ctx, np.asarray(acc, float)[to_drake[:self.n]], forces)
         return tau[to_thesis] if m.frictionless else tau[to_thesis] + m.friction(qdot)
 
-    def input_matrix(self, q):
+    def input_matrix(self, q: ArrayLike) -> np.ndarray:
         """B(q) of the model, cached for the last q.
 
         Parameters
@@ -182,7 +185,8 @@ class PlantDynamics:
         return self._cache["B"]
 
     @staticmethod
-    def permutation_maps(T):
+    def permutation_maps(T: ArrayLike | None
+                         ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]] | None:
         """Index maps of a coordinate permutation, or None when ``T`` is not one.
 
         Parameters

@@ -8,6 +8,8 @@ thesis tables are partly garbled in the PDF text, the reconstructions are stated
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const, poly, sine
@@ -211,7 +213,7 @@ TRAJECTORIES = {
 }
 
 
-def trajectory(name: str, **kwargs) -> PiecewiseTrajectory:
+def trajectory(name: str, **kwargs: Any) -> PiecewiseTrajectory:
     """Pure-numpy catalogue entry by name (no LeafSystem is created)."""
     if name not in TRAJECTORIES:
         raise KeyError(f"unknown reference {name!r}; known: {sorted(TRAJECTORIES)}")
@@ -260,7 +262,7 @@ for _f, _src in ((table_5_2, _t52), (table_5_8, _t58), (table_6_3, _t63),
     _f.__doc__ = _src.__doc__
 
 
-def tiltrotor_mission_reference(scenario):
+def tiltrotor_mission_reference(scenario: int) -> TrajectoryReference:
     """TrajectoryReference of [x y z ψ] for the tilt-rotor missions.
 
     Parameters

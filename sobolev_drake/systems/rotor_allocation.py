@@ -16,7 +16,10 @@ number of rotors (:func:`allocate`), with optional rotor-speed inversion Ω = �
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 from scipy.optimize import lsq_linear
@@ -75,7 +78,8 @@ class RotorAllocation:
         return np.clip(tau, self.lo, self.hi) if self._kind == "clip" else tau
 
 
-def allocate(B, u, lo, hi, weights=None) -> np.ndarray:
+def allocate(B: ArrayLike, u: ArrayLike, lo: ArrayLike, hi: ArrayLike,
+             weights: ArrayLike | None = None) -> np.ndarray:
     """argmin ‖W (u − Bτ)‖ s.t. lo ≤ τ ≤ hi for any number of rotors: the library's bounded
     least squares when the box is finite, scipy's BVLS when a bound is infinite.
 
@@ -201,7 +205,7 @@ class ForceAllocation(LeafSystem):
                             "is piecewise in u*; put MatrixGain(np.linalg.pinv(B)) in its place "
                             "instead to linearize")
 
-    def ToAutoDiffXd(self):
+    def ToAutoDiffXd(self) -> NoReturn:
         """Refused (see the class docstring).
 
         Raises
@@ -211,7 +215,7 @@ class ForceAllocation(LeafSystem):
         """
         raise self._refusal("AutoDiffXd")
 
-    def ToSymbolic(self):
+    def ToSymbolic(self) -> NoReturn:
         """Refused (see the class docstring).
 
         Raises

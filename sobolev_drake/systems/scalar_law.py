@@ -23,10 +23,16 @@ Where the law is not differentiable it says so instead of returning a wrong deri
 
 from __future__ import annotations
 
-import numpy as np
+from typing import TYPE_CHECKING
 
-from sobolev_drake.models.scalar_terms import inverse, pseudo_inverse, solve
+import numpy as np
+from numpy.typing import ArrayLike
+
+from sobolev_drake.models.scalar_terms import ScalarTerms, inverse, pseudo_inverse, solve
 from sobolev_drake.systems.inner_laws import SobolevLaw
+
+if TYPE_CHECKING:   # mechanical_law imports this module
+    from sobolev_drake.systems.mechanical_law import MechanicalLaw
 
 __all__ = ["integral_derivative", "desired_acceleration", "generalized_input", "allocate"]
 
@@ -40,7 +46,7 @@ def _split(law, reference):
     return reference[:m], reference[m:2 * m], reference[2 * m:]
 
 
-def integral_derivative(law, q, reference) -> np.ndarray:
+def integral_derivative(law: MechanicalLaw, q: ArrayLike, reference: ArrayLike) -> np.ndarray:
     """d/dt ∫q̃c = q_c − q_cr (``MechanicalLaw.integral_derivative`` for any scalar type).
 
     Parameters
@@ -59,7 +65,8 @@ def integral_derivative(law, q, reference) -> np.ndarray:
     return q[law.ic] - reference[:law.nc]
 
 
-def desired_acceleration(law, q, qdot, e_int, reference) -> np.ndarray:
+def desired_acceleration(law: MechanicalLaw, q: ArrayLike, qdot: ArrayLike, e_int: ArrayLike,
+                         reference: ArrayLike) -> np.ndarray:
     """q̈_des of the Sobolev law (``MechanicalLaw.desired_acceleration``; uncontrolled entries
     are zero here, not NaN: NaN has no Expression form and the reduced model ignores them).
 
@@ -99,7 +106,8 @@ def _reduction(law, M):
     return X, M[np.ix_(ic, ic)] - X @ M[np.ix_(iu, ic)]
 
 
-def generalized_input(law, terms, q, qdot, e_int, reference) -> np.ndarray:
+def generalized_input(law: MechanicalLaw, terms: ScalarTerms, q: ArrayLike, qdot: ArrayLike,
+                      e_int: ArrayLike, reference: ArrayLike) -> np.ndarray:
     """u* of :meth:`MechanicalLaw.generalized_input` (Sobolev and H∞ laws, every partition
     mode) for the scalar type of ``terms``.
 
@@ -169,7 +177,8 @@ def _values(tau):
     return np.array(out, dtype=float)
 
 
-def allocate(law, terms, u_star, q, qdot) -> np.ndarray:
+def allocate(law: MechanicalLaw, terms: ScalarTerms, u_star: ArrayLike, q: ArrayLike,
+             qdot: ArrayLike) -> np.ndarray:
     """τ from u* (:meth:`MechanicalLaw.allocate`) for the scalar type of ``terms``.
 
     B⁻¹, B̄⁻¹ or B†; with actuator bounds the unconstrained τ is returned where it is strictly

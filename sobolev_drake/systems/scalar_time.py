@@ -16,17 +16,22 @@ from __future__ import annotations
 import inspect
 import math
 from bisect import bisect_left
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, if_then_else, logical_and
 
+#: a scalar of any of Drake's types
+_Scalar = float | AutoDiffXd | Expression
+
 __all__ = ["scalar_value", "is_symbolic", "interval_indicator", "piece_index", "piecewise",
            "smooth_window", "probe_scalar_type", "template_signature"]
 
 
-def is_symbolic(x) -> bool:
+def is_symbolic(x: _Scalar) -> bool:
     """True if ``x`` is a ``symbolic.Expression`` (or a Variable's expression).
 
     Parameters
@@ -41,7 +46,7 @@ def is_symbolic(x) -> bool:
     return isinstance(x, Expression)
 
 
-def scalar_value(x, name: str = "time") -> float:
+def scalar_value(x: _Scalar, name: str = "time") -> float:
     """The float value of a scalar of any Drake type (an AutoDiffXd's value, a constant
     Expression evaluated).
 
@@ -71,7 +76,8 @@ def scalar_value(x, name: str = "time") -> float:
     return float(x)
 
 
-def interval_indicator(t, lo: float, hi: float, closed=(True, True)):
+def interval_indicator(t: _Scalar, lo: float, hi: float,
+                       closed: tuple[bool, bool] = (True, True)) -> float | Expression:
     """1 if ``t`` lies between ``lo`` and ``hi``, else 0, for t of any scalar type.
 
     Parameters
@@ -104,7 +110,7 @@ def interval_indicator(t, lo: float, hi: float, closed=(True, True)):
     return 1.0 if (above and below) else 0.0
 
 
-def piece_index(t_value: float, breakpoints) -> int:
+def piece_index(t_value: float, breakpoints: Sequence[float]) -> int:
     """Index k of the piece containing ``t_value``: piece k covers (b_{k−1}, b_k].
 
     Parameters
@@ -121,7 +127,7 @@ def piece_index(t_value: float, breakpoints) -> int:
     return bisect_left(breakpoints, t_value)
 
 
-def piecewise(t, breakpoints, values):
+def piecewise(t: _Scalar, breakpoints: Sequence[float], values: Sequence[Any]) -> Any:
     """``values[k]`` on (b_{k−1}, b_k] (the last for t beyond the last breakpoint).
 
     Parameters
@@ -155,7 +161,7 @@ def piecewise(t, breakpoints, values):
     return result[()] if result.ndim == 0 else result
 
 
-def smooth_window(t, t0: float, t1: float, rise: float):
+def smooth_window(t: _Scalar, t0: float, t1: float, rise: float) -> _Scalar:
     """1 on [t0, t1], else 0; with rise > 0, half-cosine ramps of length ``rise`` centred on t0
     and t1 (the window's integral stays t1 − t0), for t of any scalar type.
 
@@ -195,7 +201,8 @@ def _expression(x) -> Expression:
     return x if isinstance(x, Expression) else Expression(float(x))
 
 
-def probe_scalar_type(T, system: str, what: str, fn, t: float, advice: str):
+def probe_scalar_type(T: type, system: str, what: str, fn: Callable[[Any], Any], t: float,
+                      advice: str) -> None:
     """Call ``fn(T(t))`` and turn a failure into a clear refusal to convert ``system`` to T.
 
     A scalar-convertible system holding user callables calls this when it is converted, so a
@@ -229,7 +236,7 @@ def probe_scalar_type(T, system: str, what: str, fn, t: float, advice: str):
                         f"{T.__name__} time ({type(exc).__name__}: {exc}); {advice}") from exc
 
 
-def template_signature(construct) -> inspect.Signature:
+def template_signature(construct: Callable[..., Any]) -> inspect.Signature:
     """The user-facing signature of a ``TemplateSystem`` class (its ``_construct`` without
     ``self`` and ``converter``), for ``help`` and ``inspect.signature``.
 
