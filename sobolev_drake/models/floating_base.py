@@ -14,7 +14,11 @@ M_d v̇ + C_d v = τ_g + τ and v̇ = J q̈ + J̇ q̇ (J̇ q̇ = [R Ẇ η̇; 0]
 B_d's columns being the generalized force of each input at unit command: one per Drake
 ``PropellerInfo`` (thrust ``thrust_ratio`` along the propeller's z axis, reaction torque
 ``moment_ratio`` about it, at ``X_BP`` on its body — exactly what Drake's ``Propeller`` system
-applies), then the plant's joint actuators.  C q̇ is quadratic in q̇, so ``C_times``'s
+applies), then the plant's joint actuators.  ``reaction_torque="body_z"`` keeps only the
+component of each reaction torque along the z axis of the propeller's body,
+moment_ratio (n · ẑ_B) ẑ_B for propeller axis n — the thesis' B₀ of (5.123), whose drag
+torques are d cos α along body z for rotors tilted by α; a Drake ``Propeller`` cannot apply
+that torque, so the plant must then be driven another way (e.g. the quadrotor's adapter).  C q̇ is quadratic in q̇, so ``C_times``'s
 polarization holds.  The chart is singular at θ = ±90°: every evaluation refuses |θ| ≥
 ``max_pitch`` by name (:func:`~sobolev_drake.models.euler_chart.check_pitch`).
 """
@@ -34,10 +38,13 @@ from sobolev_drake.models.euler_chart import (DEFAULT_MAX_PITCH, check_pitch, eu
 from sobolev_drake.models.euler_zyx import euler_rate_matrix, euler_rate_matrix_dot
 from sobolev_drake.models.plant_checks import check_context, check_plant
 
-__all__ = ["FLOATING_JOINTS", "FloatingBaseModel", "floating_joint"]
+__all__ = ["FLOATING_JOINTS", "REACTION_TORQUES", "FloatingBaseModel", "floating_joint"]
 
 #: Drake joint types a floating base may use
 FLOATING_JOINTS = ("quaternion_floating", "rpy_floating")
+#: readings of a propeller's reaction torque in B(q): along its axis (Drake's ``Propeller``)
+#: or its component along the body z axis only ((5.123))
+REACTION_TORQUES = ("axial", "body_z")
 EULER_NAMES = ("phi", "theta", "psi", "x", "y", "z")
 
 
@@ -89,10 +96,15 @@ class FloatingBaseModel(MechanicalModel):
         actuators); ``input_lower``/``input_upper``.
     max_pitch : float, optional
         |θ| refused from here on (default :data:`~.euler_chart.DEFAULT_MAX_PITCH`, 80°).
+    reaction_torque : {"axial", "body_z"}, default "axial"
+        Each propeller's reaction torque in B(q): ``"axial"`` moment_ratio along its axis n
+        (what Drake's ``Propeller`` applies); ``"body_z"`` only its component along the z axis
+        ẑ_B of the propeller's body, moment_ratio (n · ẑ_B) ẑ_B — the thesis' B₀ of (5.123)
+        (drag torque d cos α along body z for a rotor tilted by α).
     """
 
     def __init__(self, plant, *, propellers=None, context=None, name=None, command_lower=None,
-                 command_upper=None, max_pitch=DEFAULT_MAX_PITCH):
+                 command_upper=None, max_pitch=DEFAULT_MAX_PITCH, reaction_torque="axial"):
         check_plant(plant)
         joint = floating_joint(plant)
         if joint is None:
@@ -103,6 +115,10 @@ class FloatingBaseModel(MechanicalModel):
         self.max_pitch = float(max_pitch)
         if not 0.0 < self.max_pitch < 0.5 * np.pi:
             raise ValueError(f"max_pitch must be in (0, π/2) rad, got {max_pitch}")
+        if reaction_torque not in REACTION_TORQUES:
+            raise ValueError(f"reaction_torque must be one of {REACTION_TORQUES}, got "
+                             f"{reaction_torque!r}")
+        self.reaction_torque = reaction_torque
         self.context = plant.CreateDefaultContext()
         self._last = {}
         if context is not None:
@@ -310,7 +326,9 @@ class FloatingBaseModel(MechanicalModel):
         return -J.T @ self.plant.CalcGravityGeneralizedForces(self.context)
 
     def B(self, q: ArrayLike) -> np.ndarray:
-        """B(q) = Jᵀ [propeller wrenches at unit command, joint actuation] (n × num_inputs).
+        """B(q) = Jᵀ [propeller wrenches at unit command, joint actuation] (n × num_inputs);
+        with ``reaction_torque="body_z"`` a propeller's reaction torque is its body-z
+        component only ((5.123)).
 
         Parameters
         ----------
@@ -326,11 +344,14 @@ class FloatingBaseModel(MechanicalModel):
         cols = []
         for info in self.propellers:
             body = plant.get_body(info.body_index)
-            X_WP = body.EvalPoseInWorld(ctx).multiply(info.X_BP)
+            X_WB = body.EvalPoseInWorld(ctx)
             Jv = plant.CalcJacobianSpatialVelocity(ctx, JacobianWrtVariable.kV, body.body_frame(),
                                                    info.X_BP.translation(), world, world)
-            axis = X_WP.rotation().col(2)
-            cols.append(Jv.T @ np.concatenate([info.moment_ratio * axis, info.thrust_ratio * axis]))
+            axis = X_WB.multiply(info.X_BP).rotation().col(2)
+            moment = info.moment_ratio * axis
+            if self.reaction_torque == "body_z":     # (5.123): (n · ẑ_B) ẑ_B, n · ẑ_B = R_BP[2, 2]
+                moment = info.moment_ratio * info.X_BP.rotation().matrix()[2, 2] * X_WB.rotation().col(2)
+            cols.append(Jv.T @ np.concatenate([moment, info.thrust_ratio * axis]))
         B_d = np.column_stack(cols + [self._B_actuators]) if cols else self._B_actuators
         return J.T @ B_d
 
