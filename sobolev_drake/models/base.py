@@ -289,7 +289,7 @@ class MechanicalModel:
     @classmethod
     def from_plant(cls, plant: MultibodyPlant, *, context: Context | None = None,
                    name: str | None = None, propellers: Sequence[PropellerInfo] | None = None,
-                   **floating: ArrayLike | None) -> MechanicalModel:
+                   **floating: ArrayLike | str | None) -> MechanicalModel:
         """A model of any finalized ``MultibodyPlant`` (continuous or discrete).
 
         Without a floating base: a :class:`PlantModel` in Drake's coordinates (q_thesis =
@@ -318,7 +318,8 @@ class MechanicalModel:
             The propellers of the Drake ``Propeller`` system driving a floating base, in its
             command order (they become the first columns of B(q)).
         **floating
-            ``command_lower``, ``command_upper``, ``max_pitch`` of ``FloatingBaseModel``.
+            ``command_lower``, ``command_upper``, ``max_pitch``, ``reaction_torque`` of
+            ``FloatingBaseModel``.
 
         Returns
         -------
