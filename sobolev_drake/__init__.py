@@ -42,7 +42,8 @@ from sobolev_drake.systems import (FloatingBaseState, HinfLaw, LinearDynamicOutp
                                    LinearStateFeedback, MechanicalController, MechanicalLaw,
                                    MultirotorController, Partition,
                                    PiecewiseTrajectory, SobolevLaw, TimeProfiledForce,
-                                   TrajectoryReference, const, controller_system, poly, sine)
+                                   TrajectoryReference, const, controller_system, poly, sine,
+                                   smooth_junctions)
 
 __all__ = [
     "__version__", "norms", "plots", "recording_html", "viz",
@@ -55,7 +56,8 @@ __all__ = [
     "MultirotorController",
     "controlled_gains", "regulated_gains", "stabilized_gains", "hinf_mechanical_gains",
     # references, disturbances, simulation
-    "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "TimeProfiledForce",
+    "TrajectoryReference", "PiecewiseTrajectory", "sine", "poly", "const", "smooth_junctions",
+    "TimeProfiledForce",
     "simulate", "SimulationTimeout", "SimulationDiverged", "SimulationStalled",
     # linear synthesis
     "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",

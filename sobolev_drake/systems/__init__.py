@@ -13,6 +13,7 @@ from sobolev_drake.systems.mechanical_controller import (HinfLaw, MechanicalCont
                                                          MechanicalLaw, SobolevLaw)
 from sobolev_drake.systems.multirotor_control import MultirotorController
 from sobolev_drake.systems.partition import Partition, check_actuation
+from sobolev_drake.systems.reference_smoothing import smooth_junctions
 from sobolev_drake.systems.references import (Coordinate, PiecewiseTrajectory, TrajectoryReference,
                                               const, poly, sine)
 
@@ -22,4 +23,5 @@ __all__ = [
     "HinfLaw", "MechanicalController", "MechanicalLaw", "SobolevLaw",
     "Partition", "check_actuation", "FloatingBaseState", "MultirotorController",
     "Coordinate", "PiecewiseTrajectory", "TrajectoryReference", "const", "poly", "sine",
+    "smooth_junctions",
 ]

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from sobolev_drake.systems.reference_smoothing import smooth_junctions
 from sobolev_drake.systems.references import PiecewiseTrajectory, TrajectoryReference, const, poly, sine
 
 __all__ = [
@@ -262,26 +263,43 @@ for _f, _src in ((table_5_2, _t52), (table_5_8, _t58), (table_6_3, _t63),
     _f.__doc__ = _src.__doc__
 
 
-def tiltrotor_mission_reference(scenario: int) -> TrajectoryReference:
+def tiltrotor_mission_reference(scenario: int,
+                                smooth_reference: float | None = None) -> TrajectoryReference:
     """TrajectoryReference of [x y z ψ] for the tilt-rotor missions.
 
     Parameters
     ----------
     scenario : {1, 2}
         1: Table 7.1 (ψ_r = 0 added when the table has no ψ); 2: the envelope mission.
+    smooth_reference : float, optional
+        Given, the half-window h (s) of a C² blend at every phase junction
+        (:func:`~sobolev_drake.systems.reference_smoothing.smooth_junctions`); default: the
+        pieces as tabulated (steps in velocity/acceleration at the junctions).
 
     Returns
     -------
     TrajectoryReference
+
+    Raises
+    ------
+    TypeError, ValueError
+        If ``smooth_reference`` is not a positive number below half the shortest phase.
     """
+    def wrap(t):
+        if smooth_reference is None:
+            return TrajectoryReference(t)
+        try:
+            return TrajectoryReference(smooth_junctions(t, smooth_reference))
+        except (TypeError, ValueError) as e:   # name the caller's argument, keep the detail
+            raise type(e)(f"smooth_reference: {e}") from e
+
     base = table_7_1() if scenario == 1 else envelope_mission()
     traj = base.trajectory
     names = ["x", "y", "z", "psi"]
     if all(n in traj.names for n in names):
-        return TrajectoryReference(traj.subset(names))
+        return wrap(traj.subset(names))
     if scenario == 1 and all(n in traj.names for n in names[:3]):  # ψ_r = 0 in scenario 1
         sub = traj.subset(names[:3])
         pieces = [list(p) + [const(0.0)] for p in sub.pieces]
-        return TrajectoryReference(PiecewiseTrajectory(names, pieces, sub.breakpoints,
-                                                       sub.description))
+        return wrap(PiecewiseTrajectory(names, pieces, sub.breakpoints, sub.description))
     raise KeyError(f"reference for scenario {scenario} lacks coordinates {names}: {traj.names}")

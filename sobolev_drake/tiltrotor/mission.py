@@ -145,7 +145,7 @@ def _plant_port(handles, name):
 
 def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None,
                   plant_params=None, wind_gusts=None, force_disturbances=None, design="thesis",
-                  constant_wind=None):
+                  constant_wind=None, smooth_reference=None):
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Parameters
@@ -172,6 +172,12 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
         The law's weighting (:data:`~sobolev_drake.tiltrotor.law.DESIGNS`).
     constant_wind : array_like, shape (3,), optional
         Constant (measured) wind, inertial m/s, replacing the mission file's.
+    smooth_reference : float, optional
+        Given, the half-window h (s) of a C² smootherstep blend of the reference at every
+        phase junction (:func:`~sobolev_drake.systems.reference_smoothing.smooth_junctions`;
+        h below half the shortest phase).  Default None: the tabulated reference, with its
+        velocity/acceleration steps, for both designs (the thesis row and the scheduled
+        design's published numbers are flown without smoothing).
 
     Returns
     -------
@@ -195,7 +201,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
     law = make_law(model, tc.thesis_inner_law(), schedule=schedule, design=design)
     ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=period))
     ctrl.set_name("w_inf_controller")
-    ref = builder.AddSystem(mission_reference(scenario))
+    ref = builder.AddSystem(mission_reference(scenario, smooth_reference))
     ref.set_name("mission_reference")
     # wind: measured constant part (Assumption 19) + unmeasured gusts (footnote 8); C++
     # primitives so the plant's every-stage wind evaluation stays cheap.
@@ -235,7 +241,7 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
 def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
                      integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None,
                      plant_params=None, wind_gusts=None, force_disturbances=None,
-                     design="thesis", constant_wind=None):
+                     design="thesis", constant_wind=None, smooth_reference=None):
     """Build, initialise (q(0) = q̇(0) = 0) and simulate a mission.
 
     The integrator's maximum step is the controller period (the sampled controller's events
@@ -269,6 +275,8 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
         The law's weighting (:func:`build_mission`).
     constant_wind : array_like, shape (3,), optional
         Constant measured wind replacing the mission file's (:func:`build_mission`).
+    smooth_reference : float, optional
+        Half-window (s) of the junction smoothing of the reference (:func:`build_mission`).
 
     Returns
     -------
@@ -288,7 +296,7 @@ def simulate_mission(scenario, duration, *, schedule="plant", record=False, prog
     built = build_mission(scenario, duration, schedule=schedule, meshcat=meshcat, period=period,
                           params=params, plant_params=plant_params, wind_gusts=wind_gusts,
                           force_disturbances=force_disturbances, design=design,
-                          constant_wind=constant_wind)
+                          constant_wind=constant_wind, smooth_reference=smooth_reference)
     diagram = built["diagram"]
     sim = Simulator(diagram)
     ctx = sim.get_mutable_context()
