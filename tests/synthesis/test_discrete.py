@@ -147,15 +147,15 @@ def test_discrete_controller_system_refuses_a_continuous_result_and_checks_shape
 
 def test_sampled_double_integrator_is_designed_even_where_the_riccati_path_gives_up():
     # the bilinear image of a sampled double integrator has D11 ~ dt² ≠ 0, on which the
-    # default Riccati bisection gives up at once; the synthesis answers by the LMI path (the
-    # default chain falls back itself; hinf_discrete retries only if it does not), says so,
-    # and the certificate is the discrete one (continuous design: γ = 1.286; sampling adds
-    # a little)
+    # default Riccati bisection gives up at once; the synthesis answers by the LMI path and
+    # says so (the default chain falls back itself and lists it in ``attempts``; hinf_discrete
+    # retries, with a note, only if it does not); the certificate is the discrete one
+    # (continuous design: γ = 1.286; sampling adds a little)
     P = sd.GeneralizedPlant.make([[0, 1], [0, 0]], B1=[[0, 0], [1, 0]], B2=[[0], [1]],
                                  C1=[[1, 0], [0, 0]], D12=[[0], [1]], C2=[[1, 0]],
                                  D21=[[0, 0.1]])
     res = sd.hinf_discrete(sampled_data_plant(P, 0.01), None, None, dt=0.01)
-    said = tuple(res.notes) + tuple(res.continuous.warnings)
+    said = tuple(res.notes) + tuple(res.continuous.attempts)
     assert any("LMI" in line for line in said), said
     assert res.spectral_radius < 1 and res.norm_ab13dd <= res.gamma
     assert 1.28 < res.norm_ab13dd < 1.35
