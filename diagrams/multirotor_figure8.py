@@ -2,8 +2,8 @@
 ===================================================================
 
 Your own drone: a quadrotor described the way drone packages describe one — one free body
-(Drake gives it a quaternion floating joint) and four Drake ``Propeller``s — flies a figure-8 at
-2 m/s through a wind gust and a 2 N × 0.5 s push, with the nonlinear W2/W∞ position law and
+(Drake gives it a quaternion floating joint) and four Drake ``Propeller`` systems — flies a
+figure-8 at 2 m/s through a wind gust and a 2 N × 0.5 s push, with the nonlinear W2/W∞ position law and
 bounded rotor allocation, beside Drake's LQR designed around hover on the same vehicle; then
 the same code flies a hexarotor.  The W2/W∞ flights are recorded to standalone HTML.
 
