@@ -31,13 +31,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 import scipy.linalg
 
 from ..validation import positive_scalar
 from .certificates import as_matrix
+from ..optional import python_control
 from .interop import hinfsyn
 from .problem import DynamicController, GeneralizedPlant, SynthesisResult
 from .riccati import RiccatiInfeasible
@@ -359,6 +359,7 @@ def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: flo
     >>> bool(res.norm_ab13dd <= res.gamma and abs(res.norm_ab13dd - res.norm_sweep) < 1e-4)
     True
     """
+    ct = python_control("hinf_discrete")
     if isinstance(plant, tuple) and len(plant) == 3 and isinstance(plant[0], tuple):
         plant, ny, nu = plant          # from sampled_data_plant
         nmeas = ny if nmeas is None else nmeas

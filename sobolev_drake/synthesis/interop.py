@@ -6,15 +6,14 @@ Accepted wherever the synthesis takes a plant model:
   ``FirstOrderTaylorApproximation``): its A, B, C, D (continuous time only; an affine
   system's offsets f0, y0 are the operating point, which the controller system takes as
   ``x_op``/``u_op``, see ``systems.linear_controllers.controller_system``);
-* python-control ``StateSpace`` (continuous, ``dt == 0``) and scipy ``signal.StateSpace``;
-* a tuple ``(A, B, C, D)`` of matrices.
+* python-control ``StateSpace`` (continuous, ``dt == 0``), scipy ``signal.StateSpace``, or a
+  tuple ``(A, B, C, D)`` of matrices.
 
 python-control's partition convention for a generalized plant P: inputs [w; u] with the last
 ``ncon`` inputs the controls, outputs [z; y] with the last ``nmeas`` outputs the measurements.
 
-Sign convention, the same everywhere in sobolev_drake: u = +K x for state feedback and
-u = C_K x_K + D_K y for dynamic output feedback (positive feedback, as python-control's
-``hinfsyn`` controller; Drake's ``LinearQuadraticRegulator`` returns K for u = −K x).
+Sign convention, the same everywhere: u = +K x (state feedback), u = C_K x_K + D_K y (output
+feedback; positive, as python-control's ``hinfsyn``; Drake's LQR returns K for u = −K x).
 """
 
 from __future__ import annotations
@@ -29,6 +28,7 @@ from .hinf_common import NORM_BRACKET
 from .lmi import SynthesisError
 from .problem import DynamicController, GeneralizedPlant, SynthesisResult, SynthesisWarning
 from .output_feedback import output_feedback
+from ..optional import python_control
 from ..validation import describe
 
 __all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_statespace",
@@ -274,7 +274,7 @@ def _norm_estimates(label, Acl, Bcl, Ccl, Dcl, out):
     The own Hamiltonian iteration on the realization as given and on its real Schur form (an
     orthogonal similarity: the same norm in exact arithmetic, another rounding), and SLICOT
     ab13dd through python-control when slycot is installed."""
-    import control
+    control = python_control("hinfsyn")
     import scipy.linalg as sla
     ev = np.linalg.eigvals(Acl) if Acl.size else np.zeros(0)
     mre = float(ev.real.max()) if ev.size else -np.inf
@@ -339,7 +339,7 @@ def to_statespace(result_or_controller):
     >>> sd.to_statespace([[-1.0, -2.0]]).D     # a state-feedback gain: a static system
     array([[-1., -2.]])
     """
-    import control   # optional dependency (pip install 'sobolev_drake[control]')
+    control = python_control("to_statespace")
     obj = result_or_controller
     if isinstance(obj, SynthesisResult):
         obj = obj.K if obj.kind == "state_feedback" else obj.controller
@@ -492,7 +492,7 @@ def hinfsyn(P, nmeas, ncon, **options):
     >>> round(gamma, 3), K.nstates, bool(all(CL.poles().real < 0))
     (1.14, 2, True)
     """
-    import control   # optional dependency, for the StateSpace objects returned
+    control = python_control("hinfsyn")
     _required_count("nmeas", nmeas)
     _required_count("ncon", ncon)
     plant, D22 = generalized_plant(P, nmeas, ncon)

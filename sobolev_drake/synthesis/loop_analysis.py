@@ -23,12 +23,12 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
-import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..validation import positive_scalar
 from .certificates import as_matrix
+from ..optional import python_control
 from .interop import generalized_plant, is_linear_system, state_space_matrices
 from .discrete import DiscreteSynthesisResult
 from .problem import GeneralizedPlant, SynthesisResult
@@ -247,6 +247,7 @@ def _loop_pieces(result, plant, C):
 
 
 def _controller_ss(result, ny, nu, dt):
+    ct = python_control("loop_analysis")
     if getattr(result, "K", None) is not None:
         K = as_matrix("result.K", result.K, (nu, ny))
         return ct.ss(np.zeros((0, 0)), np.zeros((0, ny)), np.zeros((nu, 0)), K, dt), K
@@ -280,6 +281,7 @@ def _disk_from_alpha(alpha):
 
 def _margins(where, L, omega):
     """Loop-at-a-time and multivariable margins of the negative-feedback loop L (m x m)."""
+    ct = python_control("loop_analysis")
     m = L.ninputs
     eye = ct.ss(np.zeros((0, 0)), np.zeros((0, m)), np.zeros((m, 0)), np.eye(m), L.dt)
     S = eye.feedback(L)
@@ -365,6 +367,7 @@ def _grid(poles, omega, dt):
 
 def _responses(cl_sys, slow, fast):
     """Step and impulse responses on [0, t_final], t_final from the slowest decay rate."""
+    ct = python_control("loop_analysis")
     t_final = min(8.0 / max(slow, 1e-6), 2000.0 * 2 * np.pi / max(fast, 1e-6), 1e4)
     dt = cl_sys.dt if cl_sys.isdtime(strict=True) else 0
     t = dt * np.arange(min(int(np.ceil(t_final / dt)), 2000) + 1) if dt else \
@@ -434,6 +437,7 @@ def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: obje
     >>> bool(an.input_margins.disk[0] > 1), an.hinf_norm <= res.gamma, an.warnings
     (True, True, ())
     """
+    ct = python_control("loop_analysis")
     pole_factor = positive_scalar("pole_factor", pole_factor)
     if gain_limit is not None:
         gain_limit = positive_scalar("gain_limit", gain_limit)
