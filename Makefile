@@ -49,14 +49,14 @@ docs: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -q -b html docs build/docs
 	@echo "documentation site: build/docs/index.html"
 
-# $(OUT)/REPRODUCTION.md and the repository's ./REPRODUCTION.md (links relative to each); a
+# $(OUT)/REPRODUCTION.md and the repository's docs/experiments/REPRODUCTION.md (links relative to each); a
 # REPRODUCTION.md that sobolev-drake did not write is never replaced
 reproduce: $(STAMP)
-	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT) --copy-to REPRODUCTION.md
+	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake reproduce --out $(OUT) --copy-to docs/experiments/REPRODUCTION.md
 
 # the same two files rebuilt from $(OUT)/*/result.json and $(OUT)/campaigns/ without rerunning
 report: $(STAMP)
-	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake report --out $(OUT) --copy-to REPRODUCTION.md
+	MPLBACKEND=Agg $(VENV)/bin/sobolev-drake report --out $(OUT) --copy-to docs/experiments/REPRODUCTION.md
 
 # the sdist and the wheel built, the wheel installed (constraints.txt versions) into a clean venv
 # outside the repository and run from elsewhere, with and without a C compiler (.ci/wheel-check)

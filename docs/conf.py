@@ -35,7 +35,9 @@ autodoc_typehints = "none"          # the numpydoc sections carry the types
 html_theme = "alabaster"
 html_static_path = []
 exclude_patterns = ["_build", "api/_intersphinx", "gallery/*.ipynb", "gallery/*.py",
-                    "gallery/*.zip", "gallery/*.json", "tutorial/*.ipynb", "**/.ipynb_checkpoints"]
+                    "gallery/*.zip", "gallery/*.json", "tutorial/*.ipynb", "**/.ipynb_checkpoints",
+                    # the last full run, links into out/ (not part of the site)
+                    "experiments/REPRODUCTION.md"]
 nitpicky = False
 # a module that fails to import is an error (autodoc's import_object warning, -W), never hidden
 

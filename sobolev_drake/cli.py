@@ -70,7 +70,7 @@ def _copy_file(text: str) -> str:
 
 
 _COPY_HELP = ("also write the report to FILE, its links relative to FILE's folder (`make "
-              "reproduce` passes REPRODUCTION.md); a FILE sobolev-drake did not write is never "
+              "reproduce` passes docs/experiments/REPRODUCTION.md); a FILE sobolev-drake did not write is never "
               "replaced")
 
 

@@ -18,7 +18,7 @@ PACKAGE = ROOT / "sobolev_drake"
 TEXT_SUFFIXES = {".py", ".c", ".h", ".md", ".urdf", ".toml", ".txt", ".cfg", ".sh"}
 #: places outside the package whose references to the design are checked as well
 OTHER_SOURCES = ("tests", "diagrams", "benchmarks", "urdf", "README.md", "Makefile",
-                 "REPRODUCTION.md")
+                 "docs/experiments/REPRODUCTION.md")
 
 REFERENCE = re.compile(r"docs/design\.md\s+§(\d+(?:\.\d+)*)")
 OLD_NOTES = re.compile(r"DESIGN(?:\.md| ?§| section)")
