@@ -3,6 +3,7 @@
 Modules, from the plant up to the controller:
 
 params        TiltrotorParams (Table B.1) and the rigid-body kinematics of section 7.2
+urdf          the URDF written from TiltrotorParams (section 7.2)
 plant         URDF, MultibodyPlant and TiltrotorModel (section 7.2), add_tiltrotor
 propeller     the propeller's Ct(J, φ), Cq(J, φ), advance ratio and inflow (7.25)–(7.30)
 propulsion    propellers and servomotors, (7.19)–(7.33)
