@@ -3,8 +3,8 @@
 * :func:`tiltrotor_urdf` (from :mod:`sobolev_drake.tiltrotor.urdf`, re-exported here) writes
   the URDF from :class:`TiltrotorParams`: main body C1 attached to the world by the x, y, z,
   yaw, pitch, roll joint chain of docs/design.md §3 (so q̇ = v), and two thruster groups on
-  revolute servo joints at A2/A3.  The joint frame is rotated by Rx(∓β) and the axis written in it is Rx(∓β)ᵀ e_y, so the child frame is
-  exactly A2 = Ry(αR) Rx(−β) (resp. A3 = Ry(αL) Rx(β)) and the tilt axis is B's y axis.
+  revolute servo joints at A2/A3.  The joint frame is rotated by Rx(∓β) and the axis written
+  in it is Rx(∓β)ᵀ e_y, so the child frame is exactly A2 = Ry(αR) Rx(−β) (resp. A3 = Ry(αL) Rx(β)) and the tilt axis is B's y axis.
 * :class:`TiltrotorModel` — MechanicalModel in thesis order q = [αR αL φ θ ψ x y z].
 * :func:`add_tiltrotor` — plant + SceneGraph + force system in a DiagramBuilder.
 """
