@@ -63,7 +63,7 @@ def scenario_1_phases(duration: float = 200.0) -> list[tuple[str, float, float, 
     return _clip_phases(bounds, duration)
 
 
-def scenario_2_phases(duration: float = 250.0) -> list[tuple[str, float, float, str]]:
+def scenario_2_phases(duration: float = 250.0) -> list[tuple[str, float, float, str | None]]:
     """Phases of the full-envelope mission (durations from the mission data file).
 
     Parameters
