@@ -3,9 +3,12 @@
 Modules, from the plant up to the controller:
 
 params        TiltrotorParams (Table B.1) and the rigid-body kinematics of section 7.2
+urdf          the URDF written from TiltrotorParams (section 7.2)
 plant         URDF, MultibodyPlant and TiltrotorModel (section 7.2), add_tiltrotor
 propeller     the propeller's Ct(J, φ), Cq(J, φ), advance ratio and inflow (7.25)–(7.30)
+body_frame    body kinematics and body-wrench map of the scalar force tier
 propulsion    propellers and servomotors, (7.19)–(7.33)
+aero_tables   the wind-tunnel tables of Appendix B, per surface
 aerodynamics  fuselage, wings, V-tail and interference loads, (7.34)–(7.56)
 input_affine  the input-affine form (7.62) of the generalized forces
 trim          hover and level-flight trims (7.3.1)

@@ -58,88 +58,20 @@ from __future__ import annotations
 
 import math
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from sobolev_drake.data import load
+from sobolev_drake.tiltrotor.aero_tables import AeroTables
 from sobolev_drake.tiltrotor.generic_forces import aero_loads_generic
-from sobolev_drake.tiltrotor.params import SURFACES, R_W, TiltrotorParams, cross_rows
-from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.params import R_W, TiltrotorParams, cross_rows
+from sobolev_drake.tiltrotor.body_frame import BodyKinematics, body_kinematics_scalar, body_wrench_scalar
 from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
 
 __all__ = ["AeroTables", "AeroModel", "AerodynamicSurfaces", "AerodynamicSurfaces_"]
-
-_COMPONENT = {"F": "fuselage", "WR": "wing", "WL": "wing", "TR": "tail", "TL": "tail", "I": "interference"}
-
-
-class AeroTables:
-    """The 24 wind-tunnel tables stacked per surface for vectorized interpolation.
-
-    ``alpha_tab[k] = [lift, drag_alpha, pitch_moment]`` and ``beta_tab[k] = [side_force,
-    drag_beta, yaw_moment]`` of surface ``SURFACES[k]``, sampled at −90° … 90° every 0.5°.
-
-    Parameters
-    ----------
-    data : dict, optional
-        Contents of ``data/tiltrotor_aero_tables.json`` (read when omitted).
-    """
-
-    def __init__(self, data: dict | None = None):
-        data = load("tiltrotor_aero_tables") if data is None else data
-        self.start = np.deg2rad(float(data["angle_deg_start"]))
-        self.step = np.deg2rad(float(data["angle_deg_step"]))
-        self.samples = int(data["samples"])
-        t = data["tables"]
-        self.alpha_tab = np.array([[t[_COMPONENT[s]][k] for k in ("lift_alpha", "drag_alpha", "pitch_moment_alpha")]
-                                   for s in SURFACES])
-        self.beta_tab = np.array([[t[_COMPONENT[s]][k] for k in ("side_force_beta", "drag_beta", "yaw_moment_beta")]
-                                  for s in SURFACES])
-        if self.alpha_tab.shape != (6, 3, self.samples):
-            raise ValueError("aerodynamic tables must all have 'samples' entries")
-        self._rows = np.arange(6)
-
-    def lookup(self, tab, angle):
-        """Interpolate a stacked table at one angle per surface (linear, clamped to ±90°).
-
-        Parameters
-        ----------
-        tab : ndarray, shape (6, 3, N)
-            ``alpha_tab`` or ``beta_tab``.
-        angle : ndarray, shape (6,)
-            Table argument per surface (rad, NED convention).
-
-        Returns
-        -------
-        ndarray, shape (6, 3)
-            The three coefficients of each surface.
-        """
-        x = (np.clip(angle, self.start, -self.start) - self.start) / self.step
-        i = np.minimum(x.astype(int), self.samples - 2)
-        fr = (x - i)[:, None]
-        return tab[self._rows, :, i] * (1.0 - fr) + tab[self._rows, :, i + 1] * fr
-
-    def coefficients(self, name: str, alpha_ned=None, beta_ned=None):
-        """Scalar look-up for tests and reports, e.g. ``coefficients("wing", alpha_ned=0.1)``.
-
-        Parameters
-        ----------
-        name : str
-            Component: ``"fuselage"``, ``"wing"``, ``"tail"`` or ``"interference"``.
-        alpha_ned, beta_ned : float, optional
-            Table arguments α_NED and β_NED (rad); 0 when omitted.
-
-        Returns
-        -------
-        dict
-            ``lift``, ``drag_alpha``, ``pitch_moment`` (at α_NED) and ``side_force``,
-            ``drag_beta``, ``yaw_moment`` (at β_NED).
-        """
-        k = [_COMPONENT[s] for s in SURFACES].index(name)
-        a = self.lookup(self.alpha_tab, np.full(6, 0.0 if alpha_ned is None else alpha_ned))[k]
-        b = self.lookup(self.beta_tab, np.full(6, 0.0 if beta_ned is None else beta_ned))[k]
-        return {"lift": a[0], "drag_alpha": a[1], "pitch_moment": a[2],
-                "side_force": b[0], "drag_beta": b[1], "yaw_moment": b[2]}
 
 
 class AeroModel:
@@ -162,7 +94,8 @@ class AeroModel:
         The wind-tunnel tables (the package data by default).
     """
 
-    def __init__(self, params: TiltrotorParams | None = None, tables: AeroTables | None = None):
+    def __init__(self, params: TiltrotorParams | None = None,
+                 tables: AeroTables | None = None) -> None:
         self.params = TiltrotorParams() if params is None else params
         self.tables = AeroTables() if tables is None else tables
         p = self.params
@@ -195,7 +128,9 @@ class AeroModel:
         idx = self._base + i
         return tab[idx] * (1.0 - fr) + tab[idx + 1] * fr
 
-    def surface_air_data(self, q, qdot, zeta):
+    def surface_air_data(self, q: ArrayLike, qdot: np.ndarray, zeta: ArrayLike
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                    NDArray[np.float64]]:
         """Air-relative velocity, air speed and flow angles of every surface (7.37)–(7.40).
 
         Parameters
@@ -225,7 +160,9 @@ class AeroModel:
         beta = np.arcsin(np.clip(v[:, 1] / np.where(V > 1e-12, V, 1.0), -1.0, 1.0))
         return v, V, alpha, beta
 
-    def surface_loads(self, q, qdot, zeta):
+    def surface_loads(self, q: ArrayLike, qdot: np.ndarray, zeta: ArrayLike) -> tuple[
+            NDArray[np.float64], NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]],
+            NDArray[np.float64], NDArray[np.float64]]:
         """Passive loads per surface (B.1)–(B.11) with δ = 0.
 
         Parameters
@@ -272,7 +209,8 @@ class AeroModel:
         M = np.stack([zero, -ksa * p.chord * ca[:, 2], -ks * p.span * cb[:, 2]], axis=1)
         return F, M, (ks, ksa), yw, zw
 
-    def terms(self, q, qdot, zeta):
+    def terms(self, q: ArrayLike, qdot: np.ndarray,
+              zeta: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Numpy reference of the aerodynamic generalized force, affine in the deflections:
         ϑ_aero = ϑ_passive + B_δ δ, δ = [δWR, δWL, δTR, δTL] ((B.12)–(B.15), Appendix C).
 
@@ -310,7 +248,8 @@ class AeroModel:
             Bd[rows] = np.column_stack([cols[:, 0], cols[:, 1], cols[:, 2] + cols[:, 3], cols[:, 4] + cols[:, 5]])
         return passive, Bd
 
-    def generalized_force(self, q, qdot, zeta, delta):
+    def generalized_force(self, q: ArrayLike, qdot: ArrayLike, zeta: ArrayLike,
+                          delta: ArrayLike) -> NDArray[np.float64]:
         """ϑ_F + ϑ_W + ϑ_T + ϑ_I (thesis order) by the scalar tier: ``passive + B_delta δ`` of
         :meth:`terms` to rounding (tested).
 
@@ -336,7 +275,8 @@ class AeroModel:
         kin = body_kinematics_scalar(q, qdot, zeta)
         return np.array(self.loads_scalar(kin, delta)[0])
 
-    def loads_scalar(self, kin, delta, columns=False):
+    def loads_scalar(self, kin: BodyKinematics, delta: Sequence[float], columns: bool = False
+                     ) -> tuple[list[float], list[float], list[tuple[float, ...]] | None]:
         """Scalar tier of the aerodynamic generalized force (thesis order): :meth:`terms` and
         :meth:`surface_air_data` in Python floats, kept because ``benchmarks/speed_tiers.py``
         measures it ≈ 7× faster than them; the compiled kernel mirrors it.

@@ -20,8 +20,11 @@ deficiency handling described there) and is re-exported here.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
@@ -31,6 +34,11 @@ from sobolev_drake.native import kernel
 from sobolev_drake.systems.bounded_ls import check_problem, bounded_least_squares
 from sobolev_drake.tiltrotor.scalars import DoubleOnly
 from sobolev_drake.validation import bounds_pair, one_of, real_scalar
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import Context
+
+    from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
 
 __all__ = [
     "sigmf", "tiltrotor_bounds", "ControlAllocator", "UnreachableThrustError", "rotor_inflow",
@@ -42,7 +50,7 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 
 
-def sigmf(v, s: float = 2.0, c: float = 12.0):
+def sigmf(v: ArrayLike, s: float = 2.0, c: float = 12.0) -> NDArray[np.float64]:
     """Sigmoid 1 / (1 + exp(−s(v − c))) (7.89), overflow-safe, vectorized.
 
     Parameters
@@ -75,7 +83,7 @@ def _thesis_limits() -> dict:
     return _THESIS_LIMITS
 
 
-def thesis_bounds_constants():
+def thesis_bounds_constants() -> tuple[float, float, float, float, float, float, float, float]:
     """(s, c, f_lo, f_hi, t_lo, t_hi, δ_lo, δ_hi) of the thesis limits, parsed once.
 
     Returns
@@ -92,7 +100,8 @@ def thesis_bounds_constants():
     return _THESIS_LIMITS["_parsed"]
 
 
-def tiltrotor_bounds(v_air, *, limits: dict | None = None):
+def tiltrotor_bounds(v_air: ArrayLike, *, limits: dict | None = None
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi) of τ̄ = [fPR fPL τsR τsL δWR δWL δTR δTL] (7.85)–(7.89).
 
     ``v_air`` : relative airspeed magnitude V_air (m/s), a scalar used for all four surfaces or
@@ -215,8 +224,10 @@ class ControlAllocator(DoubleOnly, LeafSystem):
         Solver of :func:`bounded_least_squares`.
     """
 
-    def __init__(self, n: int = 8, m: int = 8, bounds=tiltrotor_bounds, *, airspeed_size: int = 1,
-                 regularization: float = 1e-12, method: str = "pdas"):
+    def __init__(self, n: int = 8, m: int = 8,
+                 bounds: Callable[[np.ndarray], tuple[ArrayLike, ArrayLike]] | str
+                 | tuple[ArrayLike, ArrayLike] = tiltrotor_bounds, *, airspeed_size: int = 1,
+                 regularization: float = 1e-12, method: str = "pdas") -> None:
         super().__init__()
         one_of("method", method, ("pdas", "osqp"))
         real_scalar("regularization", regularization, low=0.0)
@@ -256,7 +267,7 @@ class ControlAllocator(DoubleOnly, LeafSystem):
         "MatrixGain(np.linalg.pinv(B)) (equal while no bound is active) or the plant's actuator "
         "inputs instead")
 
-    def bounds(self, context):
+    def bounds(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) used in ``context``.
 
         Parameters
@@ -312,7 +323,7 @@ def _thrust(coef, n, v_xz, phi):
     return coef.rho * d ** 4 * n ** 2 * coef.ct(J, phi)
 
 
-def rotor_inflow(v_rel_rotor_frame):
+def rotor_inflow(v_rel_rotor_frame: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(V_xz, φ) of (7.90) from the rotor-frame air-relative velocity (..., 3) = (u, v, w).
 
     Same conventions as ``PropellerCoefficients.advance_ratio_and_inflow``: V_xz = ‖(u, w)‖,
@@ -337,8 +348,10 @@ def rotor_inflow(v_rel_rotor_frame):
     return np.hypot(v[..., 0], v[..., 2]), np.abs(np.clip(np.arctan2(v[..., 0], v[..., 2]), -np.pi / 2, np.pi / 2))
 
 
-def propeller_speed_for_thrust(thrust, v_xz=0.0, phi=0.0, *, coefficients=None, n_max: float | None = None,
-                               on_unreachable: str = "raise", grid: int = 16, tol: float = 1e-10):
+def propeller_speed_for_thrust(thrust: ArrayLike, v_xz: ArrayLike = 0.0, phi: ArrayLike = 0.0, *,
+                               coefficients: PropellerCoefficients | None = None,
+                               n_max: float | None = None, on_unreachable: str = "raise",
+                               grid: int = 16, tol: float = 1e-10) -> NDArray[np.float64]:
     """Propeller speed n ≥ 0 (rev/s) with f = ρ d⁴ n² Ct(J, φ), J = V_xz/(n d) (7.90).
 
     ``thrust``, ``v_xz`` (air-relative speed in the rotor's x–z plane, m/s) and ``phi``

@@ -12,11 +12,21 @@ AutoDiffXd and Expression (``m`` supplies ``sin`` and ``cos``).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from types import ModuleType
 
-__all__ = ["body_kinematics_scalar", "body_wrench_scalar"]
+from sobolev_drake.tiltrotor.scalars import Scalar, ScalarMath
+
+__all__ = ["BodyKinematics", "body_kinematics_scalar", "body_wrench_scalar"]
+
+#: what :func:`body_kinematics_scalar` returns: ((sin ϕ, cos ϕ, sin θ, cos θ), R row-major,
+#: body angular velocity, body air velocity), scalars of one Drake type
+BodyKinematics = tuple[tuple[Scalar, Scalar, Scalar, Scalar], tuple[Scalar, ...],
+                       tuple[Scalar, Scalar, Scalar], tuple[Scalar, Scalar, Scalar]]
 
 
-def body_kinematics_scalar(q, qdot, zeta, m=math):
+def body_kinematics_scalar(q: Sequence[Scalar], qdot: Sequence[Scalar], zeta: Sequence[Scalar],
+                           m: ModuleType | ScalarMath = math) -> BodyKinematics:
     """Body-frame kinematics of the scalar force tier (module docstring), thesis order q.
 
     Shared by the propeller and aerodynamic force paths.  Branch-free, so the same code serves
@@ -56,7 +66,8 @@ def body_kinematics_scalar(q, qdot, zeta, m=math):
             (wx, wy, wz), (vbx, vby, vbz))
 
 
-def body_wrench_scalar(kin, force, torque):
+def body_wrench_scalar(kin: BodyKinematics, force: Sequence[Scalar],
+                       torque: Sequence[Scalar]) -> tuple[Scalar, ...]:
     """Rows 2..7 (φ θ ψ x y z) of the generalized force of a body-axes force and torque on the
     main body: [Wηᵀ T, R F] (scalar form of ``tiltrotor.params.body_generalized_force``).
 

@@ -24,9 +24,18 @@ from __future__ import annotations
 import functools
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from sobolev_drake.campaign.case import Case
+    from sobolev_drake.systems.wind import VonKarmanParameters
+    from sobolev_drake.tiltrotor.linear_design import HoverDesign
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
 
 __all__ = ["HOVER_INDICES", "HOVER_PARAMETERS", "HOVER_RANDOMIZES", "HOVER_SMOKE_DURATION",
            "ENVELOPE_INDICES", "ENVELOPE_PARAMETERS", "ENVELOPE_RANDOMIZES",
@@ -73,7 +82,7 @@ ENVELOPE_RANDOMIZES = (f"each wind gust and force pulse of the mission: amplitud
                        f"horizontal wind: speed U{WIND_SPEED} m/s, direction U(0°, 360°)")
 
 
-def plant_params(case):
+def plant_params(case: Case) -> TiltrotorParams | None:
     """The simulated truth of ``case``: Table B.1 with its drawn mass and inertia factors.
 
     Parameters
@@ -111,7 +120,7 @@ def _hover_setup():
 _FLOWN_KEYS = ("kind", "K", "AK", "BK", "CK", "DK", "C", "order", "gamma")
 
 
-def hover_design_spec(label):
+def hover_design_spec(label: str) -> HoverDesign:
     """What defines Table 7.2 design ``label`` (its :class:`~.linear_design.HoverDesign`); the
     campaign pins its fingerprint with the design.
 
@@ -128,7 +137,7 @@ def hover_design_spec(label):
     return DESIGN_SPECS[label]
 
 
-def check_hover_design(label, ctrl):
+def check_hover_design(label: str, ctrl: dict[str, Any]) -> None:
     """Raise ``ValueError`` unless ``ctrl`` is a controller :func:`hover_design` can return: a
     dict with ``kind`` "sf" and a finite 4 × 20 ``K``, or ``kind`` "dyn" with finite ``AK``
     (k × k), ``BK`` (k × p), ``CK`` (4 × k), ``DK`` (4 × p) and ``C`` (p × 20).
@@ -164,7 +173,7 @@ def check_hover_design(label, ctrl):
         raise ValueError(f"design {label!r}: shapes {wrong}, expected {expected}")
 
 
-def hover_design(label):
+def hover_design(label: str) -> dict[str, Any]:
     """A Table 7.2 design, synthesized as the experiment's default run does (transient
     regularization, default backends): seconds to minutes.
 
@@ -203,7 +212,7 @@ def hover_design(label):
     return {k: full[k] for k in _FLOWN_KEYS if k in full}
 
 
-def hover_turbulence(case):
+def hover_turbulence(case: Case) -> tuple[int, VonKarmanParameters]:
     """Seed and parameters of the turbulence a hover case flies in (seed and draws only).
 
     Parameters
@@ -230,7 +239,7 @@ def hover_turbulence(case):
     return seed, p
 
 
-def hover_linear_case(case, ctrl) -> dict:
+def hover_linear_case(case: Case, ctrl: dict[str, Any]) -> dict[str, Any]:
     """Fly one Table 7.2 design of ``case`` on the (perturbed) nonlinear plant in its
     turbulence; success is the experiment's "tracks the path" claim (finite, not stopped,
     |φ|, |θ| < 60°).
@@ -264,7 +273,7 @@ def hover_linear_case(case, ctrl) -> dict:
             "peaks": {"lateral wind [m/s]": idx["max_lateral_wind_m_s"]}}
 
 
-def envelope_disturbances(case):
+def envelope_disturbances(case: Case) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Wind gusts and force pulses of an envelope case, drawn around the mission file's.
 
     Each pulse (gusts first, then forces, in file order) draws its amplitude factor and then
@@ -297,7 +306,7 @@ def envelope_disturbances(case):
     return out[0], out[1]
 
 
-def envelope_wind(case):
+def envelope_wind(case: Case) -> NDArray[np.float64]:
     """Constant horizontal wind of an envelope case (its "wind" stream): speed uniform in
     :data:`WIND_SPEED`, direction uniform; measured by the controller (Assumption 19).
 
@@ -316,7 +325,7 @@ def envelope_wind(case):
     return np.array([speed * np.cos(heading), speed * np.sin(heading), 0.0])
 
 
-def envelope_case(case) -> dict:
+def envelope_case(case: Case) -> dict[str, Any]:
     """Fly the full-envelope mission of ``case`` (nonlinear W∞ law of its design) on the (perturbed) plant
     under its drawn disturbances and score it as the experiment does.
 
@@ -365,7 +374,8 @@ def envelope_case(case) -> dict:
     return {"indices": dict(zip(ENVELOPE_INDICES, values)), "success": flown, "failure": failure}
 
 
-def envelope_percentiles(records, design, q=0.95, *, confidence=0.95, seed=0):
+def envelope_percentiles(records: Sequence[dict[str, Any]], design: str, q: float = 0.95, *,
+                         confidence: float = 0.95, seed: int = 0) -> dict[str, dict[str, Any]]:
     """Per index, the ``q`` quantile of ``design``'s successful cases with a bootstrap interval
     (``campaign.stats.bootstrap_interval``): the tail the envelope goals are stated on.
 

@@ -38,9 +38,11 @@ the allocation and the propeller data.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
@@ -52,8 +54,11 @@ from sobolev_drake.tiltrotor.scalars import DoubleOnly
 __all__ = [
     "N_Q", "THESIS_WEIGHTS", "PARTITION", "thesis_inner_law", "tilt_schedule_polynomial",
     "forward_air_speed", "regulated_reference", "tracked_reference", "saturation_flags",
-    "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController", "checked_vector",
+    "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController", "checked_vector", "TiltSchedule",
 ]
+
+#: a tilt reference schedule ``U -> (α, dα/dU, d²α/dU²)`` (forward air speed U in m/s, α in rad)
+TiltSchedule = Callable[[float], tuple[float, float, float]]
 
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
@@ -81,7 +86,7 @@ PARTITION = Partition(controlled=tuple(CONTROLLED), regulated=tuple(REGULATED),
                       stabilized=tuple(STABILIZED))
 
 
-def thesis_inner_law(weights=None) -> SobolevLaw:
+def thesis_inner_law(weights: dict[str, ArrayLike] | None = None) -> SobolevLaw:
     """:class:`SobolevLaw` of the thesis tuning (gains from ``synthesis.mechanical`` CAREs).
 
     Parameters
@@ -100,7 +105,8 @@ def thesis_inner_law(weights=None) -> SobolevLaw:
                       stabilized=stabilized_gains(W["Upsilon0"], W["Upsilon1"]))
 
 
-def tilt_schedule_polynomial(coefficients, speed_range=(0.0, 33.99)):
+def tilt_schedule_polynomial(coefficients: ArrayLike,
+                             speed_range: tuple[float, float] = (0.0, 33.99)) -> TiltSchedule:
     """Tilt-angle reference α(U_b) from a polynomial in forward air speed.
 
     U is clamped to ``speed_range`` (derivatives are zero outside it), as in the mission data
@@ -134,7 +140,8 @@ def tilt_schedule_polynomial(coefficients, speed_range=(0.0, 33.99)):
     return schedule
 
 
-def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
+def forward_air_speed(vel_ref: Sequence[float] | np.ndarray, acc_ref: Sequence[float] | np.ndarray, psi: float, psidot: float,
+                      wind: Sequence[float] | np.ndarray) -> tuple[float, float]:
     """Forward air speed U_b of the *reference* motion in the heading frame and its rate.
 
     U_b = [cos ψ, sin ψ]·(ṗ_r − ζ)_xy with the measured wind ζ taken constant over a sample;
@@ -160,7 +167,9 @@ def forward_air_speed(vel_ref, acc_ref, psi, psidot, wind):
     return U, Udot
 
 
-def regulated_reference(schedule, vel_ref, acc_ref, psi_ref, wind):
+def regulated_reference(schedule: TiltSchedule, vel_ref: Sequence[float] | np.ndarray, acc_ref: Sequence[float] | np.ndarray,
+                        psi_ref: Sequence[float] | np.ndarray, wind: Sequence[float] | np.ndarray
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """(q_rr, q̇_rr, q̈_rr) of the regulated DOF [αR αL ψ] (tilt from the trim schedule).
 
     q̈ of the tilt uses α''U̇² (the jerk term α'Ü is dropped: the mission references are
@@ -193,7 +202,7 @@ def _regulated_values(schedule, vel_ref, acc_ref, psi_ref, wind):
     return a, da * Udot, dda * Udot**2, psi, psid, psidd
 
 
-def tracked_reference(ref_c, ref_r):
+def tracked_reference(ref_c: Sequence[ArrayLike], ref_r: Sequence[ArrayLike]) -> np.ndarray:
     """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`.
 
     Parameters
@@ -257,8 +266,11 @@ class TiltrotorWInfLaw:
     tilt_schedule : ``f(U) -> (α, α', α'')`` for the regulated tilt references.
     """
 
-    def __init__(self, mech_law, *, input_affine, allocate, bounds, thrust_to_speed,
-                 tilt_schedule):
+    def __init__(self, mech_law: MechanicalLaw, *,
+                 input_affine: Callable[..., tuple[ArrayLike, ArrayLike]],
+                 allocate: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], ArrayLike],
+                 bounds: Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
+                 thrust_to_speed: Callable[..., ArrayLike], tilt_schedule: TiltSchedule) -> None:
         if not isinstance(mech_law, MechanicalLaw):
             raise TypeError("mech_law must be a MechanicalLaw")
         p = mech_law.partition
@@ -282,7 +294,8 @@ class TiltrotorWInfLaw:
         # ``tiltrotor.gain_schedule``): ``f(q, q̇, ∫e, tracked, reference, wind) -> list of 8``
         self.desired_acceleration = None
 
-    def step(self, q, qdot, reference, wind, integral_ec, n_prev=None) -> ControlStep:
+    def step(self, q: ArrayLike, qdot: ArrayLike, reference: ArrayLike, wind: ArrayLike,
+             integral_ec: ArrayLike, n_prev: ArrayLike | None = None) -> ControlStep:
         """One evaluation of the law.
 
         Parameters
@@ -396,8 +409,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _SAT = slice(22, 30)    # +1 on upper bound, −1 on lower bound, 0 inside
     _SIZE = 30
 
-    def __init__(self, law: TiltrotorWInfLaw, *, period=0.01, initial_tau=None,
-                 initial_speed=None, computation_delay=False):
+    def __init__(self, law: TiltrotorWInfLaw, *, period: float = 0.01,
+                 initial_tau: ArrayLike | None = None, initial_speed: ArrayLike | None = None,
+                 computation_delay: bool = False) -> None:
         super().__init__()
         self.computation_delay = bool(computation_delay)
         if not isinstance(law, TiltrotorWInfLaw):
@@ -440,7 +454,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
                      "allocation_residual": _RES, "saturation": _SAT}
 
     @classmethod
-    def split_record(cls, record) -> dict:
+    def split_record(cls, record: ArrayLike) -> dict[str, np.ndarray]:
         """Named parts of ``sample_record`` values, as in :attr:`RECORD_FIELDS`.
 
         Parameters

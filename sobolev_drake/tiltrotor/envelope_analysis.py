@@ -17,9 +17,15 @@ stable, with margins that do not collapse between the design regimes.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from sobolev_drake.tiltrotor.gain_schedule import EnvelopeSchedule
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
 
 __all__ = ["FrozenPoint", "frozen_point", "ANALYSIS_SPEEDS", "FROZEN_COLUMNS", "frozen_point_rows"]
 
@@ -67,7 +73,8 @@ def _law_inputs(law, x, n_trim, reference, wind):
     return np.concatenate([step.propeller_speed, step.tau_bar[2:8]])
 
 
-def frozen_point(speed, design="thesis", *, model=None, step=1e-6, gain_schedule=None):
+def frozen_point(speed: float, design: str = "thesis", *, model: TiltrotorModel | None = None,
+                 step: float = 1e-6, gain_schedule: EnvelopeSchedule | None = None) -> FrozenPoint:
     """Closed-loop poles of ``design`` linearized at the level-flight trim of ``speed``.
 
     Parameters
@@ -124,7 +131,8 @@ FROZEN_COLUMNS = ["V [m/s]", "design", "max Re(pole) [1/s]", "min damping ratio 
                   "slowest poles [1/s]"]
 
 
-def frozen_point_rows(speeds=ANALYSIS_SPEEDS, designs=("scheduled", "thesis")):
+def frozen_point_rows(speeds: Sequence[float] = ANALYSIS_SPEEDS,
+                      designs: Sequence[str] = ("scheduled", "thesis")) -> list[list[str]]:
     """Rows of the frozen-point table (:data:`FROZEN_COLUMNS`): every design at every speed.
 
     Parameters

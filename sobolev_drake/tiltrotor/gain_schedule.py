@@ -37,9 +37,11 @@ references, plus the trim pitch θ_trim(U) from the plant's level-flight trims.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from sobolev_drake.tiltrotor.controller import forward_air_speed
 
@@ -112,7 +114,7 @@ REGIMES = {
 SCHEDULE_SPEEDS = (5.0, 25.0)
 
 
-def target_polynomial(target, order):
+def target_polynomial(target: ChannelTarget, order: int) -> NDArray[np.float64]:
     """Monic target polynomial of a chain of ``order`` integrators, highest power first.
 
     Parameters
@@ -144,7 +146,7 @@ def target_polynomial(target, order):
     return np.polymul(pair, [1.0, r * w])
 
 
-def target_gains(target, order):
+def target_gains(target: ChannelTarget, order: int) -> NDArray[np.float64]:
     """Gains of the chain: the target polynomial's coefficients, in chain-state order.
 
     Parameters
@@ -165,7 +167,7 @@ def target_gains(target, order):
     return target_polynomial(target, order)[1:]
 
 
-def target_weights(target, order):
+def target_weights(target: ChannelTarget, order: int) -> NDArray[np.float64]:
     """Weights (top weight 1) whose W∞ optimum has the target poles (spectral factorization).
 
     Parameters
@@ -199,7 +201,7 @@ def target_weights(target, order):
     return np.array(w)
 
 
-def blend_factor(U, speeds=SCHEDULE_SPEEDS):
+def blend_factor(U: float, speeds: tuple[float, float] = SCHEDULE_SPEEDS) -> float:
     """C² smootherstep 6s⁵ − 15s⁴ + 10s³ of s = (U − U0)/(U1 − U0) clamped to [0, 1].
 
     Parameters
@@ -252,14 +254,14 @@ class EnvelopeSchedule:
         the allocation's leftover.
     """
 
-    pitch_trim: object
+    pitch_trim: Callable[[float], float]
     hover: Regime = field(default_factory=lambda: REGIMES["hover"])
     cruise: Regime = field(default_factory=lambda: REGIMES["cruise"])
-    speeds: tuple = SCHEDULE_SPEEDS
+    speeds: tuple[float, float] = SCHEDULE_SPEEDS
     coordinated_roll: bool = True
     cascade: bool = True
 
-    def regime(self, U) -> Regime:
+    def regime(self, U: float) -> Regime:
         """The blended targets at forward air speed U.
 
         Parameters
@@ -277,7 +279,7 @@ class EnvelopeSchedule:
         return Regime(f"blend {s:.3f}", *(_mix(getattr(h, k), getattr(c, k), s)
                                           for k in ("xy", "z", "tilt", "yaw", "roll", "pitch")))
 
-    def gains(self, U) -> dict:
+    def gains(self, U: float) -> dict[str, list[list[float]]]:
         """Gains of the blended targets at U (the coefficients of :func:`target_polynomial`
         written out: per sample, numpy's small-array calls would cost more than the arithmetic).
 
@@ -309,7 +311,7 @@ class EnvelopeSchedule:
             out[group] = rows
         return out
 
-    def attitude_reference(self, U, reference):
+    def attitude_reference(self, U: float, reference: Sequence[float] | np.ndarray) -> tuple[float, float]:
         """Attitude reference without the cascade: the reference's coordinated bank and the
         trim pitch.
 
@@ -332,7 +334,9 @@ class EnvelopeSchedule:
         phi = -math.atan2(a_lat, G) if self.coordinated_roll else 0.0
         return phi, float(self.pitch_trim(U))
 
-    def __call__(self, q, qdot, e_int, tracked, reference, wind):
+    def __call__(self, q: Sequence[float] | np.ndarray, qdot: Sequence[float] | np.ndarray, e_int: Sequence[float] | np.ndarray,
+                 tracked: Sequence[float] | np.ndarray, reference: Sequence[float] | np.ndarray,
+                 wind: Sequence[float] | np.ndarray) -> list[float]:
         """q̈_des (list of 8, thesis order) at one sample.
 
         Parameters

@@ -19,17 +19,26 @@ exact since they are quadratic in the air speed.  The propeller at zero inflow: 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd
 
-from sobolev_drake.tiltrotor.body_frame import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.body_frame import BodyKinematics, body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.scalars import Scalar, ScalarMath
+
+if TYPE_CHECKING:   # both import this module
+    from sobolev_drake.tiltrotor.aerodynamics import AeroModel
+    from sobolev_drake.tiltrotor.propulsion import PropulsionModel
 
 __all__ = ["propeller_force_generic", "kink_derivatives", "aero_loads_generic",
            "tiltrotor_force_generic", "force_at_c1"]
 
 
-def propeller_force_generic(prop, kin, rotors, n, m):
+def propeller_force_generic(prop: PropulsionModel, kin: BodyKinematics,
+                            rotors: tuple[tuple[Scalar, ...], tuple[Scalar, ...]],
+                            n: Sequence[Scalar], m: ScalarMath) -> list[Scalar]:
     """ϑ_P (7.32) for every scalar type: ``PropulsionModel.propeller_force_scalar`` with its
     branches written as ``m.where`` (same values; tested).
 
@@ -93,7 +102,8 @@ def propeller_force_generic(prop, kin, rotors, n, m):
     return out
 
 
-def kink_derivatives(prop, ct, cq, u, w, nd):
+def kink_derivatives(prop: PropulsionModel, ct: float, cq: float, u: AutoDiffXd | float,
+                     w: AutoDiffXd | float, nd: float) -> tuple[AutoDiffXd, AutoDiffXd]:
     """(Ct, Cq) at zero inflow as AutoDiffXd: the values ``ct, cq`` with, along each
     derivative direction e = (du_i, dw_i) of (u, w), the central derivative
     ‖e‖ (g(φ(e)) − g(φ(−e))) / (2 nd), g(φ) = ∂C/∂J(0, φ) (first order in J = ‖v‖/(nd)).
@@ -131,7 +141,8 @@ def kink_derivatives(prop, ct, cq, u, w, nd):
     return AutoDiffXd(float(ct), grad[0]), AutoDiffXd(float(cq), grad[1])
 
 
-def aero_loads_generic(aero, kin, delta, m):
+def aero_loads_generic(aero: AeroModel, kin: BodyKinematics, delta: Sequence[Scalar],
+                       m: ScalarMath) -> list[Scalar]:
     """ϑ_aero (thesis order) of ``AeroModel.loads_scalar(kin, delta)[0]`` for every scalar type.
 
     Parameters
@@ -200,7 +211,10 @@ def aero_loads_generic(aero, kin, delta, m):
     return [0.0, 0.0, *body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz))]
 
 
-def tiltrotor_force_generic(prop, aero, q, qdot, u, zeta, force, m, *, cos_beta, nu, d_B_C1):
+def tiltrotor_force_generic(prop: PropulsionModel, aero: AeroModel, q: Sequence[Scalar],
+                            qdot: Sequence[Scalar], u: Sequence[Scalar], zeta: Sequence[Scalar],
+                            force: Sequence[Scalar] | None, m: ScalarMath, *, cos_beta: float,
+                            nu: float, d_B_C1: Sequence[float]) -> list[Scalar]:
     """ϑ (thesis order) of ``TiltrotorForces.thesis_force`` without the disturbance ``w``, for
     every scalar type: propellers, servos (7.33), aerodynamic surfaces and a force at C1.
 
@@ -243,7 +257,8 @@ def tiltrotor_force_generic(prop, aero, q, qdot, u, zeta, force, m, *, cos_beta,
     return tau
 
 
-def force_at_c1(kin, force, d_B_C1):
+def force_at_c1(kin: BodyKinematics, force: Sequence[Scalar],
+                d_B_C1: Sequence[float]) -> tuple[Scalar, ...]:
     """Rows 2..7 of the generalized force of an inertial force at the main body's centre of
     mass C1: [Wηᵀ (d × Rᵀ F), R Rᵀ F] (arithmetic only: every scalar type, and the float tier
     of ``TiltrotorForces.thesis_force``).

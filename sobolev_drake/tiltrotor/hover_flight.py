@@ -11,13 +11,23 @@ See docs/experiments/tiltrotor-hover-linear.md.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from sobolev_drake.harness import add_log_sinks, collect_logs
 from sobolev_drake.tiltrotor.linear_controller import LinearHoverController, check_velocity_reference
+
+if TYPE_CHECKING:
+    from pydrake.geometry import Meshcat
+
+    from sobolev_drake.systems.references import TrajectoryReference
+    from sobolev_drake.systems.wind import VonKarmanParameters
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
+    from sobolev_drake.tiltrotor.trim import Trim
 
 __all__ = ["Q0", "hover_reference", "initial_error", "literal_noise_turbulence", "simulate_design",
            "flight_indices", "literal_noise_flight"]
@@ -26,7 +36,7 @@ __all__ = ["Q0", "hover_reference", "initial_error", "literal_noise_turbulence",
 Q0 = np.array([0, 0, 0, 0, 0, -1.0, 20.0, 0])
 
 
-def hover_reference():
+def hover_reference() -> TrajectoryReference:
     """The Table 7.1 path (scenario 1 of the mission file) as a reference system.
 
     Returns
@@ -38,7 +48,7 @@ def hover_reference():
     return tiltrotor_mission_reference(1)
 
 
-def initial_error(trim, velocity_reference="zero"):
+def initial_error(trim: Trim, velocity_reference: str = "zero") -> NDArray[np.float64]:
     """Δx(0) of the flight: q(0) = :data:`Q0`, q̇(0) = 0 against the trim and the path at t = 0
     (velocity error only with ``velocity_reference="path"``); integrals 0.
 
@@ -65,7 +75,7 @@ def initial_error(trim, velocity_reference="zero"):
     return dx
 
 
-def literal_noise_turbulence():
+def literal_noise_turbulence() -> VonKarmanParameters:
     """§7.3.1 turbulence with the thesis' "unit variance, sampling time 0.01 s" noise taken
     literally: intensities scaled by √(Δt/π) (``systems/wind.py`` explains the factor).
 
@@ -81,9 +91,11 @@ def literal_noise_turbulence():
     return replace(p, sigma=tuple(float(k * v) for v in p.sigma))
 
 
-def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=None, turbulence=None,
-                    max_wall_s=600.0, controller_state0=None, velocity_reference="zero",
-                    plant_params=None):
+def simulate_design(ctrl: dict[str, Any], trim: Trim, duration: float, *, seed: int = 7,
+                    log_period: float = 0.01, meshcat: Meshcat | None = None,
+                    turbulence: VonKarmanParameters | None = None, max_wall_s: float = 600.0,
+                    controller_state0: ArrayLike | None = None, velocity_reference: str = "zero",
+                    plant_params: TiltrotorParams | None = None) -> dict[str, Any]:
     """Fly ``ctrl`` on the nonlinear plant (Table 7.1 path, von Kármán wind); returns logs.
 
     The run stops early (``data["stopped"]`` says why, ``data["t"][-1]`` when) if the state
@@ -192,7 +204,7 @@ def simulate_design(ctrl, trim, duration, *, seed=7, log_period=0.01, meshcat=No
     return data
 
 
-def flight_indices(data, trim):
+def flight_indices(data: dict[str, Any], trim: Trim) -> dict[str, Any]:
     """Table 7.2 indices of a flight and the tracking summary.
 
     ISE = ∫ΔxᵀΔx dt (20 states; integral states rebuilt from the logs by the trapezoid rule)
@@ -239,7 +251,8 @@ def flight_indices(data, trim):
             "finite": bool(np.all(np.isfinite(x)))}
 
 
-def literal_noise_flight(ctrl, trim, duration, velocity_reference):
+def literal_noise_flight(ctrl: dict[str, Any], trim: Trim, duration: float,
+                         velocity_reference: str) -> dict[str, Any]:
     """Indices of one flight in :func:`literal_noise_turbulence` (a failed run is reported).
 
     Parameters

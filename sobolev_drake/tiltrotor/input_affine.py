@@ -17,14 +17,19 @@
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.tiltrotor.params import TiltrotorParams, body_generalized_force, R_IB
 from sobolev_drake.tiltrotor.aerodynamics import AeroModel
 from sobolev_drake.tiltrotor.propulsion import PropulsionModel, body_kinematics_scalar, body_wrench_scalar
+
+if TYPE_CHECKING:   # plant imports this module (TiltrotorModel.B)
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
 
 __all__ = [
     "N_REF", "cores", "input_affine", "AffineTerms", "input_affine_terms", "affine_terms_scalar",
@@ -38,7 +43,7 @@ N_REF = 51.9
 _CORES: dict = {}
 
 
-def cores(params: TiltrotorParams | None = None):
+def cores(params: TiltrotorParams | None = None) -> tuple[PropulsionModel, AeroModel]:
     """The force models of a parameter set (cached per parameter object).
 
     Parameters
@@ -58,7 +63,7 @@ def cores(params: TiltrotorParams | None = None):
     return _CORES[key][1], _CORES[key][2]
 
 
-def native_core(params: TiltrotorParams):
+def native_core(params: TiltrotorParams) -> tuple[ModuleType, Any] | None:
     """The compiled force kernel for a parameter set (cached beside :func:`cores`; see
     ``sobolev_drake.native``).
 
@@ -109,7 +114,9 @@ def _check_torque(torque):
         raise ValueError(f"torque must be 'through_thrust' or 'passive', got {torque!r}")
 
 
-def input_affine(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
+def input_affine(model: TiltrotorModel | TiltrotorParams, q: ArrayLike, qdot: ArrayLike,
+                 zeta: ArrayLike, n: ArrayLike | None = None, *,
+                 torque: str = "through_thrust") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(B (8×8), ϑ_passive (8,)) of (7.62) in thesis order at (q, q̇, ζ).
 
     ``model``: TiltrotorModel or TiltrotorParams; ``n``: propeller speeds (2,) used for the
@@ -173,7 +180,9 @@ class AffineTerms(NamedTuple):
     rotor_phi: np.ndarray
 
 
-def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust") -> AffineTerms:
+def input_affine_terms(model: TiltrotorModel | TiltrotorParams, q: ArrayLike, qdot: ArrayLike,
+                       zeta: ArrayLike, n: ArrayLike | None = None, *,
+                       torque: str = "through_thrust") -> AffineTerms:
     """:class:`AffineTerms` at (q, q̇, ζ): B and ϑ_passive of :func:`input_affine` plus the
     surface air speeds (bounds (7.87)–(7.89)) and the rotor inflow (thrust inversion (7.90)),
     from one pass of scalar kinematics (the controller's per-sample hot path).
@@ -202,7 +211,8 @@ def input_affine_terms(model, q, qdot, zeta, n=None, *, torque="through_thrust")
     return affine_terms_scalar(p, q.tolist(), qdot.tolist(), zeta.tolist(), nl, torque)
 
 
-def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thrust") -> AffineTerms:
+def affine_terms_scalar(p: TiltrotorParams, ql: list[float], qdl: list[float], zl: list[float],
+                        nl: list[float], torque: str = "through_thrust") -> AffineTerms:
     """:func:`input_affine_terms` on already validated lists of Python floats (q, q̇: 8, ζ: 3,
     n: 2) — the controller's per-sample path, without re-checking what it checked.  Computed
     by the compiled kernel when it is built (equal to :func:`affine_terms_scalar_python` to
@@ -235,8 +245,9 @@ def affine_terms_scalar(p: TiltrotorParams, ql, qdl, zl, nl, torque="through_thr
     return affine_terms_scalar_python(p, ql, qdl, zl, nl, torque)
 
 
-def affine_terms_scalar_python(p: TiltrotorParams, ql, qdl, zl, nl,
-                               torque="through_thrust") -> AffineTerms:
+def affine_terms_scalar_python(p: TiltrotorParams, ql: list[float], qdl: list[float],
+                               zl: list[float], nl: list[float],
+                               torque: str = "through_thrust") -> AffineTerms:
     """Scalar tier of :func:`input_affine_terms`, kept beside :func:`input_affine_vectorized`
     because ``benchmarks/speed_tiers.py`` measures it ≈ 6× faster; the kernel mirrors it.
 
@@ -298,7 +309,9 @@ def affine_terms_scalar_python(p: TiltrotorParams, ql, qdl, zl, nl,
     return AffineTerms(np.array(rows), np.array(passive), np.array(V), np.array(vxz), np.array(phis))
 
 
-def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thrust"):
+def input_affine_vectorized(model: TiltrotorModel | TiltrotorParams, q: ArrayLike, qdot: ArrayLike,
+                            zeta: ArrayLike, n: ArrayLike | None = None, *, torque: str = "through_thrust"
+                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Numpy reference of :func:`input_affine` (same arguments and result), written like
     Appendix C from :meth:`PropulsionModel.unit_columns` and :meth:`AeroModel.terms`; the
     scalar tier is tested against it, the compiled kernel against the scalar tier.
@@ -344,7 +357,9 @@ def input_affine_vectorized(model, q, qdot, zeta, n=None, *, torque="through_thr
     return B, passive
 
 
-def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
+def generalized_force(model: TiltrotorModel | TiltrotorParams, q: ArrayLike, qdot: ArrayLike,
+                      zeta: ArrayLike, n: ArrayLike, tau_s: ArrayLike,
+                      delta: ArrayLike) -> NDArray[np.float64]:
     """Total ϑ = ϑ_P + ϑ_s + ϑ_F + ϑ_W + ϑ_T + ϑ_I (7.18) for thesis inputs
     τ = [n (rev/s), τs (N m), δ (rad)], by the scalar tier of the force models.
 
@@ -377,7 +392,8 @@ def generalized_force(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
             + aero.generalized_force(q, qdot, zeta, delta))
 
 
-def thrust_inputs(model, q, qdot, zeta, n) -> np.ndarray:
+def thrust_inputs(model: TiltrotorModel | TiltrotorParams, q: ArrayLike, qdot: ArrayLike, zeta: ArrayLike,
+                  n: ArrayLike) -> NDArray[np.float64]:
     """Thrusts f = ρ d⁴ n² Ct(J, φ) (7.25), (7.27) of both propellers.
 
     Parameters
@@ -401,7 +417,8 @@ def thrust_inputs(model, q, qdot, zeta, n) -> np.ndarray:
                                   check_vector("zeta", zeta, 3), check_vector("n", n, 2))[0]
 
 
-def force_disturbance_generalized(model, q, force_inertial) -> np.ndarray:
+def force_disturbance_generalized(model: TiltrotorModel | TiltrotorParams, q: ArrayLike,
+                                  force_inertial: ArrayLike) -> NDArray[np.float64]:
     """Generalized force of an inertial force applied at the main-body centre of mass C1.
 
     Parameters

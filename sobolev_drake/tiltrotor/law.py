@@ -12,13 +12,21 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from sobolev_drake.systems.mechanical_controller import MechanicalLaw
+from sobolev_drake.systems.mechanical_controller import MechanicalLaw, SobolevLaw
 from sobolev_drake.tiltrotor.controller import (N_Q, PARTITION, ControlStep, TiltrotorWInfLaw,
-                                                       checked_vector, thesis_inner_law,
+                                                       TiltSchedule, checked_vector, thesis_inner_law,
                                                        tilt_schedule_polynomial)
+
+if TYPE_CHECKING:
+    from sobolev_drake.tiltrotor.gain_schedule import EnvelopeSchedule
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
+    from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
 
 __all__ = ["DESIGNS", "make_law", "newton_speed_for_thrust", "plant_trim_schedule",
            "plant_pitch_schedule"]
@@ -27,8 +35,10 @@ __all__ = ["DESIGNS", "make_law", "newton_speed_for_thrust", "plant_trim_schedul
 DESIGNS = {"thesis": "thesis tuning, §7.3.2", "scheduled": "scheduled W∞ over air speed"}
 
 
-def make_law(model, inner=None, *, schedule="plant", allocate=None, design="thesis",
-             gain_schedule=None):
+def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
+             schedule: str | TiltSchedule = "plant",
+             allocate: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], ArrayLike] | None = None,
+             design: str = "thesis", gain_schedule: EnvelopeSchedule | None = None) -> TiltrotorWInfLaw:
     """Compose :class:`TiltrotorWInfLaw` from the tilt-rotor model and the library pieces.
 
     ``inner``: :class:`SobolevLaw` (default :func:`thesis_inner_law`, the thesis tuning).
@@ -204,7 +214,9 @@ def _fused_sample(law, native, speeds, parts):
     return sample
 
 
-def newton_speed_for_thrust(coef, f, v_xz, phi, n_guess, iterations=4, rtol=1e-9):
+def newton_speed_for_thrust(coef: PropellerCoefficients, f: ArrayLike, v_xz: ArrayLike, phi: ArrayLike,
+                            n_guess: ArrayLike, iterations: int = 4,
+                            rtol: float = 1e-9) -> NDArray[np.float64] | None:
     """Warm-started Newton solve of ρ d⁴ n² Ct(V_xz / (n d), φ) = f (7.90); None if it fails.
 
     The previous sample's speeds are an excellent start (the demand changes little over one
@@ -283,7 +295,7 @@ def _level_trims(model):
     return _LEVEL_TRIMS[key]
 
 
-def plant_pitch_schedule(model=None):
+def plant_pitch_schedule(model: TiltrotorModel | None = None) -> Callable[[float], float]:
     """θ_trim(U): pitch of the plant's level-flight trims (0–34 m/s, linear interpolation,
     clamped), the attitude reference of the envelope gain schedule.
 
@@ -309,7 +321,7 @@ def plant_pitch_schedule(model=None):
     return pitch
 
 
-def plant_trim_schedule(model=None):
+def plant_trim_schedule(model: TiltrotorModel | None = None) -> TiltSchedule:
     """α(U) from the plant's level-flight trims (``tiltrotor.tilt_schedule.tilt_schedule``,
     0–34 m/s every 1 m/s) as a cubic spline ``U -> (α, α', α'')``, clamped like the polynomial.
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.native import kernel
@@ -16,7 +17,7 @@ __all__ = ["checked_vector", "saturation_flags", "saturation_flag_list"]
 N_TAU = 8
 
 
-def checked_vector(name, value, size):
+def checked_vector(name: str, value: ArrayLike, size: int) -> tuple[NDArray[np.float64], list[float]]:
     """A finite vector of length ``size`` as an array and as a list of floats; otherwise
     ``check_vector``'s descriptive error (the cheap form of the check, run once per sample).
 
@@ -40,7 +41,8 @@ def checked_vector(name, value, size):
     return check_vector(name, value, size), None        # raises
 
 
-def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
+def saturation_flags(tau: ArrayLike, lo: ArrayLike, up: ArrayLike, rel_tol: float = 1e-3,
+                     min_width: float = 1e-3) -> NDArray[np.float64]:
     """+1 where τ̄ sits on its upper bound, −1 on its lower bound, 0 inside (relative tolerance
     of the bound width).  A box narrower than ``min_width`` (e.g. the surfaces at low air speed,
     whose range sigmf(V) shrinks to ~0 (7.87)–(7.89)) means the actuator is switched off, not
@@ -86,7 +88,7 @@ def saturation_flags(tau, lo, up, rel_tol=1e-3, min_width=1e-3):
                     np.where(width_ok & (tau <= lo + tol), -1.0, 0.0))
 
 
-def saturation_flag_list(tau, lo, up):
+def saturation_flag_list(tau: ArrayLike, lo: ArrayLike, up: ArrayLike) -> list[float]:
     """:func:`saturation_flags` with its default tolerances, as a list of floats: for 8-vectors
     the compiled kernel called directly (the controller's per-sample path; the same comparisons
     on the same floats, so the same flags — tested), else :func:`saturation_flags`.

@@ -14,11 +14,16 @@ See docs/experiments/tiltrotor-hover-linear.md.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import Context, ContinuousState
 
 __all__ = ["VELOCITY_REFERENCES", "check_velocity_reference", "LinearHoverController",
            "LinearHoverController_"]
@@ -27,7 +32,7 @@ __all__ = ["VELOCITY_REFERENCES", "check_velocity_reference", "LinearHoverContro
 VELOCITY_REFERENCES = ("zero", "path")
 
 
-def check_velocity_reference(velocity_reference):
+def check_velocity_reference(velocity_reference: str) -> str:
     """Validate a velocity reference name.
 
     Parameters
@@ -115,7 +120,7 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, *other._args, converter=converter)
 
-        def delta_x(self, context):
+        def delta_x(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
             """Δx (20) and the dynamic controller's state in ``context``.
 
             Parameters
@@ -145,7 +150,7 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
                 return self.K @ dx
             return self.CK @ xk + self.DK @ (self.C @ dx)
 
-        def DoCalcTimeDerivatives(self, context, derivatives):
+        def DoCalcTimeDerivatives(self, context: Context, derivatives: ContinuousState) -> None:
             dx, xk = self.delta_x(context)
             d = np.empty(4 + self.nk, dtype=dtype)
             d[:4] = dx[[4, 5, 6, 7]]

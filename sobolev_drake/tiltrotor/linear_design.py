@@ -18,10 +18,15 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.synthesis.designs import feedback_kind
+
+if TYPE_CHECKING:
+    from sobolev_drake.tiltrotor.linearization import Linearization
 
 __all__ = ["GAMMA0", "GAMMA1", "UPSILON0", "UPSILON1_SF", "UPSILON1_OF", "DISK_RADIUS",
            "HoverDesign", "DESIGN_SPECS", "DESIGNS", "OF_MEASURED", "output_matrix", "design",
@@ -66,7 +71,7 @@ class HoverDesign:
     disk: bool = False
     column: str | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "feedback", feedback_kind(self.feedback))
 
 
@@ -87,7 +92,7 @@ DESIGNS = tuple(DESIGN_SPECS)
 OF_MEASURED = [i for i in range(20) if i not in (13, 14)]
 
 
-def output_matrix():
+def output_matrix() -> NDArray[np.float64]:
     """y = C Δx of the output-feedback designs.
 
     Returns
@@ -124,7 +129,7 @@ def _closed_loop_norm(plant, ctrl, extra_states=0):
     return float(hinf_norm(*cl)[0])
 
 
-def common_channel_norm(lin, ctrl):
+def common_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
     """‖T_vz‖∞ of the augmented (x, d) plant closed with ``ctrl`` (acting on x or y = C x).
 
     v → d → ζ = Cd d is the von Kármán model (7.58)–(7.60); z = [Γ0^½ Δx; Γ1^½ Δẋ].  Same
@@ -152,7 +157,7 @@ def common_channel_norm(lin, ctrl):
     return _closed_loop_norm(p, ctrl, extra_states=Ad.shape[0])
 
 
-def wind_channel_norm(lin, ctrl):
+def wind_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
     """‖T_ζz‖∞ of the W∞ channel (6.1): wind ζ → z = [Γ0^½ Δx; Γ1^½ Δẋ], any controller.
 
     Parameters
@@ -242,7 +247,8 @@ def _solve(lin, spec, backend, x0=None):
     return r, (np.eye(20) if C is None else C), notes
 
 
-def design(lin, which, *, backend=None, initial_state=None):
+def design(lin: Linearization, which: str | HoverDesign, *, backend: str | None = None,
+           initial_state: ArrayLike | None = None) -> dict[str, Any]:
     """Synthesize one of :data:`DESIGNS` on the linearization ``lin``.
 
     Given an ``initial_state``, the designs whose γ is fixed at (1+δ)γ* (W∞, W∞-O.F.: optimum
@@ -315,7 +321,7 @@ def design(lin, which, *, backend=None, initial_state=None):
     return out
 
 
-def loop_margins(lin, ctrl):
+def loop_margins(lin: Linearization, ctrl: dict[str, Any]) -> dict[str, Any]:
     """Delay and gain margins of ``ctrl`` at the plant input of the linearization.
 
     Uniform on all four inputs (:mod:`sobolev_drake.synthesis.margins`).

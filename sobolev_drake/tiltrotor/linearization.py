@@ -23,16 +23,21 @@ context, Q, R)`` (``diagrams/tiltrotor_lqr_hover.py``).
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder, OutputPortSelection
 from pydrake.systems.primitives import (ConstantVectorSource, Demultiplexer,
                                         FirstOrderTaylorApproximation)
 
-from sobolev_drake.tiltrotor.params import ACTUATOR_NAMES, DOF_NAMES, params_key
-from sobolev_drake.tiltrotor.plant import add_tiltrotor
+from sobolev_drake.tiltrotor.params import ACTUATOR_NAMES, DOF_NAMES, TiltrotorParams, params_key
+from sobolev_drake.tiltrotor.plant import TiltrotorHandles, add_tiltrotor
 from sobolev_drake.tiltrotor.trim import Trim, trim_hover
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import Context, Diagram
 
 __all__ = ["Linearization", "linearize", "trim_diagram", "TRIM_INPUTS", "METHODS"]
 
@@ -74,13 +79,14 @@ class Linearization:
     state_names: list
     input_names: list
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[np.ndarray]:
         """``A, B, D = linearize(...)`` unpacks the matrices."""
         return iter((self.A, self.B, self.D))
 
 
-def trim_diagram(trim: Trim | None = None, *, params=None,
-                 inputs=("propeller_speed", "servo_torque")):
+def trim_diagram(trim: Trim | None = None, *, params: TiltrotorParams | None = None,
+                 inputs: Sequence[str] = ("propeller_speed", "servo_torque")
+                 ) -> tuple[Diagram, Context, TiltrotorHandles]:
     """The tilt-rotor as one Drake system at a trim, ready for ``Linearize`` or
     ``LinearQuadraticRegulator(system, context, Q, R)``.
 
@@ -179,8 +185,9 @@ def _jacobians(trim, params, method, eps):
     return Jx, Jv
 
 
-def linearize(trim: Trim | None = None, *, params=None, include_surfaces=False, eps=1e-6,
-              method="drake") -> Linearization:
+def linearize(trim: Trim | None = None, *, params: TiltrotorParams | None = None,
+              include_surfaces: bool = False, eps: float = 1e-6,
+              method: str = "drake") -> Linearization:
     """Linearize the Drake diagram about ``trim`` (default: hover trim) with the integral states
     of (7.57): Drake's ``FirstOrderTaylorApproximation`` (AutoDiffXd) of :func:`trim_diagram`, or central
     differences of its ``CalcTimeDerivatives`` (module docstring).

@@ -12,8 +12,10 @@ See docs/experiments/tiltrotor-hover.md and docs/experiments/tiltrotor-envelope.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
@@ -22,6 +24,11 @@ from sobolev_drake.data import load
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.harness import add_log_sinks
 from sobolev_drake.systems.reference_catalogue import tiltrotor_mission_reference as mission_reference
+
+if TYPE_CHECKING:
+    from pydrake.geometry import Meshcat
+
+    from sobolev_drake.tiltrotor.params import TiltrotorParams
 
 __all__ = ["HOVER", "TRANSITION", "CRUISE", "SCENARIOS", "DURATIONS", "scenario_1_phases",
            "scenario_2_phases", "mission_phases", "pulses", "build_mission", "simulate_mission"]
@@ -34,7 +41,7 @@ SCENARIOS = {1: "scenario_1_helicopter_mode", 2: "scenario_2_full_envelope"}
 DURATIONS = {1: 200.0, 2: 250.0}
 
 
-def scenario_1_phases(duration=200.0):
+def scenario_1_phases(duration: float = 200.0) -> list[tuple[str, float, float, str | None]]:
     """Phases of the Table 7.1 path.
 
     The first 10 s are the acquisition of the path from q(0) = 0 (the reference starts 20 m
@@ -56,7 +63,7 @@ def scenario_1_phases(duration=200.0):
     return _clip_phases(bounds, duration)
 
 
-def scenario_2_phases(duration=250.0):
+def scenario_2_phases(duration: float = 250.0) -> list[tuple[str, float, float, str | None]]:
     """Phases of the full-envelope mission (durations from the mission data file).
 
     Parameters
@@ -80,7 +87,7 @@ def scenario_2_phases(duration=250.0):
     return _clip_phases(bounds, duration)
 
 
-def mission_phases(scenario, duration):
+def mission_phases(scenario: int, duration: float) -> list[tuple[str, float, float, str | None]]:
     """Phases of mission ``scenario`` up to ``duration``.
 
     Parameters
@@ -106,7 +113,8 @@ def _clip_phases(bounds, duration):
     return out
 
 
-def pulses(events, duration):
+def pulses(events: list[dict[str, Any]],
+           duration: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Zero-order-hold 3-D profile of pulse events.
 
     Parameters
@@ -143,9 +151,13 @@ def _plant_port(handles, name):
     raise KeyError(f"tilt-rotor plant handles expose no input port {name!r}")
 
 
-def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=None, params=None,
-                  plant_params=None, wind_gusts=None, force_disturbances=None, design="thesis",
-                  constant_wind=None, smooth_reference=None):
+def build_mission(scenario: int, duration: float, *, period: float = 0.01, schedule: str = "plant",
+                  meshcat: Meshcat | None = None, params: TiltrotorParams | None = None,
+                  plant_params: TiltrotorParams | None = None,
+                  wind_gusts: list[dict[str, Any]] | None = None,
+                  force_disturbances: list[dict[str, Any]] | None = None, design: str = "thesis",
+                  constant_wind: ArrayLike | None = None,
+                  smooth_reference: float | None = None) -> dict[str, Any]:
     """Diagram of plant + W∞ controller + mission reference, wind and force disturbances.
 
     Parameters
@@ -238,10 +250,14 @@ def build_mission(scenario, duration, *, period=0.01, schedule="plant", meshcat=
             "reference": ref, "recorder": recorder, "law": law}
 
 
-def simulate_mission(scenario, duration, *, schedule="plant", record=False, progress=False,
-                     integrator="runge_kutta3", accuracy=1e-3, period=0.01, params=None,
-                     plant_params=None, wind_gusts=None, force_disturbances=None,
-                     design="thesis", constant_wind=None, smooth_reference=None):
+def simulate_mission(scenario: int, duration: float, *, schedule: str = "plant", record: bool = False,
+                     progress: bool = False, integrator: str = "runge_kutta3", accuracy: float = 1e-3,
+                     period: float = 0.01, params: TiltrotorParams | None = None,
+                     plant_params: TiltrotorParams | None = None,
+                     wind_gusts: list[dict[str, Any]] | None = None,
+                     force_disturbances: list[dict[str, Any]] | None = None, design: str = "thesis",
+                     constant_wind: ArrayLike | None = None, smooth_reference: float | None = None
+                     ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Build, initialise (q(0) = q̇(0) = 0) and simulate a mission.
 
     The integrator's maximum step is the controller period (the sampled controller's events

@@ -8,7 +8,11 @@ See docs/experiments/tiltrotor-hover.md and docs/experiments/tiltrotor-envelope.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.tiltrotor.mission import CRUISE, HOVER, TRANSITION, mission_phases
 
@@ -32,7 +36,8 @@ ACTUATOR_LABELS = {"fPR": ("f_PR", "N"), "fPL": ("f_PL", "N"), "tauSR": ("τ_sR"
                    "nPL": ("n_L", "rev/s")}
 
 
-def phase_metrics(t, pos, pos_ref, phases):
+def phase_metrics(t: ArrayLike, pos: ArrayLike, pos_ref: ArrayLike,
+                  phases: Sequence[tuple[str, float, float, str | None]]) -> list[dict[str, Any]]:
     """RMS and max of the 3-D position error ‖p − p_r‖ per phase (uniformly sampled logs).
 
     Parameters
@@ -66,7 +71,8 @@ def phase_metrics(t, pos, pos_ref, phases):
     return rows
 
 
-def effort_metrics(t, tau_bar, speeds, saturation):
+def effort_metrics(t: ArrayLike, tau_bar: np.ndarray, speeds: np.ndarray,
+                   saturation: np.ndarray) -> dict[str, dict[str, float]]:
     """Control effort and time on actuator bounds.
 
     Effort: RMS of each actuator signal and IADU ∫|du/dt| dt (finite differences of the
@@ -103,7 +109,7 @@ def effort_metrics(t, tau_bar, speeds, saturation):
     return out
 
 
-def score_mission(data, scenario, duration):
+def score_mission(data: dict[str, np.ndarray], scenario: int, duration: float) -> dict[str, Any]:
     """Metrics of a mission flight: per-phase errors, landing error, effort, bounds,
     attitude/tilt extremes.
 

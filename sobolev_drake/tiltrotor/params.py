@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.validation import check_parameter_fields
 
@@ -149,7 +151,7 @@ class TiltrotorParams:
     # "mirrored": tables at atan2(w, |u|), axes along the flow (continuous; see aerodynamics)
     reverse_flow: str = "mirrored"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         check_parameter_fields(self, positive=_POSITIVE)
         if self.crossflow not in CROSSFLOW_MODELS:
             raise ValueError(f"crossflow must be one of {CROSSFLOW_MODELS}, got {self.crossflow!r}")
@@ -162,7 +164,7 @@ class TiltrotorParams:
         """Total mass m1 + m2 + m3 (kg)."""
         return self.m1 + self.m2 + self.m3
 
-    def with_(self, **changes) -> "TiltrotorParams":
+    def with_(self, **changes: Any) -> TiltrotorParams:
         """Copy with some parameters changed.
 
         Parameters
@@ -189,7 +191,7 @@ class TiltrotorParams:
 
 
 # --- rotations ---------------------------------------------------------------------------------
-def rot_x(a):
+def rot_x(a: float) -> NDArray[np.float64]:
     """Elementary rotation matrix Rx(a) about the x axis (right-handed, active).
 
     Parameters
@@ -206,7 +208,7 @@ def rot_x(a):
     return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
 
 
-def rot_y(a):
+def rot_y(a: float) -> NDArray[np.float64]:
     """Elementary rotation matrix Ry(a) about the y axis (right-handed, active).
 
     Parameters
@@ -223,7 +225,7 @@ def rot_y(a):
     return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
 
 
-def rot_z(a):
+def rot_z(a: float) -> NDArray[np.float64]:
     """Elementary rotation matrix Rz(a) about the z axis (right-handed, active).
 
     Parameters
@@ -240,7 +242,7 @@ def rot_z(a):
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
 
 
-def R_IB(q) -> np.ndarray:
+def R_IB(q: ArrayLike) -> np.ndarray:
     """R_I^B = Rz(ψ) Ry(θ) Rx(φ) (7.2).
 
     Parameters
@@ -257,7 +259,7 @@ def R_IB(q) -> np.ndarray:
     return rot_z(q[4]) @ rot_y(q[3]) @ rot_x(q[2])
 
 
-def W_eta(q) -> np.ndarray:
+def W_eta(q: ArrayLike) -> np.ndarray:
     """Wη of (7.10): body angular velocity ω_B = Wη η̇, η = [φ θ ψ].
 
     Parameters
@@ -277,7 +279,8 @@ def W_eta(q) -> np.ndarray:
     return np.array([[1.0, 0.0, -sth], [0.0, cphi, cth * sphi], [0.0, -sphi, cphi * cth]])
 
 
-def R_BA(params: TiltrotorParams, alpha_R: float, alpha_L: float):
+def R_BA(params: TiltrotorParams, alpha_R: float,
+         alpha_L: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(R_B^A2, R_B^A3) = (Ry(αR) Rx(−β), Ry(αL) Rx(β)) (7.4), (7.6).
 
     Parameters
@@ -296,7 +299,8 @@ def R_BA(params: TiltrotorParams, alpha_R: float, alpha_L: float):
     return rot_y(alpha_R) @ rot_x(-params.beta), rot_y(alpha_L) @ rot_x(params.beta)
 
 
-def body_generalized_force(q, r_B, F_B, M_B=None) -> np.ndarray:
+def body_generalized_force(q: ArrayLike, r_B: ArrayLike, F_B: ArrayLike,
+                           M_B: ArrayLike | None = None) -> NDArray[np.float64]:
     """Generalized force (thesis order) of body-axes forces ``F_B`` (k, 3) at body points
     ``r_B`` (k, 3) plus body torques ``M_B`` (k, 3), all acting on the main body.
 
@@ -329,7 +333,7 @@ def body_generalized_force(q, r_B, F_B, M_B=None) -> np.ndarray:
     return out
 
 
-def body_point_velocity(q, qdot, r_B) -> np.ndarray:
+def body_point_velocity(q: ArrayLike, qdot: ArrayLike, r_B: ArrayLike) -> np.ndarray:
     """Body-axes velocity R_Bᵀ ṗ of main-body points ``r_B`` (k, 3) (7.35).
 
     Parameters
@@ -351,7 +355,7 @@ def body_point_velocity(q, qdot, r_B) -> np.ndarray:
     return (R.T @ qdot[5:8])[None, :] + np.cross(w, np.atleast_2d(r_B))
 
 
-def R_W(q):
+def R_W(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(R_I^B, Wη) at q in one pass with scalar math (the hot path of the force systems).
 
     Parameters
@@ -377,7 +381,7 @@ def R_W(q):
     return R, W
 
 
-def cross_rows(a, b) -> np.ndarray:
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise cross product of (k, 3) arrays (np.cross is slow for small arrays).
 
     Parameters

@@ -1,18 +1,20 @@
 """Tilt-rotor UAV plant (thesis section 7.2, Table B.1) on a MultibodyPlant.
 
-* :func:`tiltrotor_urdf` writes the URDF from :class:`TiltrotorParams` (``urdf/tiltrotor.urdf``
-  is its output for the default parameters, a test keeps them in sync): main body C1 (fuselage,
-  wings, V-tail visuals) attached to the world by the x, y, z, yaw, pitch, roll joint chain of
-  docs/design.md §3 (so q̇ = v), and two thruster groups on revolute servo joints at A2/A3.
-  The joint frame is rotated by Rx(∓β) and the axis written in it is Rx(∓β)ᵀ e_y, so the child frame is
-  exactly A2 = Ry(αR) Rx(−β) (resp. A3 = Ry(αL) Rx(β)) and the tilt axis is B's y axis.
+* :func:`tiltrotor_urdf` (from :mod:`sobolev_drake.tiltrotor.urdf`, re-exported here) writes
+  the URDF from :class:`TiltrotorParams`: main body C1 attached to the world by the x, y, z,
+  yaw, pitch, roll joint chain of docs/design.md §3 (so q̇ = v), and two thruster groups on
+  revolute servo joints at A2/A3.  The joint frame is rotated by Rx(∓β) and the axis written
+  in it is Rx(∓β)ᵀ e_y, so the child frame is exactly A2 = Ry(αR) Rx(−β) (resp. A3 = Ry(αL) Rx(β)) and the tilt axis is B's y axis.
 * :class:`TiltrotorModel` — MechanicalModel in thesis order q = [αR αL φ θ ψ x y z].
 * :func:`add_tiltrotor` — plant + SceneGraph + force system in a DiagramBuilder.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.multibody.parsing import Parser
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
@@ -28,6 +30,10 @@ from sobolev_drake.tiltrotor.params import DOF_NAMES, TiltrotorParams
 from sobolev_drake.tiltrotor.generic_forces import force_at_c1, tiltrotor_force_generic
 from sobolev_drake.tiltrotor.propulsion import body_kinematics_scalar
 from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
+from sobolev_drake.tiltrotor.urdf import marker_frames, tiltrotor_urdf
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import Context, DiagramBuilder
 
 __all__ = [
     "tiltrotor_urdf", "thesis_coordinate_map", "TiltrotorModel", "TiltrotorForces",
@@ -38,110 +44,6 @@ __all__ = [
 JOINTS = ("tilt_right", "tilt_left", "base_roll", "base_pitch", "base_yaw", "base_x", "base_y", "base_z")
 
 
-def _f(*vals) -> str:
-    return " ".join(f"{float(v):.10g}" for v in vals)
-
-
-def _link(name, mass=None, com=(0, 0, 0), inertia=None, visuals=()):
-    s = f'  <link name="{name}">\n'
-    if mass is not None:
-        I = np.asarray(inertia, dtype=float)
-        s += (f'    <inertial>\n      <origin xyz="{_f(*com)}" rpy="0 0 0"/>\n'
-              f'      <mass value="{float(mass):.10g}"/>\n'
-              f'      <inertia ixx="{I[0, 0]:.10g}" ixy="{I[0, 1]:.10g}" ixz="{I[0, 2]:.10g}" '
-              f'iyy="{I[1, 1]:.10g}" iyz="{I[1, 2]:.10g}" izz="{I[2, 2]:.10g}"/>\n    </inertial>\n')
-    for vname, xyz, rpy, geom, rgba in visuals:
-        s += (f'    <visual name="{vname}">\n      <origin xyz="{_f(*xyz)}" rpy="{_f(*rpy)}"/>\n'
-              f'      <geometry>{geom}</geometry>\n'
-              f'      <material name="{vname}_mat"><color rgba="{_f(*rgba)}"/></material>\n    </visual>\n')
-    return s + "  </link>\n"
-
-
-def _joint(name, jtype, parent, child, xyz=(0, 0, 0), rpy=(0, 0, 0), axis=None):
-    s = (f'  <joint name="{name}" type="{jtype}">\n    <parent link="{parent}"/>\n'
-         f'    <child link="{child}"/>\n    <origin xyz="{_f(*xyz)}" rpy="{_f(*rpy)}"/>\n')
-    if axis is not None:
-        s += f'    <axis xyz="{_f(*axis)}"/>\n'
-    return s + "  </joint>\n"
-
-
-def _marker_frames(p: TiltrotorParams):
-    """(name, parent link, offset) of the massless marker frames: C1, the surface points and the
-    propeller hubs."""
-    return ([(f"frame_{ln}", "body", d) for ln, d in
-             (("C1", p.d_B_C1), ("F", p.d_B_F), ("WR", p.d_B_WR), ("WL", p.d_B_WL),
-              ("TR", p.d_B_TR), ("TL", p.d_B_TL))]
-            + [("frame_PR", "thruster_right", p.d_A_P), ("frame_PL", "thruster_left", p.d_A_P)])
-
-
-def tiltrotor_urdf(params: TiltrotorParams | None = None, *, marker_links: bool = True) -> str:
-    """URDF text of the tilt-rotor for ``params`` (default: Table B.1).
-
-    Parameters
-    ----------
-    params : TiltrotorParams, optional
-        Table B.1 by default.
-    marker_links : bool, default True
-        Include the massless ``frame_*`` links (and their fixed joints).  False leaves them
-        out: :func:`_build_plant` adds them as FixedOffsetFrames instead, which spares
-        MultibodyPlant eight welded bodies in every dynamics evaluation (same frames, same
-        dynamics).
-
-    Returns
-    -------
-    str
-        The URDF document.
-    """
-    p = TiltrotorParams() if params is None else params
-    b, eps, mu = p.beta, p.epsilon, p.mu
-    grey, blue, dark, prop = (0.8, 0.8, 0.85, 1), (0.2, 0.4, 0.8, 1), (0.2, 0.2, 0.2, 1), (0.1, 0.1, 0.1, 0.35)
-    box = lambda x, y, z: f'<box size="{_f(x, y, z)}"/>'  # noqa: E731
-    cyl = lambda r, l: f'<cylinder radius="{r:.6g}" length="{l:.6g}"/>'  # noqa: E731
-    half = 0.5 * p.span
-    body_vis = [
-        ("fuselage", (0.0, 0, 0.13), (0, np.pi / 2, 0), cyl(0.075, 1.1), grey),
-        ("nose", (0.55, 0, 0.13), (0, 0, 0), '<sphere radius="0.075"/>', grey),
-        ("wing_right", (p.d_B_WR[0], -0.5 * half, p.d_B_WR[2]), (-eps, 0, 0), box(0.22, half, 0.02), blue),
-        ("wing_left", (p.d_B_WL[0], 0.5 * half, p.d_B_WL[2]), (eps, 0, 0), box(0.22, half, 0.02), blue),
-        ("spar_right", (p.d_B_A2[0], 0.5 * (p.d_B_A2[1] - half), p.d_B_A2[2]), (0, 0, 0),
-         box(0.03, abs(p.d_B_A2[1]) - half, 0.02), dark),
-        ("spar_left", (p.d_B_A3[0], 0.5 * (p.d_B_A3[1] + half), p.d_B_A3[2]), (0, 0, 0),
-         box(0.03, abs(p.d_B_A3[1]) - half, 0.02), dark),
-        ("tail_right", p.d_B_TR, (-mu, 0, 0), box(0.16, 0.36, 0.012), blue),
-        ("tail_left", p.d_B_TL, (mu, 0, 0), box(0.16, 0.36, 0.012), blue),
-    ]
-
-    def thruster_vis(side):
-        return [(f"nacelle_{side}", (0, 0, 0.02), (0, 0, 0), cyl(0.035, 0.16), dark),
-                (f"prop_disc_{side}", p.d_A_P, (0, 0, 0), cyl(0.5 * 0.6096, 0.004), prop),
-                (f"hub_{side}", p.d_A_P + np.array([0, 0, 0.01]), (0, 0, 0), '<sphere radius="0.02"/>', dark)]
-
-    s = '<?xml version="1.0"?>\n<!-- generated by sobolev_drake.tiltrotor.plant.tiltrotor_urdf -->\n'
-    s += '<robot name="tiltrotor">\n'
-    for ln in ("x_link", "y_link", "z_link", "yaw_link", "pitch_link"):
-        s += _link(ln)  # zero-mass links of the floating-base joint chain (docs/design.md §3)
-    s += _link("body", p.m1, p.d_B_C1, p.I_C1, body_vis)
-    s += _link("thruster_right", p.m2, p.d_A_C, p.I_C2, thruster_vis("right"))
-    s += _link("thruster_left", p.m3, p.d_A_C, p.I_C3, thruster_vis("left"))
-    markers = _marker_frames(p) if marker_links else []
-    for name, _, _ in markers:
-        s += _link(name)
-    s += _joint("base_x", "prismatic", "world", "x_link", axis=(1, 0, 0))
-    s += _joint("base_y", "prismatic", "x_link", "y_link", axis=(0, 1, 0))
-    s += _joint("base_z", "prismatic", "y_link", "z_link", axis=(0, 0, 1))
-    s += _joint("base_yaw", "continuous", "z_link", "yaw_link", axis=(0, 0, 1))
-    s += _joint("base_pitch", "continuous", "yaw_link", "pitch_link", axis=(0, 1, 0))
-    s += _joint("base_roll", "continuous", "pitch_link", "body", axis=(1, 0, 0))
-    # servo joints: child frame = A2 = Ry(αR) Rx(−β), A3 = Ry(αL) Rx(β) (7.4), (7.6)
-    s += _joint("tilt_right", "continuous", "body", "thruster_right", p.d_B_A2, (-b, 0, 0),
-                (0, np.cos(b), np.sin(b)))
-    s += _joint("tilt_left", "continuous", "body", "thruster_left", p.d_B_A3, (b, 0, 0),
-                (0, np.cos(b), -np.sin(b)))
-    for name, parent, d in markers:
-        s += _joint(f"fix_{name[len('frame_'):]}", "fixed", parent, name, d)
-    return s + "</robot>\n"
-
-
 def _build_plant(params, builder=None):
     if builder is None:
         plant, scene_graph = MultibodyPlant(time_step=0.0), None
@@ -149,7 +51,7 @@ def _build_plant(params, builder=None):
         plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
     (instance,) = Parser(plant).AddModelsFromString(tiltrotor_urdf(params, marker_links=False),
                                                     "urdf")
-    for name, parent, d in _marker_frames(params):       # the URDF's frame_* links as frames
+    for name, parent, d in marker_frames(params):       # the URDF's frame_* links as frames
         plant.AddFrame(FixedOffsetFrame(name, plant.GetBodyByName(parent, instance).body_frame(),
                                         RigidTransform(np.asarray(d, dtype=float)), instance))
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -float(params.g)])
@@ -197,7 +99,8 @@ class TiltrotorModel(MechanicalModel):
 
     num_inputs = 8
 
-    def __init__(self, params: TiltrotorParams | None = None, plant: MultibodyPlant | None = None):
+    def __init__(self, params: TiltrotorParams | None = None,
+                 plant: MultibodyPlant | None = None) -> None:
         self.params = TiltrotorParams() if params is None else params
         if plant is None:
             plant, _ = _build_plant(self.params)
@@ -206,7 +109,7 @@ class TiltrotorModel(MechanicalModel):
 
     frictionless = True
 
-    def friction(self, qdot) -> np.ndarray:
+    def friction(self, qdot: ArrayLike) -> np.ndarray:
         """K(q̇) = 0: the servo friction ν α̇ (7.33) is part of the generalized forces (passive
         term of (7.62)), not of the left-hand side.  Same as the base class, cheaper check
         (the controller asks for it at every sample).
@@ -226,7 +129,8 @@ class TiltrotorModel(MechanicalModel):
             return super().friction(qdot)          # raises the descriptive error
         return np.zeros(8)
 
-    def B(self, q, qdot=None, zeta=None):
+    def B(self, q: ArrayLike, qdot: ArrayLike | None = None,
+          zeta: ArrayLike | None = None) -> np.ndarray:
         """Input-coupling matrix B(q, q̇, ζ) of (7.62) (columns ``ACTUATOR_NAMES``).
 
         Computed by :func:`sobolev_drake.tiltrotor.input_affine.input_affine` with its defaults
@@ -384,7 +288,7 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
                 u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
             value.set_value(u)
 
-        def thesis_force(self, context) -> np.ndarray:
+        def thesis_force(self, context: Context) -> np.ndarray:
             """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
             reads the actuator inputs from their cache entry, touches each other port once, skips
             unconnected ones and uses the scalar force cores with one shared body-kinematics pass.
@@ -470,7 +374,7 @@ class TiltrotorHandles(PlantHandles):
         The :class:`PlantHandles` fields.
     """
 
-    def __init__(self, *, forces: TiltrotorForces, **kw):
+    def __init__(self, *, forces: TiltrotorForces, **kw: Any) -> None:
         super().__init__(**kw)
         self.forces = forces
         self.propeller_speed = forces.GetInputPort("propeller_speed")
@@ -481,7 +385,7 @@ class TiltrotorHandles(PlantHandles):
         self.generalized_force = forces.GetOutputPort("generalized_force")
 
 
-def add_tiltrotor(builder, params: TiltrotorParams | None = None, *,
+def add_tiltrotor(builder: DiagramBuilder, params: TiltrotorParams | None = None, *,
                   native: bool | None = None) -> TiltrotorHandles:
     """Add the tilt-rotor (MultibodyPlant + SceneGraph + :class:`TiltrotorForces`) to ``builder``.
 

@@ -6,7 +6,9 @@ docs/experiments/tiltrotor-hover-linear.md.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +24,8 @@ def _shade_phases(axis, phases, label=False):
                       ha="center", va="bottom", fontsize=6.5)
 
 
-def plot_mission(data, out_dir, stem, *, scenario=None, duration=None):
+def plot_mission(data: dict[str, np.ndarray], out_dir: str | os.PathLike[str], stem: str, *,
+                 scenario: int | None = None, duration: float | None = None) -> dict[str, Path]:
     """PNG figures of a mission flight: 3-D path, positions, attitude, tilt angles, actuators
     with their bounds, time on bounds per actuator, wind, tracking errors and allocation
     residual; the mission's phases shaded on every time axis.
@@ -143,7 +146,8 @@ def plot_mission(data, out_dir, stem, *, scenario=None, duration=None):
     return out
 
 
-def plot_hover_flights(all_data, out_dir):
+def plot_hover_flights(all_data: dict[str, dict[str, Any]],
+                       out_dir: str | os.PathLike[str]) -> dict[str, Path]:
     """3-D paths, tracking errors / tilt / propeller speed of the linear hover flights, and the
     wind of the first flight (PNG files ``tiltrotor-hover-linear_*.png``).
 

@@ -8,9 +8,15 @@ and the controllers use it.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.data import load
+
+if TYPE_CHECKING:   # a type hint only: this module stays pure numpy
+    from sobolev_drake.tiltrotor.scalars import Scalar
 
 __all__ = ["PropellerCoefficients"]
 
@@ -39,7 +45,7 @@ class PropellerCoefficients:
                "phi^3": (0, 3), "J^4": (4, 0), "J^3*phi": (3, 1), "J^2*phi^2": (2, 2),
                "J*phi^3": (1, 3), "phi^4": (0, 4)}
 
-    def __init__(self, data: dict | None = None):
+    def __init__(self, data: dict | None = None) -> None:
         data = load("propeller_coefficients") if data is None else data
         self.diameter = float(data["diameter_m"])
         self.rho = float(data["rho_kg_m3"])
@@ -65,7 +71,7 @@ class PropellerCoefficients:
             J, phi = np.broadcast_arrays(J, phi)
         return J[..., None] ** self._pJ * phi[..., None] ** self._pP
 
-    def ct_cq_scalar(self, J: float, phi: float):
+    def ct_cq_scalar(self, J: Scalar, phi: Scalar) -> tuple[Scalar, Scalar]:
         """(Ct, Cq) at scalar (J, φ) with Python floats: :meth:`ct` and :meth:`cq` in the scalar
         force tier of :mod:`~sobolev_drake.tiltrotor.propulsion`, without a numpy call per rotor.
         Arithmetic only, so AutoDiffXd or Expression arguments work too (the generic tier,
@@ -90,7 +96,7 @@ class PropellerCoefficients:
             cq += b * f
         return ct, cq
 
-    def ct_in_J(self, phi: float):
+    def ct_in_J(self, phi: float) -> tuple[float, float, float, float, float]:
         """Coefficients of the quartic J ↦ Ct(J, φ) at fixed φ (Newton thrust inversion).
 
         Parameters
@@ -109,7 +115,7 @@ class PropellerCoefficients:
             c[i] += a * Pp[j]
         return c[4], c[3], c[2], c[1], c[0]
 
-    def ct(self, J, phi):
+    def ct(self, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """Thrust coefficient Ct(J, φ) (vectorized over broadcast J, φ).
 
         Parameters
@@ -124,7 +130,7 @@ class PropellerCoefficients:
         """
         return self._features(J, phi) @ self.ct_coef
 
-    def cq(self, J, phi):
+    def cq(self, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """Torque coefficient Cq(J, φ) (vectorized over broadcast J, φ).
 
         Parameters
@@ -140,7 +146,8 @@ class PropellerCoefficients:
         return self._features(J, phi) @ self.cq_coef
 
     # --- kinematics of the inflow ------------------------------------------------------------
-    def advance_ratio_and_inflow(self, v_rel_rotor_frame, n):
+    def advance_ratio_and_inflow(self, v_rel_rotor_frame: ArrayLike,
+                                 n: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Advance ratio and inflow angle from the rotor's air-relative velocity (7.29)–(7.30).
 
         Non-positive n gives J = J_max (a stopped rotor produces ρd⁴n²Ct = 0 thrust anyway).
@@ -170,7 +177,7 @@ class PropellerCoefficients:
         return J, phi
 
     # --- forces ------------------------------------------------------------------------------
-    def thrust(self, n, J, phi):
+    def thrust(self, n: ArrayLike, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """Thrust f = ρ d⁴ n² Ct(J, φ) (7.25)/(7.27).
 
         Parameters
@@ -188,7 +195,7 @@ class PropellerCoefficients:
         n = np.asarray(n, dtype=float)
         return self.rho * self.diameter ** 4 * n ** 2 * self.ct(J, phi)
 
-    def torque(self, n, J, phi):
+    def torque(self, n: ArrayLike, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """Drag torque magnitude t = ρ d⁵ n² Cq(J, φ) (without the rotation sign λ).
 
         Parameters
@@ -206,7 +213,7 @@ class PropellerCoefficients:
         n = np.asarray(n, dtype=float)
         return self.rho * self.diameter ** 5 * n ** 2 * self.cq(J, phi)
 
-    def torque_per_thrust(self, J, phi):
+    def torque_per_thrust(self, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """t / f = d Cq / Ct (Appendix C: the drag torque expressed through the thrust).
 
         Parameters
@@ -221,7 +228,7 @@ class PropellerCoefficients:
         """
         return self.diameter * self.cq(J, phi) / self.ct(J, phi)
 
-    def speed_for_thrust(self, f, J, phi):
+    def speed_for_thrust(self, f: ArrayLike, J: ArrayLike, phi: ArrayLike) -> NDArray[np.float64]:
         """n ≥ 0 with ρ d⁴ n² Ct(J, φ) = f for *fixed* (J, φ) (inverse of (7.25), f ≥ 0).
 
         Parameters

@@ -20,16 +20,19 @@ the trims and the force systems here, which it does not cover).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from types import ModuleType
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from sobolev_drake.tiltrotor.body_frame import body_kinematics_scalar, body_wrench_scalar
+from sobolev_drake.tiltrotor.body_frame import BodyKinematics, body_kinematics_scalar, body_wrench_scalar
 from sobolev_drake.tiltrotor.generic_forces import propeller_force_generic
 from sobolev_drake.tiltrotor.params import R_W, TiltrotorParams, cross_rows
 from sobolev_drake.tiltrotor.propeller import PropellerCoefficients
-from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
+from sobolev_drake.tiltrotor.scalars import Scalar, ScalarMath, default_instantiation, scalar_math
 
 __all__ = [
     "body_kinematics_scalar", "body_wrench_scalar", "PropulsionModel", "PropellerForces",
@@ -52,7 +55,8 @@ class PropulsionModel:
         Ct, Cq of the package data by default.
     """
 
-    def __init__(self, params=None, coefficients: PropellerCoefficients | None = None):
+    def __init__(self, params: TiltrotorParams | None = None,
+                 coefficients: PropellerCoefficients | None = None) -> None:
         self.params = TiltrotorParams() if params is None else params
         self.coef = PropellerCoefficients() if coefficients is None else coefficients
         p = self.params
@@ -68,7 +72,8 @@ class PropulsionModel:
         # ∂Ct/∂J, ∂Cq/∂J at J = 0 as polynomials in φ: (power of φ, Ct coefficient, Cq coefficient)
         self._dJ_terms = [(j, a, b) for (i, j), a, b in c._terms if i == 1]
 
-    def rotor_frames(self, q):
+    def rotor_frames(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                NDArray[np.float64]]:
         """Rotor frames and hub positions of both rotors (7.19)–(7.24).
 
         Parameters
@@ -93,7 +98,7 @@ class PropulsionModel:
         dA = RA @ self.params.d_A_P
         return RA, self.d_B_A + dA, dA
 
-    def rotor_air_velocity(self, q, qdot, zeta):
+    def rotor_air_velocity(self, q: ArrayLike, qdot: np.ndarray, zeta: ArrayLike) -> NDArray[np.float64]:
         """Air-relative rotor velocities in the rotor frames (7.31).
 
         Parameters
@@ -117,7 +122,7 @@ class PropulsionModel:
         vb[:, 2] -= qdot[0:2] * dA[:, 0]
         return np.einsum("kji,kj->ki", RA, vb)
 
-    def unit_columns(self, q):
+    def unit_columns(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Generalized force per newton of thrust and per N m of torque about each rotor axis
         (7.32): the numpy reference of ϑ_P is ``G_f f + G_t λt`` (:meth:`thrust_and_torque`).
 
@@ -144,7 +149,9 @@ class PropulsionModel:
         Gt[2:5] = Wt @ z.T
         return Gf, Gt
 
-    def thrust_and_torque(self, q, qdot, zeta, n):
+    def thrust_and_torque(self, q: ArrayLike, qdot: np.ndarray, zeta: ArrayLike, n: ArrayLike
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                     NDArray[np.float64]]:
         """Thrusts, signed drag torques and inflow of both rotors (7.25)–(7.31).
 
         Parameters
@@ -171,7 +178,8 @@ class PropulsionModel:
         t = self.lam * self.coef.torque(n, J, phi)
         return f, t, J, phi
 
-    def rotors_scalar(self, q, qdot, kin, m=math):
+    def rotors_scalar(self, q: Sequence[Scalar], qdot: Sequence[Scalar], kin: BodyKinematics,
+                      m: ModuleType | ScalarMath = math) -> tuple[tuple[Scalar, ...], tuple[Scalar, ...]]:
         """Per-rotor geometry and inflow with Python floats (scalar tier of the plant's forces
         and the controller's input-affine terms, module docstring); branch-free, so it serves
         every scalar type with the matching ``m``.
@@ -216,7 +224,8 @@ class PropulsionModel:
                         m02 * ux + m12 * uy + m22 * uz))
         return out[0], out[1]
 
-    def propeller_force_scalar(self, kin, rotors, n):
+    def propeller_force_scalar(self, kin: BodyKinematics, rotors: tuple[tuple[float, ...], tuple[float, ...]],
+                               n: Sequence[float]) -> list[float]:
         """ϑ_P (7.32) in Python floats (scalar tier; the compiled kernel mirrors it).
 
         Parameters
@@ -262,7 +271,8 @@ class PropulsionModel:
         out[2:8] = body_wrench_scalar(kin, (Fx, Fy, Fz), (Tx, Ty, Tz))
         return out
 
-    def propeller_force(self, q, qdot, zeta, n):
+    def propeller_force(self, q: ArrayLike, qdot: ArrayLike, zeta: ArrayLike,
+                        n: ArrayLike) -> NDArray[np.float64]:
         """ϑ_P (7.32), thesis order, by the scalar tier: the reference ``G_f f + G_t λt`` of
         :meth:`unit_columns` and :meth:`thrust_and_torque` to rounding (tested).
 
@@ -288,7 +298,7 @@ class PropulsionModel:
         kin = body_kinematics_scalar(q, qdot, zeta)
         return np.array(self.propeller_force_scalar(kin, self.rotors_scalar(q, qdot, kin), n))
 
-    def servo_force(self, qdot, tau_s):
+    def servo_force(self, qdot: np.ndarray, tau_s: ArrayLike) -> NDArray[np.float64]:
         """ϑ_s (7.33): τs acts about the inclined y axis of C2/C3, i.e. cos β τs on the tilt
         joint (the reaction on the body cancels), minus viscous friction ν α̇.
 

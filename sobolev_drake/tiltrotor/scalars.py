@@ -21,15 +21,23 @@ constructor signature (for ``help()`` and the docstring checks).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
-from pydrake.symbolic import Expression, ExpressionKind, Variable, if_then_else
+from pydrake.symbolic import Expression, ExpressionKind, Formula, Variable, if_then_else
 
 from sobolev_drake.systems.scalar_time import template_signature
 
-__all__ = ["ScalarMath", "scalar_math", "default_instantiation", "DoubleOnly"]
+if TYPE_CHECKING:
+    from pydrake.systems.scalar_conversion import TemplateSystem
+
+__all__ = ["Scalar", "ScalarMath", "scalar_math", "default_instantiation", "DoubleOnly"]
+
+#: a scalar of any of Drake's scalar types (the type hint of the scalar-generic cores)
+Scalar = float | AutoDiffXd | Expression
 
 
 class ScalarMath:
@@ -47,7 +55,7 @@ class ScalarMath:
 
     KINDS = ("float", "autodiff", "symbolic")
 
-    def __init__(self, kind: str):
+    def __init__(self, kind: str) -> None:
         if kind not in self.KINDS:
             raise ValueError(f"kind must be one of {self.KINDS}, got {kind!r}")
         self.kind = kind
@@ -60,7 +68,7 @@ class ScalarMath:
     def __repr__(self):
         return f"ScalarMath({self.kind!r})"
 
-    def where(self, condition, if_true, if_false):
+    def where(self, condition: bool | np.bool_ | Formula, if_true: Scalar, if_false: Scalar) -> Scalar:
         """``if_true`` where ``condition`` holds, else ``if_false`` (both are evaluated).
 
         Parameters
@@ -79,7 +87,7 @@ class ScalarMath:
             return if_true if condition else if_false
         return if_then_else(condition, if_true, if_false)
 
-    def value(self, x):
+    def value(self, x: Scalar) -> Scalar:
         """``x`` without derivatives: the float value of an AutoDiffXd, ``x`` otherwise.
 
         Parameters
@@ -93,7 +101,8 @@ class ScalarMath:
         """
         return x.value() if isinstance(x, AutoDiffXd) else x
 
-    def lerp_rows(self, rows, x, imax):
+    def lerp_rows(self, rows: Sequence[tuple[float, ...]], x: Scalar,
+                  imax: int) -> tuple[Scalar, ...]:
         """Linear interpolation of a table at the sample coordinate ``x`` ∈ [0, imax + 1].
 
         The float arithmetic is the one of the float tier (``AeroModel.loads_scalar``):
@@ -155,7 +164,7 @@ _MATH = {"float": ScalarMath("float"), "autodiff": ScalarMath("autodiff"),
          "symbolic": ScalarMath("symbolic")}
 
 
-def scalar_math(T) -> ScalarMath:
+def scalar_math(T: type) -> ScalarMath:
     """The :class:`ScalarMath` of a template parameter.
 
     Parameters
@@ -174,7 +183,7 @@ def scalar_math(T) -> ScalarMath:
     return _MATH[kinds[T]]
 
 
-def default_instantiation(template, name: str):
+def default_instantiation(template: TemplateSystem, name: str) -> type:
     """The double instantiation of a ``TemplateSystem``, named ``name`` with the signature of
     its ``_construct`` (without ``converter``), so ``help()``, ``inspect.signature`` and the
     docstring checks see the real arguments.
@@ -211,7 +220,7 @@ class DoubleOnly:
         name = f" {self.get_name()!r}" if self.get_name() else ""
         return f"{type(self).__name__}{name} does not convert to {scalar}: {self.conversion_refusal}"
 
-    def ToAutoDiffXd(self):
+    def ToAutoDiffXd(self) -> NoReturn:
         """Refused (the class docstring says why and what to use instead).
 
         Raises
@@ -221,7 +230,7 @@ class DoubleOnly:
         """
         raise RuntimeError(self._refusal("AutoDiffXd"))
 
-    def ToSymbolic(self):
+    def ToSymbolic(self) -> NoReturn:
         """Refused (the class docstring says why and what to use instead).
 
         Raises

@@ -9,9 +9,17 @@ docs/experiments/tiltrotor-envelope.md.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from sobolev_drake.report import write_table
+
+if TYPE_CHECKING:
+    from sobolev_drake.tiltrotor.linear_design import HoverDesign
 
 __all__ = ["THESIS_TABLE_7_2", "TABLE_7_2_COLUMNS", "table_7_2_title", "thesis_cells",
            "gamma_cell", "design_cells", "flight_row", "synthesis_failed_row", "sim_failed_row",
@@ -27,7 +35,7 @@ TABLE_7_2_COLUMNS = ["design", "γ (✓ certified)", "‖T_ζz‖∞", "‖T_vz�
                      "synthesis [s]", "ISE", "IADU", "ISE (thesis)", "IADU (thesis)", "notes"]
 
 
-def table_7_2_title(duration):
+def table_7_2_title(duration: float) -> str:
     """Caption of the table beside Table 7.2.
 
     Parameters
@@ -44,7 +52,7 @@ def table_7_2_title(duration):
             f"inputs that destabilizes the linear loop)")
 
 
-def thesis_cells(spec):
+def thesis_cells(spec: HoverDesign) -> tuple[float, float] | tuple[str, str]:
     """The thesis' (ISE, IADU) of a design's Table 7.2 column, or dashes.
 
     Parameters
@@ -59,7 +67,7 @@ def thesis_cells(spec):
     return THESIS_TABLE_7_2[spec.column] if spec.column else ("-", "-")
 
 
-def gamma_cell(ctrl):
+def gamma_cell(ctrl: dict[str, Any]) -> str:
     """γ column: value, ✓ when certified, or why it is not a bound.
 
     Parameters
@@ -78,7 +86,7 @@ def gamma_cell(ctrl):
     return f"{ctrl['gamma']:.4g} ✗ (‖T‖∞ = {ctrl['achieved']:.4g})"
 
 
-def design_cells(name, ctrl):
+def design_cells(name: str, ctrl: dict[str, Any]) -> list[str]:
     """The first columns of a synthesized design's row of :data:`TABLE_7_2_COLUMNS`
     (design … synthesis).
 
@@ -99,7 +107,8 @@ def design_cells(name, ctrl):
             f"{ctrl['solve_s']:.1f}"]
 
 
-def flight_row(spec, ctrl, idx, stopped):
+def flight_row(spec: HoverDesign, ctrl: dict[str, Any], idx: dict[str, Any],
+               stopped: str) -> list[str | float]:
     """Row of a flown design: its cells, ISE, IADU, the thesis' and the notes.
 
     Parameters
@@ -121,7 +130,7 @@ def flight_row(spec, ctrl, idx, stopped):
             *thesis_cells(spec), "; ".join(([stopped.upper()] if stopped else []) + ctrl["notes"])[:300]]
 
 
-def synthesis_failed_row(spec, error):
+def synthesis_failed_row(spec: HoverDesign, error: str) -> list[str | float]:
     """Row of a design whose synthesis failed.
 
     Parameters
@@ -138,7 +147,7 @@ def synthesis_failed_row(spec, error):
     return [spec.label, "synthesis failed", "-", "-", "-", "-", "-", "-", *thesis_cells(spec), error[:200]]
 
 
-def sim_failed_row(spec, ctrl, error):
+def sim_failed_row(spec: HoverDesign, ctrl: dict[str, Any], error: str) -> list[str | float]:
     """Row of a design whose flight raised.
 
     Parameters
@@ -161,7 +170,7 @@ LITERAL_NOISE_COLUMNS = ["design", "flight", "RMS position [m]", "final [m]", "m
                          "max tilt [°]", "ISE", "IADU"]
 
 
-def literal_noise_row(name, m):
+def literal_noise_row(name: str, m: dict[str, Any]) -> list[str]:
     """Row of the literal-noise table (:data:`LITERAL_NOISE_COLUMNS`).
 
     Parameters
@@ -189,7 +198,7 @@ PHASE_COLUMNS = ["phase", "kind", "from [s]", "to [s]", "RMS ‖e‖ [m]", "max 
                  "goal RMS [m]", "goal met"]
 
 
-def phase_rows(phases):
+def phase_rows(phases: Sequence[dict[str, Any]]) -> list[list[str]]:
     """Rows of the per-phase tracking table (:data:`PHASE_COLUMNS`).
 
     Parameters
@@ -208,7 +217,7 @@ def phase_rows(phases):
 EFFORT_COLUMNS = ["actuator", "unit", "RMS [unit]", "IADU ∫|du| [unit]", "time on bound [s]"]
 
 
-def effort_rows(effort):
+def effort_rows(effort: dict[str, dict[str, float]]) -> list[list[str]]:
     """Rows of the effort table (:data:`EFFORT_COLUMNS`).
 
     Parameters
@@ -225,7 +234,7 @@ def effort_rows(effort):
              _fmt(v.get("time_on_bound_s"), 2)] for k, v in effort.items()]
 
 
-def design_columns(metrics):
+def design_columns(metrics: dict[str, Any]) -> list[str]:
     """Columns of the designs table: one RMS per phase of ``metrics``, final error, time on
     bounds, attitude (units in every header).
 
@@ -242,7 +251,7 @@ def design_columns(metrics):
             + ["final error [m]", "time on bounds, all actuators [s]", "max |φ|,|θ| [°]"])
 
 
-def design_row(label, metrics):
+def design_row(label: str, metrics: dict[str, Any]) -> list[str]:
     """Row of the designs table (:func:`design_columns`).
 
     Parameters
@@ -262,7 +271,7 @@ def design_row(label, metrics):
                _fmt(max(metrics["max_abs_roll_deg"], metrics["max_abs_pitch_deg"]), 1)])
 
 
-def mission_summary(metrics):
+def mission_summary(metrics: dict[str, Any]) -> str:
     """One paragraph: final position error against its goal, attitude extremes, allocation
     residual.
 
@@ -281,7 +290,8 @@ def mission_summary(metrics):
             f"{metrics['rms_allocation_residual']:.3g} (max {metrics['max_allocation_residual']:.3g})\n")
 
 
-def schedule_table(out_dir, speeds=(0, 5, 10, 15, 20, 24, 27, 30, 33, 34)):
+def schedule_table(out_dir: str | os.PathLike, speeds: Sequence[float] = (0, 5, 10, 15, 20, 24, 27, 30, 33, 34)
+                   ) -> tuple[Path, Path, str]:
     """Tilt reference α(V): the plant's level-flight trims beside the mission file's polynomial.
 
     Parameters

@@ -8,14 +8,22 @@ mission file's polynomial ``tilt_reference_vs_forward_speed`` it is compared wit
 
 from __future__ import annotations
 
-import numpy as np
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-from sobolev_drake.tiltrotor.trim import THESIS_HOVER, tiltrotor_model, trim_level_flight
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sobolev_drake.tiltrotor.trim import THESIS_HOVER, Trim, tiltrotor_model, trim_level_flight
+
+if TYPE_CHECKING:
+    from sobolev_drake.tiltrotor.plant import TiltrotorModel
 
 __all__ = ["tilt_reference_polynomial", "tilt_schedule", "write_tilt_schedule_report"]
 
 
-def tilt_reference_polynomial(V) -> np.ndarray:
+def tilt_reference_polynomial(V: ArrayLike) -> NDArray[np.float64]:
     """The mission file's α_ref(Ub) (coefficients of Ub⁵…Ub⁰, Ub clamped to [0, 33.99]).
 
     Parameters
@@ -34,7 +42,7 @@ def tilt_reference_polynomial(V) -> np.ndarray:
     return np.polyval(np.asarray(c, dtype=float), np.clip(np.asarray(V, dtype=float), 0.0, 33.99))
 
 
-def tilt_schedule(speeds=None, model=None):
+def tilt_schedule(speeds: ArrayLike | None = None, model: TiltrotorModel | None = None) -> list[Trim]:
     """Level-flight trims over ``speeds`` (default 0, 1, …, 34 m/s), continuation from hover.
 
     Returns a list of :class:`Trim` (one per speed).
@@ -62,7 +70,8 @@ def tilt_schedule(speeds=None, model=None):
     return trims
 
 
-def write_tilt_schedule_report(out_dir, trims=None):
+def write_tilt_schedule_report(out_dir: str | os.PathLike,
+                               trims: list[Trim] | None = None) -> tuple[Path, Path, Path]:
     """Markdown + JSON table and PNG plot of the trim tilt schedule vs the mission polynomial.
 
     Returns (md_path, json_path, png_path).
@@ -81,7 +90,6 @@ def write_tilt_schedule_report(out_dir, trims=None):
         (md_path, json_path, png_path) of the files written.
     """
     import json
-    from pathlib import Path
 
     import matplotlib
     matplotlib.use("Agg")

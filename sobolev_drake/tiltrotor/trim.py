@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
 from sobolev_drake.tiltrotor.plant import TiltrotorModel
@@ -116,7 +117,8 @@ class Trim:
         return thrust_inputs(self.info["model"].params, self.q, self.qdot, self.zeta, self.n)
 
 
-def balance(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
+def balance(model: TiltrotorModel | None, q: ArrayLike, qdot: ArrayLike, zeta: ArrayLike,
+            n: ArrayLike, tau_s: ArrayLike, delta: ArrayLike) -> np.ndarray:
     """ϑ − C(q, q̇) q̇ − g(q): zero at a trim (q̈ = 0).
 
     Parameters
@@ -147,8 +149,9 @@ def balance(model, q, qdot, zeta, n, tau_s, delta) -> np.ndarray:
             - model.Cqdot(q, qdot) - model.g(q))
 
 
-def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, alpha=None,
-                      restarts=True) -> Trim:
+def trim_level_flight(V: float, model: TiltrotorModel | None = None, guess: ArrayLike | None = None,
+                      zeta: ArrayLike | None = None, tol: float = 1e-13, alpha: float | None = None,
+                      restarts: bool = True) -> Trim:
     """Trim at constant inertial velocity [V, 0, 0] (V ≥ 0, m/s) with wind ``zeta``.
 
     Default: δ = 0, unknowns z = [αR αL φ θ nR nL τsR τsL].  With ``alpha`` given (tilt angle,
@@ -239,7 +242,7 @@ def trim_level_flight(V: float, model=None, guess=None, zeta=None, tol=1e-13, al
                       "model": model})
 
 
-def trim_hover(model=None, zeta=None) -> Trim:
+def trim_hover(model: TiltrotorModel | None = None, zeta: ArrayLike | None = None) -> Trim:
     """Hover trim (V = 0); compare with ``THESIS_HOVER``.
 
     Parameters
@@ -303,7 +306,7 @@ class HoverWindLimit:
 
 def hover_wind_limit(direction_deg: float = 90.0, *, attitude_limit_deg: float = 60.0,
                      max_speed: float = 25.0, step: float = 0.5, tol: float = 0.02,
-                     model=None) -> HoverWindLimit:
+                     model: TiltrotorModel | None = None) -> HoverWindLimit:
     """Strongest steady horizontal wind in which the aircraft can hover with its heading held.
 
     Hover trims (q̇ = 0, ψ = 0, surfaces at 0; unknowns [αR αL φ θ nR nL τsR τsL]) in the
