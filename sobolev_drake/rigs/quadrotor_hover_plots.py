@@ -30,12 +30,10 @@ def plot_flights(runs: dict[str, dict[str, Any]], out_dir: str | os.PathLike[str
     dict
         ``path_3d``, ``attitude``, ``inputs``: the written paths.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
     from sobolev_drake.plots import save_figure
     out = {}
-    fig = plt.figure(figsize=(7, 6))
+    fig = Figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
     first = next(iter(runs.values()))
     ax.plot(*first["x_ref"][3:6], "k--", lw=1, label="reference (Table 6.3)")
@@ -43,7 +41,8 @@ def plot_flights(runs: dict[str, dict[str, Any]], out_dir: str | os.PathLike[str
         ax.plot(*d["x"][3:6], f"C{i}", lw=1, label=label)
     ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]"), ax.legend()
     out["path_3d"] = save_figure(fig, Path(out_dir) / f"{name}_path3d.png")
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig = Figure(figsize=(8, 9))
+    axes = fig.subplots(4, 1, sharex=True)
     for i, (label, d) in enumerate(runs.items()):
         for k, lab in enumerate("ϕθψ"):
             axes[k].plot(d["t"], np.degrees(d["x"][k]), f"C{i}", lw=1, label=label if k == 0 else None)
@@ -56,7 +55,8 @@ def plot_flights(runs: dict[str, dict[str, Any]], out_dir: str | os.PathLike[str
     axes[0].legend(fontsize=7), axes[3].legend(fontsize=7)
     fig.suptitle("attitude and disturbances (cf. Figure 6.5)")
     out["attitude"] = save_figure(fig, Path(out_dir) / f"{name}_attitude.png", tight=True)
-    fig, axes = plt.subplots(len(runs), 1, figsize=(8, 3 * len(runs)), sharex=True, squeeze=False)
+    fig = Figure(figsize=(8, 3 * len(runs)))
+    axes = fig.subplots(len(runs), 1, sharex=True, squeeze=False)
     for i, (label, d) in enumerate(runs.items()):
         for k in range(4):
             axes[i, 0].plot(d["t"], np.sqrt(np.maximum(d["u"][k], 0)), lw=0.8, label=f"Ω{k + 1}")

@@ -53,9 +53,7 @@ def plot_mission(data: dict[str, np.ndarray], out_dir: str | os.PathLike[str], s
     dict
         {label: path}.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
 
     from sobolev_drake.plots import save_figure
     from sobolev_drake.tiltrotor.allocation import thesis_bounds_constants
@@ -67,7 +65,7 @@ def plot_mission(data: dict[str, np.ndarray], out_dir: str | os.PathLike[str], s
     tau, sat = data["tau_bar"], data["saturation"]
     phases = [] if scenario is None else mission_phases(scenario, duration or float(t[-1]))
     out = {}
-    fig = plt.figure(figsize=(7, 6))
+    fig = Figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
     ax.plot(pr[0], pr[1], pr[2], "k--", lw=1, label="reference")
     ax.plot(q[5], q[6], q[7], "C0", lw=1.5, label="W∞ + allocation")
@@ -76,7 +74,8 @@ def plot_mission(data: dict[str, np.ndarray], out_dir: str | os.PathLike[str], s
     out["path_3d"] = save_figure(fig, Path(out_dir) / f"{stem}_path3d.png")
 
     def panel(rows, title, fname):
-        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.9 * len(rows) + 0.8), sharex=True)
+        fig = Figure(figsize=(8, 1.9 * len(rows) + 0.8))
+        axes = fig.subplots(len(rows), 1, sharex=True)
         axes = np.atleast_1d(axes)
         for k, (axis, (lab, curves)) in enumerate(zip(axes, rows)):
             _shade_phases(axis, phases, label=k == 0)
@@ -126,7 +125,8 @@ def plot_mission(data: dict[str, np.ndarray], out_dir: str | os.PathLike[str], s
         rows.append(("δ [deg]", curves + [(d_lo * deg, "bound", ""), (d_hi * deg, "bound", "")]))
     out["actuators"] = panel(rows, "actuators (dotted red: bounds)", "actuators")
     eff = effort_metrics(t, tau, sp, sat)
-    fig, ax = plt.subplots(figsize=(7, 3))
+    fig = Figure(figsize=(7, 3))
+    ax = fig.subplots()
     secs = [eff[k]["time_on_bound_s"] for k in ACTUATORS]
     ax.bar([name[k] for k in ACTUATORS], secs, color="C3")
     for k, v in enumerate(secs):
@@ -163,13 +163,11 @@ def plot_hover_flights(all_data: dict[str, dict[str, Any]],
     dict
         {label: path}.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
     from sobolev_drake.plots import save_figure
 
     out = {}
-    fig = plt.figure(figsize=(7, 6))
+    fig = Figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
     first = next(iter(all_data.values()))
     r = first["reference"]
@@ -179,7 +177,8 @@ def plot_hover_flights(all_data: dict[str, dict[str, Any]],
     ax.legend()
     ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
     out["path_3d"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_path3d.png")
-    fig, axes = plt.subplots(5, 1, figsize=(8, 11), sharex=True)
+    fig = Figure(figsize=(8, 11))
+    axes = fig.subplots(5, 1, sharex=True)
     for i, (name, d) in enumerate(all_data.items()):
         t, x, r = d["t"], d["x"], d["reference"]
         for k in range(3):
@@ -193,7 +192,8 @@ def plot_hover_flights(all_data: dict[str, dict[str, Any]],
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
     out["errors"] = save_figure(fig, Path(out_dir) / "tiltrotor-hover-linear_errors.png")
-    fig, ax = plt.subplots(figsize=(8, 3))
+    fig = Figure(figsize=(8, 3))
+    ax = fig.subplots()
     w = first["wind"]
     for k, a in enumerate("xyz"):
         ax.plot(first["t"], w[k], f"C{k}", lw=0.8, label=f"ζ{a}")

@@ -91,9 +91,7 @@ def write_tilt_schedule_report(out_dir: str | os.PathLike,
     """
     import json
 
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -127,7 +125,8 @@ def write_tilt_schedule_report(out_dir: str | os.PathLike,
                        "prescribed by `tilt_reference_vs_forward_speed` (unknowns δTR, δTL, φ, θ, n, τs); "
                        "the ruddervator limit is ±0.436 rad.\n\n" + "\n".join(md) + "\n")
     json_path.write_text(json.dumps(rows, indent=1))
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    fig = Figure(figsize=(10, 4))
+    ax = fig.subplots(1, 2)
     V = np.array([r["V"] for r in rows])
     ax[0].plot(V, [r["alpha_trim"] for r in rows], "o-", label="α trim (ours)")
     ax[0].plot(V, [r["alpha_poly"] for r in rows], "--", label="mission polynomial")
@@ -145,7 +144,6 @@ def write_tilt_schedule_report(out_dir: str | os.PathLike,
     ax[1].grid(True)
     fig.tight_layout()
     fig.savefig(png_path, dpi=110)
-    plt.close(fig)
     return md_path, json_path, png_path
 
 
