@@ -96,7 +96,7 @@ def run(duration=3.0, out_dir="out/diagrams"):
                                         "u - u0 [N·m]": (u[:, 1:n + 1] - u0[:, None]).T},
                                     Path(out_dir) / "arm_sampled_winf.png",
                                     title="arm, W∞ sampled at 100 Hz with a one-sample delay")
-    return {"gamma_first": first.gamma, "gamma": res.gamma, "norm": res.norm_ab13dd,
+    return {"gamma_first": first.gamma, "gamma": res.gamma, "norm": res.discrete.norm_ab13dd,
             "ratio": ratio, "warnings_first": an.warnings, "plot": png,
             "max_error": float(np.abs(x[:2, :n] - Q0[:, None]).max())}
 

@@ -299,7 +299,7 @@ def consistent_controller_state(plant, res, x0):
     -------
     ndarray
     """
-    if res.controller is None or res.P is None:
+    if res.kind != "output_feedback" or res.controller is None or res.P is None:
         raise ValueError("res must be a dynamic-controller result with its closed-loop Lyapunov matrix P")
     n, nd = plant.A.shape[0], plant.AD.shape[0]
     P = np.asarray(res.P)
