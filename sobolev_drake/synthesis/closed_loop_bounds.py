@@ -180,7 +180,7 @@ def _performance_plant(plant, design, res, nk):
     if np.asarray(res.P).shape[0] == n + nd + nk:
         return augmented_disturbance_plant(plant.A, plant.B, plant.D, plant.AD, plant.BD, plant.CD,
                                            plant.gamma0, plant.gamma1, C=Cm)
-    return winf_plant(plant.A, plant.B, plant.D, plant.gamma0, plant.gamma1, Cm)
+    return winf_plant(plant.A, plant.B, Cm, plant.D, Gamma0=plant.gamma0, Gamma1=plant.gamma1)
 
 
 def brl_scale(Acl, Bcl, Ccl, Dcl, P, gamma, tol=1e-7):

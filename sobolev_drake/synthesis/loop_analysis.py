@@ -392,7 +392,8 @@ def loop_analysis(result: SynthesisResult, plant: object, *,
         design; a discrete-time result (``result.dt > 0``, from
         :func:`~sobolev_drake.synthesis.discrete.hinf_discrete`) is analysed in z (poles reported as s = ln(z)/dt, frequencies up to π/dt).
     plant : GeneralizedPlant or linear system
-        The plant: a :class:`GeneralizedPlant` (e.g. ``sd.winf_plant(A, B, D, Gamma0, Gamma1)``;
+        The plant: a :class:`GeneralizedPlant` (e.g. ``sd.winf_plant(A, B, C, D, Gamma0=...,
+        Gamma1=...)``;
         then the performance channel w -> z is analysed too), or a linear system (Drake
         ``LinearSystem``, python-control ``StateSpace``, (A, B, C, D)) whose B is the control
         input and, for output feedback, whose C is the measurement.  For a discrete result:
@@ -428,7 +429,7 @@ def loop_analysis(result: SynthesisResult, plant: object, *,
     >>> import numpy as np
     >>> import sobolev_drake as sd
     >>> A, B, D = np.array([[0.0, 1.0], [-1.0, -0.5]]), np.array([[0.0], [1.0]]), np.eye(2)
-    >>> P = sd.winf_plant(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> P = sd.winf_plant(A, B, D=D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
     >>> res = sd.winf_state_feedback(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=2.0)
     >>> an = sd.loop_analysis(res, P)
     >>> an.stable, round(an.closed_loop.fastest, 3), round(an.closed_loop.min_damping, 2)

@@ -113,7 +113,7 @@ def test_sampled_data_design_on_the_arm_meets_gamma_in_hybrid_simulation(delay):
     q0 = np.array([0.3, 0.5])
     A, B, D = linearize_mechanical(m, q0, np.zeros(2), np.linalg.solve(m.B(q0), m.g(q0)))
     G0, G1 = sd.winf_weights(5.0, 0.8, dof=2)
-    plant = sd.winf_plant(A, B, D, G0, G1)
+    plant = sd.winf_plant(A, B, D=D, Gamma0=G0, Gamma1=G1)
     dt = 0.01
     res = quiet(sd.hinf_discrete, sampled_data_plant(plant, dt, computation_delay=delay),
                 None, None, dt=dt, computation_delay=delay)
