@@ -98,7 +98,7 @@ def main():
     rows = []
     for n, (A, B, D, C) in plants([int(s) for s in args.sizes.split(",")], rng).items():
         G0, G1 = np.eye(n), 0.1 * np.eye(n)
-        p = winf_plant(A, B, D, G0, G1, C)
+        p = winf_plant(A, B, C, D, Gamma0=G0, Gamma1=G1)
         region = disk(20.0 if n > 3 else 4 * max(1.0, np.abs(np.linalg.eigvals(A)).max()))
         cases = [("SF+disk", lambda b: state_feedback(p, backend=b, region=region))]
         if not args.no_of and n <= args.of_max:

@@ -48,7 +48,7 @@ def design():
     u0 = np.linalg.solve(model.B(Q0), model.g(Q0))
     A, B, D = linearize_mechanical(model, Q0, np.zeros(2), u0)
     G0, G1 = sd.winf_weights(5.0, 0.8, dof=2)
-    plant = sd.winf_plant(A, B, B, G0, G1)           # disturbance torques with the inputs
+    plant = sd.winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)           # disturbance torques with the inputs
     sdp = sampled_data_plant(plant, DT, computation_delay=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sd.synthesis.SynthesisWarning)
@@ -96,7 +96,7 @@ def run(duration=3.0, out_dir="out/diagrams"):
                                         "u - u0 [N·m]": (u[:, 1:n + 1] - u0[:, None]).T},
                                     Path(out_dir) / "arm_sampled_winf.png",
                                     title="arm, W∞ sampled at 100 Hz with a one-sample delay")
-    return {"gamma_first": first.gamma, "gamma": res.gamma, "norm": res.norm_ab13dd,
+    return {"gamma_first": first.gamma, "gamma": res.gamma, "norm": res.discrete.norm_ab13dd,
             "ratio": ratio, "warnings_first": an.warnings, "plot": png,
             "max_error": float(np.abs(x[:2, :n] - Q0[:, None]).max())}
 

@@ -54,13 +54,13 @@ def designs():
         warnings.simplefilter("ignore", sd.synthesis.SynthesisWarning)
         out = {
             "acrobot W∞ state feedback": (sd.winf_state_feedback(lin, Gamma0=G0, Gamma1=G1),
-                                          sd.winf_plant(A, B, B, G0, G1)),
+                                          sd.winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)),
             "acrobot W∞ output feedback (angles)": (
                 sd.winf_output_feedback(lin, C=ANGLES, Gamma0=G0, Gamma1=G1),
-                sd.winf_plant(A, B, B, G0, G1, C=ANGLES)),
+                sd.winf_plant(A, B, ANGLES, B, Gamma0=G0, Gamma1=G1)),
             "acrobot W∞ state feedback in disk(250)": (
                 sd.winf_state_feedback(lin, Gamma0=G0, Gamma1=G1, region=sd.regions.disk(250.0)),
-                sd.winf_plant(A, B, B, G0, G1)),
+                sd.winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)),
         }
         P = control.ss([[-1.0, 1.0], [0.0, 2.0]], [[1.0, 0.0], [1.0, 1.0]],
                        [[1.0, 0.0], [0.0, 0.0], [0.0, 1.0]], [[0.0, 0.0], [0.0, 1.0], [0.1, 0.0]])

@@ -11,7 +11,9 @@ experiments  the thesis experiments, composed from the above
 
 Naming rule: ``<norm>_<structure>`` for syntheses (``winf_state_feedback``,
 ``hinf_output_feedback``, ...), each returning a :class:`SynthesisResult`; ``hinfsyn`` alone
-follows python-control's signature and return value.  Sign convention everywhere: u = +K x
+follows python-control's signature and return value.  A result's ``controller`` is one type,
+:class:`DynamicController` (a state-feedback gain is the static one), converting to Drake and
+python-control systems.  Sign convention everywhere: u = +K x
 (state feedback) and u = C_K x_K + D_K y (output feedback); Drake's
 ``LinearQuadraticRegulator`` returns K for u = −K x.
 """
@@ -24,7 +26,8 @@ from sobolev_drake.errors import (CampaignError, ModelError, SimulationError, So
 from sobolev_drake.models import FloatingBaseModel, MechanicalModel, PlantHandles
 from sobolev_drake.models.base import PlantModel
 from sobolev_drake.simulation import SimulationDiverged, SimulationStalled, SimulationTimeout, simulate
-from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, SynthesisError,
+from sobolev_drake.synthesis import (DynamicController, GeneralizedPlant, InfeasibleLMIError,
+                                     SynthesisError,
                                      SynthesisOptions, SynthesisResult, controlled_gains, generalized_plant,
                                      hinf_mechanical_gains, hinf_output_feedback,
                                      hinf_output_feedback_qr, hinf_plant, hinf_state_feedback,
@@ -34,8 +37,8 @@ from sobolev_drake.synthesis import (GeneralizedPlant, InfeasibleLMIError, Synth
                                      winf_plant, winf_state_feedback)
 from sobolev_drake.synthesis.loop_analysis import LoopAnalysis, loop_analysis
 from sobolev_drake.synthesis.weights import winf_weights
-from sobolev_drake.synthesis.discrete import (DiscreteSynthesisResult, hinf_discrete,
-                                              sampled_data_plant)
+from sobolev_drake.synthesis.discrete import hinf_discrete, sampled_data_plant
+from sobolev_drake.synthesis.problem import DiscreteDesign
 from sobolev_drake.analysis_plots import plot_loop_analysis
 from sobolev_drake.systems.discrete_controller import discrete_controller_system
 from sobolev_drake.systems import (FloatingBaseState, HinfLaw, LinearDynamicOutputFeedback,
@@ -62,12 +65,13 @@ __all__ = [
     # linear synthesis
     "winf_state_feedback", "winf_output_feedback", "hinf_state_feedback", "hinf_output_feedback",
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_plant", "hinf_plant",
-    "GeneralizedPlant", "generalized_plant", "SynthesisResult", "SynthesisOptions", "SynthesisError",
+    "GeneralizedPlant", "generalized_plant", "SynthesisResult", "DynamicController",
+    "SynthesisOptions", "SynthesisError",
     "InfeasibleLMIError", "regions", "hinfsyn", "to_statespace", "save_result", "load_result",
     # analysis of a designed loop, weights from bandwidth and damping
     "loop_analysis", "LoopAnalysis", "plot_loop_analysis", "winf_weights",
     # discrete-time and sampled-data synthesis
-    "hinf_discrete", "sampled_data_plant", "DiscreteSynthesisResult", "discrete_controller_system",
+    "hinf_discrete", "sampled_data_plant", "DiscreteDesign", "discrete_controller_system",
     # linear controllers as Drake systems
     "controller_system", "LinearStateFeedback", "LinearDynamicOutputFeedback",
 ]

@@ -124,7 +124,7 @@ def plot_loop_analysis(analysis: LoopAnalysis, path: str | os.PathLike[str] | No
     >>> import sobolev_drake as sd
     >>> A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
     >>> res = sd.winf_state_feedback(A, B, B, Gamma0=[1, 1], Gamma1=[0, 1], gamma=10.0)
-    >>> fig = sd.plot_loop_analysis(sd.loop_analysis(res, sd.winf_plant(A, B, B, [1, 1], [0, 1])))
+    >>> fig = sd.plot_loop_analysis(sd.loop_analysis(res, sd.winf_plant(A, B, D=B, Gamma0=[1, 1], Gamma1=[0, 1])))
     >>> len(fig.axes)
     6
     """

@@ -24,7 +24,8 @@ from numpy.typing import ArrayLike
 T = TypeVar("T")
 
 __all__ = ["check_parameter_fields", "real_array", "real_matrix", "real_vector", "real_scalar", "positive_scalar", "index_tuple",
-           "bounds_pair", "one_of", "describe", "sequence", "mapping", "path_like"]
+           "bounds_pair", "one_of", "describe", "sequence", "mapping", "path_like",
+           "state_input_disturbance"]
 
 
 def describe(value: Any, limit: int = 60) -> str:
@@ -296,3 +297,42 @@ def check_parameter_fields(params: Any, positive: Iterable[str] = (),
             arr = real_array(label, value)
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{label} must be finite, got {describe(value)}")
+
+
+def state_input_disturbance(A: ArrayLike, B: ArrayLike, D: ArrayLike
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, D) of x' = A x + B u + D w as float matrices: A non-empty square, B and D with n
+    rows and at least one column each.
+
+    Parameters
+    ----------
+    A, B, D : array_like
+        State, control-input and disturbance matrices.
+
+    Returns
+    -------
+    tuple of ndarray
+
+    Raises
+    ------
+    ValueError
+        Naming the matrix whose shape or values do not fit.
+
+    Examples
+    --------
+    >>> from sobolev_drake.validation import state_input_disturbance
+    >>> [M.shape for M in state_input_disturbance([[0, 1], [0, 0]], [[0], [1]], [[0], [1]])]
+    [(2, 2), (2, 1), (2, 1)]
+    """
+    A = real_matrix("A", A, allow_empty=True)
+    n = A.shape[0]
+    real_matrix("A", A, (n, n), allow_empty=True)
+    if n == 0:   # before the weights, whose checks would fail on empty matrices
+        raise ValueError(f"A must be a non-empty square matrix (the plant has no state), got "
+                         f"shape {A.shape}")
+    B = real_matrix("B", B, (n, None), allow_empty=True)
+    D = real_matrix("D", D, (n, None), allow_empty=True)
+    for name, M, what in (("B", B, "control input"), ("D", D, "disturbance")):
+        if M.shape[1] == 0:
+            raise ValueError(f"{name} must have at least one {what} column, got shape {M.shape}")
+    return A, B, D

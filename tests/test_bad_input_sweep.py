@@ -35,9 +35,9 @@ CASES = [
     ("winf_state_feedback 0x0", lambda: sd.winf_state_feedback(Z00, Z01, Z01, Z00, Z00), ValueError, "A", "(0, 0)"),
     ("winf_output_feedback 0x0", lambda: sd.winf_output_feedback(Z00, Z01, Z00, Z01, Z00, Z00), ValueError, "A", "(0, 0)"),
     ("hinf_state_feedback_qr 0x0", lambda: sd.hinf_state_feedback_qr(Z00, Z01, Z01, Z00, np.eye(1)), ValueError, "A", "(0, 0)"),
-    ("winf_plant no input", lambda: sd.winf_plant(A2, Z20, B2, G0, G1), ValueError, "B", "(2, 0)"),
-    ("hinf_plant no disturbance", lambda: sd.hinf_plant(A2, B2, Z20, G0, np.eye(1)), ValueError, "D", "(2, 0)"),
-    ("Gamma0 asymmetric shows it", lambda: sd.winf_plant(A2, B2, B2, [[1.0, 2.0], [0.0, 1.0]], G1), ValueError,
+    ("winf_plant no input", lambda: sd.winf_plant(A2, Z20, D=B2, Gamma0=G0, Gamma1=G1), ValueError, "B", "(2, 0)"),
+    ("hinf_plant no disturbance", lambda: sd.hinf_plant(A2, B2, D=Z20, Q=G0, R=np.eye(1)), ValueError, "D", "(2, 0)"),
+    ("Gamma0 asymmetric shows it", lambda: sd.winf_plant(A2, B2, D=B2, Gamma0=[[1.0, 2.0], [0.0, 1.0]], Gamma1=G1), ValueError,
      "Gamma0 must be symmetric", "[[1., 2.], [0., 1.]]"),
     # --- None is not "complex entries"
     ("to_statespace None", lambda: sd.to_statespace(None), TypeError, "result_or_controller must be a SynthesisResult", "got None"),

@@ -136,8 +136,8 @@ def diagnose(res, lin, rig_of, designs, out_dir):
     rho = float(designs["H∞-O.F."]["rho"])
     rows_spread, growth = [], {}
     disk = regions.disk(RADIUS["output_feedback"])
-    for name, plant in (("W∞-O.F.", sb.winf_plant(A, B, D, GAMMA0_OF, GAMMA1_OF, C_OF)),
-                        ("H∞-O.F.", sb.hinf_plant(A, B, D, GAMMA0_OF, np.array([[rho]]), C_OF))):
+    for name, plant in (("W∞-O.F.", sb.winf_plant(A, B, C_OF, D, Gamma0=GAMMA0_OF, Gamma1=GAMMA1_OF)),
+                        ("H∞-O.F.", sb.hinf_plant(A, B, C_OF, D, Q=GAMMA0_OF, R=np.array([[rho]])))):
         g_design = float(designs[name]["res"].gamma)
         winf = DESIGN_SPECS[name].norm == "winf"
         rr = backend_spread(name, lin, None if winf else rho, rig_of, gamma=g_design,

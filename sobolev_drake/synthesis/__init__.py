@@ -2,7 +2,7 @@
 
 The names below are the public synthesis API; the modules hold the rest:
 ``hinf`` (generalized-plant H∞ state and output feedback), ``problem`` (their plant and
-result types), ``sobolev`` (W∞ channels),
+result types), ``controller`` (the one controller type), ``sobolev`` (W∞ channels),
 ``interop`` (linear systems in, controllers out), ``mechanical`` (Sobolev gains of
 Euler–Lagrange systems), ``regions`` (LMI pole regions), ``certificates`` (independent
 checks), ``polytopic``, ``galerkin``, ``margins``, ``design_file`` (results saved as JSON / npz),
@@ -15,7 +15,8 @@ from sobolev_drake.synthesis.certificates import hinf_norm
 # (``hinf.output_feedback``/``state_feedback`` are not re-exported: the first would hide the
 # module ``synthesis.output_feedback``; ``hinf_output_feedback``/``hinf_state_feedback`` are
 # the same functions, also taking linear systems)
-from sobolev_drake.synthesis.problem import (DynamicController, GeneralizedPlant, SynthesisResult,
+from sobolev_drake.synthesis.controller import DynamicController
+from sobolev_drake.synthesis.problem import (DiscreteDesign, GeneralizedPlant, SynthesisResult,
                                              SynthesisWarning)
 from sobolev_drake.synthesis.interop import (HinfsynOutput, generalized_plant, hinf_output_feedback,
                                              hinf_state_feedback, hinfsyn, state_space_matrices,
@@ -32,7 +33,7 @@ from sobolev_drake.synthesis.sobolev import (hinf_output_feedback_qr, hinf_plant
 
 __all__ = [
     "regions", "hinf_norm",
-    "DynamicController", "GeneralizedPlant", "SynthesisResult", "SynthesisWarning",
+    "DynamicController", "DiscreteDesign", "GeneralizedPlant", "SynthesisResult", "SynthesisWarning",
     "HinfsynOutput", "generalized_plant", "hinf_output_feedback", "hinf_state_feedback", "hinfsyn",
     "state_space_matrices", "to_statespace",
     "InfeasibleLMIError", "SynthesisError", "save_result", "load_result",

@@ -180,7 +180,7 @@ def _performance_plant(plant, design, res, nk):
     if np.asarray(res.P).shape[0] == n + nd + nk:
         return augmented_disturbance_plant(plant.A, plant.B, plant.D, plant.AD, plant.BD, plant.CD,
                                            plant.gamma0, plant.gamma1, C=Cm)
-    return winf_plant(plant.A, plant.B, plant.D, plant.gamma0, plant.gamma1, Cm)
+    return winf_plant(plant.A, plant.B, Cm, plant.D, Gamma0=plant.gamma0, Gamma1=plant.gamma1)
 
 
 def brl_scale(Acl, Bcl, Ccl, Dcl, P, gamma, tol=1e-7):
@@ -299,7 +299,7 @@ def consistent_controller_state(plant, res, x0):
     -------
     ndarray
     """
-    if res.controller is None or res.P is None:
+    if res.kind != "output_feedback" or res.controller is None or res.P is None:
         raise ValueError("res must be a dynamic-controller result with its closed-loop Lyapunov matrix P")
     n, nd = plant.A.shape[0], plant.AD.shape[0]
     P = np.asarray(res.P)

@@ -1,8 +1,10 @@
 """Synthesis results saved to and loaded from readable files: JSON or npz, never pickle.
 
 A file holds one :class:`~sobolev_drake.synthesis.problem.SynthesisResult` with every field
-(controller or gain, γ, Lyapunov matrices, certificates, region, warnings, what was tried),
-a format name, a schema version and a checksum (``datafile.fingerprint``) of the content:
+(controller or gain, γ, Lyapunov matrices, certificates, region, warnings, what was tried; for
+a discrete-time result its period and its :class:`~sobolev_drake.synthesis.problem.
+DiscreteDesign`, with the continuous design inside), a format name, a schema version and a
+checksum (``datafile.fingerprint``) of the content:
 
 * ``.json`` -- ``datafile``'s typed-array JSON (exact floats, dtype and shape kept), readable in
   any editor;
@@ -10,8 +12,9 @@ a format name, a schema version and a checksum (``datafile.fingerprint``) of the
   the document as JSON text in ``document`` (where each array sits as ``{"__npz__": "a0"}``).
   It is read with ``np.load(allow_pickle=False)``.
 
-A file of another format or schema, an edited or damaged file, or a result of the wrong
-structure is refused with a :class:`~sobolev_drake.datafile.DataFileError` naming the file and
+Schema 2 added ``dt`` and ``discrete`` (and the controller's ``dt``); a schema-1 file (before
+them) still loads, as the continuous-time result it holds.  A file of another format or
+schema, an edited or damaged file, or a result of the wrong structure is refused with a :class:`~sobolev_drake.datafile.DataFileError` naming the file and
 the problem.  The loaded result is the saved one; it is not re-certified (call
 ``certificates.certify_closed_loop`` on ``result.closed_loop(plant)`` to check it again).
 """
@@ -31,13 +34,16 @@ from sobolev_drake.datafile import (DataFileError, fingerprint, from_tree, read_
                                     write_bytes_atomic, write_json_atomic)
 
 from .certificates import Certificate
-from .problem import DynamicController, SynthesisResult
+from .controller import DynamicController
+from .problem import DiscreteDesign, SynthesisResult
 from .regions import LMIRegion
 
 __all__ = ["RESULT_FORMAT", "RESULT_SCHEMA", "save_result", "load_result"]
 
 RESULT_FORMAT = "sobolev_drake synthesis result"
-RESULT_SCHEMA = 1
+RESULT_SCHEMA = 2
+#: schemas this version reads: 1 had no ``dt`` / ``discrete`` (continuous time only)
+_READABLE = {1: {"dt": 0.0, "discrete": None}, 2: {}}
 _SUFFIXES = (".json", ".npz")
 _NPZ = "__npz__"
 
@@ -48,7 +54,10 @@ def _result_tree(res):
     for f in dataclasses.fields(SynthesisResult):
         v = getattr(res, f.name)
         if isinstance(v, DynamicController):
-            v = {"AK": v.AK, "BK": v.BK, "CK": v.CK, "DK": v.DK}
+            v = {"AK": v.AK, "BK": v.BK, "CK": v.CK, "DK": v.DK, "dt": v.dt}
+        elif isinstance(v, DiscreteDesign):
+            v = {**{g.name: getattr(v, g.name) for g in dataclasses.fields(DiscreteDesign)},
+                 "closed_loop": list(v.closed_loop), "continuous": _result_tree(v.continuous)}
         elif isinstance(v, Certificate):
             v = dataclasses.asdict(v)
         elif isinstance(v, LMIRegion):
@@ -74,6 +83,11 @@ def _result_from(fields, where):
         f["certificates"] = [Certificate(**c) for c in f["certificates"]]
         if f["region"] is not None:
             f["region"] = LMIRegion(**f["region"])
+        if f["discrete"] is not None:
+            d = dict(f["discrete"])
+            d["closed_loop"] = tuple(d["closed_loop"])
+            d["continuous"] = _result_from(d["continuous"], f"{where} (its continuous design)")
+            f["discrete"] = DiscreteDesign(**d)
         if f["kind"] not in ("state_feedback", "output_feedback"):
             raise ValueError(f"kind {f['kind']!r} is not 'state_feedback' or 'output_feedback'")
         gain = f["K"] if f["kind"] == "state_feedback" else f["controller"]
@@ -185,13 +199,17 @@ def load_result(path: str | os.PathLike[str]) -> SynthesisResult:
         doc, tree = _read_npz(path)
     if not isinstance(doc, dict) or doc.get("format") != RESULT_FORMAT:
         raise DataFileError(f"{path}: not a synthesis result file (no format {RESULT_FORMAT!r})")
-    if doc.get("schema") != RESULT_SCHEMA:
-        raise DataFileError(f"{path}: schema {doc.get('schema')!r}, this version reads schema "
-                            f"{RESULT_SCHEMA}")
+    schema = doc.get("schema")
+    if isinstance(schema, bool) or schema not in _READABLE:
+        raise DataFileError(f"{path}: schema {schema!r}, this version reads schemas "
+                            f"{sorted(_READABLE)}")
     if doc.get("checksum") != fingerprint(tree):
         raise DataFileError(f"{path}: its content does not match its checksum (edited or "
                             "damaged after it was written)")
-    return _result_from(from_tree(tree, str(path)), str(path))
+    fields = from_tree(tree, str(path))
+    if isinstance(fields, dict) and _READABLE[schema]:
+        fields = {**_READABLE[schema], **fields}    # the fields an older schema had not
+    return _result_from(fields, str(path))
 
 
 def _read_npz(path):

@@ -28,7 +28,6 @@ is not covered (that needs the lifted sampled-data norm).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -36,13 +35,13 @@ from numpy.typing import ArrayLike
 import scipy.linalg
 
 from ..validation import positive_scalar
-from .certificates import as_matrix
 from ..optional import python_control
+from .certificates import Certificate, as_matrix
+from .controller import DynamicController
 from .interop import hinfsyn
-from .problem import DynamicController, GeneralizedPlant, SynthesisResult
-from .riccati import RiccatiInfeasible
+from .problem import DiscreteDesign, GeneralizedPlant, SynthesisResult
 
-__all__ = ["DiscreteSynthesisResult", "bilinear_to_continuous", "bilinear_to_discrete",
+__all__ = ["bilinear_to_continuous", "bilinear_to_discrete",
            "discrete_state_space", "sampled_data_plant", "hinf_discrete", "discrete_hinf_norm"]
 
 #: relative margin of the published γ over the independent norm estimates (ab13dd's tolerance
@@ -50,45 +49,6 @@ __all__ = ["DiscreteSynthesisResult", "bilinear_to_continuous", "bilinear_to_dis
 CERTIFICATE_MARGIN = 1e-6
 #: unit-circle points of the sweep (plus the peak refined by a local grid)
 SWEEP_POINTS = 4000
-
-
-@dataclass(frozen=True)
-class DiscreteSynthesisResult:
-    """A discrete-time controller certified on the discrete closed loop.
-
-    Attributes
-    ----------
-    dt : float
-        Sample period (s).
-    gamma : float
-        Certified bound on the discrete closed loop's H∞ norm (w_k -> z_k).
-    controller : DynamicController
-        x_K[k+1] = AK x_K[k] + BK y_k,  u_k = CK x_K[k] + DK y_k (positive feedback).
-    closed_loop : tuple of ndarray
-        (A, B, C, D) of the discrete closed loop w_k -> z_k.
-    norm_ab13dd, norm_sweep : float
-        Independent estimates of its H∞ norm (SLICOT ab13dd, dico='D'; unit-circle sweep).
-    spectral_radius : float
-        Largest |eigenvalue| of the closed loop (< 1: stable).
-    continuous : SynthesisResult
-        The certified synthesis of the bilinear-transformed problem.
-    computation_delay : bool
-        True when the plant was a sampled-data plant with a one-sample delay (the controller
-        then runs as in ``controller_system(..., computation_delay=True)``).
-    notes : tuple of str
-        What the call did beyond the default path (e.g. an LMI fallback).
-    """
-
-    dt: float
-    gamma: float
-    controller: DynamicController
-    closed_loop: tuple
-    norm_ab13dd: float
-    norm_sweep: float
-    spectral_radius: float
-    continuous: SynthesisResult
-    computation_delay: bool = False
-    notes: tuple = ()
 
 
 def _abcd(A, B, C, D):
@@ -256,7 +216,7 @@ def sampled_data_plant(plant: GeneralizedPlant, dt: float, *, computation_delay:
     [[1.0, 0.01, 5e-05], [0.0, 1.0, 0.01], [0.0, 0.0, 0.0]]
     >>> res = sd.hinf_discrete(((A, B, C, D), nmeas, ncon), None, None, dt=0.01,
     ...                        computation_delay=True)
-    >>> bool(res.norm_ab13dd <= res.gamma), res.computation_delay
+    >>> bool(res.discrete.norm_ab13dd <= res.gamma), res.discrete.computation_delay
     (True, True)
     """
     if not isinstance(plant, GeneralizedPlant):
@@ -313,7 +273,7 @@ def discrete_hinf_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *
 
 
 def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: float | None = None,
-                  computation_delay: bool = False, **options: Any) -> DiscreteSynthesisResult:
+                  computation_delay: bool = False, **options: Any) -> SynthesisResult:
     """H∞ (or W∞) output-feedback controller of a discrete plant, certified in z.
 
     Parameters
@@ -336,7 +296,16 @@ def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: flo
 
     Returns
     -------
-    DiscreteSynthesisResult
+    SynthesisResult
+        ``dt`` the sample period; ``controller`` the discrete controller (``controller.dt =
+        dt``), x_K[k+1] = AK x_K[k] + BK y_k, u_k = CK x_K[k] + DK y_k; ``gamma`` certified on
+        the discrete closed loop (the largest of the continuous certificate and the two
+        independent estimates in ``discrete``, x (1 + 1e-6)); ``certificate`` the check in z;
+        ``discrete`` (:class:`~sobolev_drake.synthesis.problem.DiscreteDesign`) the closed
+        loop, the two norm estimates, the spectral radius and the continuous design, whose
+        method, solver, warnings and ``attempts`` (e.g. an LMI fallback of the default chain)
+        the result repeats.  ``P``, ``X``, ``Y`` are None (the Lyapunov matrices of the
+        bilinear image are in ``discrete.continuous``).
 
     Raises
     ------
@@ -354,9 +323,10 @@ def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: flo
     ...                 [[1, 0], [0, 0], [1, 0]], [[0, 0], [0, 1], [0.1, 0]])
     >>> P = control.c2d(Pc, 0.01)                       # inputs [w; u], outputs [z; y]
     >>> res = sd.hinf_discrete(P, nmeas=1, ncon=1)
-    >>> res.dt, res.spectral_radius < 1
-    (0.01, True)
-    >>> bool(res.norm_ab13dd <= res.gamma and abs(res.norm_ab13dd - res.norm_sweep) < 1e-4)
+    >>> res.dt, res.controller.dt, res.discrete.spectral_radius < 1, res.certified
+    (0.01, 0.01, True, True)
+    >>> d = res.discrete
+    >>> bool(d.norm_ab13dd <= res.gamma and abs(d.norm_ab13dd - d.norm_sweep) < 1e-4)
     True
     """
     ct = python_control("hinf_discrete")
@@ -366,28 +336,29 @@ def hinf_discrete(plant: object, nmeas: int | None, ncon: int | None, *, dt: flo
         ncon = nu if ncon is None else ncon
     A, B, C, D, dt = discrete_state_space(plant, dt)
     Pc = ct.ss(*bilinear_to_continuous(A, B, C, D, dt))
-    notes = ()
-    try:
-        out = hinfsyn(Pc, nmeas, ncon, **options)
-    except RiccatiInfeasible as exc:
-        # the Riccati path of the default chain can give up on the bilinear image (seen on a
-        # sampled double integrator, whose tiny D11 ~ dt² stops the bisection at once); the
-        # LMI path answers the same problem, certified the same way
-        if "method" in options:
-            raise
-        out = hinfsyn(Pc, nmeas, ncon, method="lmi", **options)
-        notes = (f"Riccati path gave up ({exc}); solved by the LMI path",)
+    out = hinfsyn(Pc, nmeas, ncon, **options)
+    cont = out.result
     Kc = out[0]
     AK, BK, CK, DK = bilinear_to_discrete(Kc.A, Kc.B, Kc.C, Kc.D, dt)
     cl = ct.ss(A, B, C, D, dt).lft(ct.ss(AK, BK, CK, DK, dt))
     Acl, Bcl, Ccl, Dcl = (np.asarray(M) for M in (cl.A, cl.B, cl.C, cl.D))
-    rho = float(np.abs(np.linalg.eigvals(Acl)).max(initial=0.0))
+    ev = np.linalg.eigvals(Acl) if Acl.size else np.zeros(0)
+    rho = float(np.abs(ev).max(initial=0.0))
     if not rho < 1:
         from .lmi import SynthesisError
         raise SynthesisError(f"the discrete closed loop is not stable (spectral radius {rho:.6g}) "
                              "although its bilinear image was certified")
     n_ab, n_sw = discrete_hinf_norm(Acl, Bcl, Ccl, Dcl)
     gamma = max(float(out[2]), n_ab * (1 + CERTIFICATE_MARGIN), n_sw * (1 + CERTIFICATE_MARGIN))
-    return DiscreteSynthesisResult(float(dt), gamma, DynamicController(AK, BK, CK, DK),
-                                   (Acl, Bcl, Ccl, Dcl), n_ab, n_sw, rho, out.result,
-                                   bool(computation_delay), notes)
+    # the certificate of the loop in z: stable (max_real_eig = ln ρ / dt, the slowest decay
+    # rate, < 0), achieved = ab13dd's discrete norm, eigenvalues in z
+    cert = Certificate(True, float(np.log(rho) / dt) if rho > 0 else -np.inf, n_ab, gamma,
+                       CERTIFICATE_MARGIN, solver_status=cont.status, eigenvalues=ev)
+    return SynthesisResult(
+        "output_feedback", gamma, controller=DynamicController(AK, BK, CK, DK, dt),
+        gamma_opt=cont.gamma_opt, feedthrough_bound=cont.feedthrough_bound, solver=cont.solver,
+        backend=cont.backend, status=cont.status, timings=dict(cont.timings), certificate=cert,
+        certificates=[cert], regularized=cont.regularized, warnings=list(cont.warnings),
+        fallback=cont.fallback, method=cont.method, attempts=list(cont.attempts), dt=float(dt),
+        discrete=DiscreteDesign((Acl, Bcl, Ccl, Dcl), n_ab, n_sw, rho, cont,
+                                bool(computation_delay)))

@@ -339,17 +339,15 @@ def to_statespace(result_or_controller):
     >>> sd.to_statespace([[-1.0, -2.0]]).D     # a state-feedback gain: a static system
     array([[-1., -2.]])
     """
-    control = python_control("to_statespace")
     obj = result_or_controller
     if isinstance(obj, SynthesisResult):
-        obj = obj.K if obj.kind == "state_feedback" else obj.controller
+        obj = obj.controller            # one type for both kinds (a gain: the static one)
     if isinstance(obj, DynamicController):
-        return control.ss(obj.AK, obj.BK, obj.CK, obj.DK)
+        return obj.to_statespace()
     if obj is None or np.ndim(obj) != 2 or np.size(obj) == 0:
         raise TypeError("result_or_controller must be a SynthesisResult, a DynamicController or a "
                         f"non-empty gain matrix K (2-D), got {describe(obj)}")
-    K = as_matrix("result_or_controller", obj)
-    return control.ss(np.zeros((0, 0)), np.zeros((0, K.shape[1])), np.zeros((K.shape[0], 0)), K)
+    return DynamicController.static(as_matrix("result_or_controller", obj)).to_statespace()
 
 
 class HinfsynOutput(tuple):

@@ -30,7 +30,6 @@ from ..validation import positive_scalar
 from .certificates import as_matrix
 from ..optional import python_control
 from .interop import generalized_plant, is_linear_system, state_space_matrices
-from .discrete import DiscreteSynthesisResult
 from .problem import GeneralizedPlant, SynthesisResult
 
 __all__ = ["PoleSummary", "LoopMargins", "LoopAnalysis", "loop_analysis", "POLE_FACTOR"]
@@ -219,7 +218,7 @@ class LoopAnalysis:
 
 def _loop_pieces(result, plant, C):
     """(A, B2, C2, GeneralizedPlant or None) from a GeneralizedPlant or a linear system."""
-    if hasattr(result, "dt"):      # discrete: ((A, B, C, D), nmeas, ncon) as sampled_data_plant
+    if result.dt:      # discrete: ((A, B, C, D), nmeas, ncon) as sampled_data_plant
         if not (isinstance(plant, tuple) and len(plant) == 3 and isinstance(plant[0], tuple)):
             raise TypeError("plant of a discrete result must be ((A, B, C, D), nmeas, ncon), as "
                             f"sd.sampled_data_plant returns; got {type(plant).__name__}")
@@ -380,7 +379,7 @@ def _responses(cl_sys, slow, fast):
     return t, step, imp
 
 
-def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: object, *,
+def loop_analysis(result: SynthesisResult, plant: object, *,
                   C: ArrayLike | None = None, omega: ArrayLike | None = None,
                   bandwidth: float | None = None, pole_factor: float = POLE_FACTOR,
                   gain_limit: float | None = None) -> LoopAnalysis:
@@ -388,12 +387,13 @@ def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: obje
 
     Parameters
     ----------
-    result : SynthesisResult or DiscreteSynthesisResult
+    result : SynthesisResult
         A state-feedback (``result.K``, u = +K x) or output-feedback (``result.controller``)
-        design; a discrete-time result (:func:`~sobolev_drake.synthesis.discrete.hinf_discrete`)
-        is analysed in z (poles reported as s = ln(z)/dt, frequencies up to π/dt).
+        design; a discrete-time result (``result.dt > 0``, from
+        :func:`~sobolev_drake.synthesis.discrete.hinf_discrete`) is analysed in z (poles reported as s = ln(z)/dt, frequencies up to π/dt).
     plant : GeneralizedPlant or linear system
-        The plant: a :class:`GeneralizedPlant` (e.g. ``sd.winf_plant(A, B, D, Gamma0, Gamma1)``;
+        The plant: a :class:`GeneralizedPlant` (e.g. ``sd.winf_plant(A, B, C, D, Gamma0=...,
+        Gamma1=...)``;
         then the performance channel w -> z is analysed too), or a linear system (Drake
         ``LinearSystem``, python-control ``StateSpace``, (A, B, C, D)) whose B is the control
         input and, for output feedback, whose C is the measurement.  For a discrete result:
@@ -429,7 +429,7 @@ def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: obje
     >>> import numpy as np
     >>> import sobolev_drake as sd
     >>> A, B, D = np.array([[0.0, 1.0], [-1.0, -0.5]]), np.array([[0.0], [1.0]]), np.eye(2)
-    >>> P = sd.winf_plant(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> P = sd.winf_plant(A, B, D=D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
     >>> res = sd.winf_state_feedback(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=2.0)
     >>> an = sd.loop_analysis(res, P)
     >>> an.stable, round(an.closed_loop.fastest, 3), round(an.closed_loop.min_damping, 2)
@@ -442,7 +442,11 @@ def loop_analysis(result: SynthesisResult | DiscreteSynthesisResult, plant: obje
     if gain_limit is not None:
         gain_limit = positive_scalar("gain_limit", gain_limit)
     A, B2, C2, gp = _loop_pieces(result, plant, C)
-    dt = getattr(result, "dt", None)
+    if not isinstance(result, SynthesisResult):
+        raise TypeError(f"result must be a SynthesisResult, got {type(result).__name__}")
+    if result.controller is None:
+        raise ValueError(f"result has no controller to analyse (method {result.method!r})")
+    dt = result.dt or None
     n, nu, ny = A.shape[0], B2.shape[1], C2.shape[0]
     K_ss, K_data = _controller_ss(result, ny, nu, dt or 0)
     G = ct.ss(A, B2, C2, np.zeros((ny, nu)), dt or 0)

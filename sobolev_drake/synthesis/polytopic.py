@@ -88,13 +88,13 @@ def _vertex_triples(vertices):
 
 def robust_winf_state_feedback(vertices, Gamma0, Gamma1, *, region=None, **kw):
     """Common-Lyapunov W∞ state feedback over vertices [(A, B, D), ...]."""
-    plants = [winf_plant(A, B, D, Gamma0, Gamma1) for A, B, D in _vertex_triples(vertices)]
+    plants = [winf_plant(A, B, D=D, Gamma0=Gamma0, Gamma1=Gamma1) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 
 def robust_hinf_state_feedback(vertices, Q, R, *, region=None, **kw):
     """Common-Lyapunov classic H∞ state feedback over vertices [(A, B, D), ...]."""
-    plants = [hinf_plant(A, B, D, Q, R) for A, B, D in _vertex_triples(vertices)]
+    plants = [hinf_plant(A, B, D=D, Q=Q, R=R) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 

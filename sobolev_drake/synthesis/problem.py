@@ -14,9 +14,11 @@ import numpy as np
 from sobolev_drake.errors import SobolevDrakeWarning
 
 from .certificates import Certificate, as_matrix
+from .controller import DynamicController
 from .regions import LMIRegion
 
-__all__ = ["SynthesisWarning", "GeneralizedPlant", "DynamicController", "SynthesisResult",
+__all__ = ["SynthesisWarning", "GeneralizedPlant", "DynamicController", "DiscreteDesign",
+           "SynthesisResult",
            "check_initial_states", "transient_bound"]
 
 
@@ -178,23 +180,37 @@ class GeneralizedPlant:
         return (self.A, self.B1, self.B2, self.C1, self.D11, self.D12, self.C2, self.D21)
 
 
-@dataclass
-class DynamicController:
-    """x_K' = AK x_K + BK y,  u = CK x_K + DK y (iterates as (AK, BK, CK, DK)).
+@dataclass(frozen=True)
+class DiscreteDesign:
+    """What a discrete-time synthesis checked in z (``SynthesisResult.discrete``).
 
-    Parameters
+    :func:`~sobolev_drake.synthesis.discrete.hinf_discrete` designs on the bilinear image of
+    the discrete plant and certifies the discrete closed loop independently; this record keeps
+    that check and the continuous design it came from.
+
+    Attributes
     ----------
-    AK, BK, CK, DK : ndarray
-        Controller matrices, shapes (nk, nk), (nk, ny), (nu, nk), (nu, ny).
+    closed_loop : tuple of ndarray
+        (A, B, C, D) of the discrete closed loop w_k -> z_k.
+    norm_ab13dd, norm_sweep : float
+        Independent estimates of its H∞ norm (SLICOT ab13dd with dico='D'; a unit-circle sweep,
+        a lower bound).
+    spectral_radius : float
+        Largest |eigenvalue| of the closed loop (< 1: stable).
+    continuous : SynthesisResult
+        The certified synthesis of the bilinear-transformed problem (its Lyapunov matrices,
+        region and certificate are those of the image in s, not of the loop in z).
+    computation_delay : bool
+        True when the plant modelled a one-sample computation delay (the controller then runs
+        as in :func:`~sobolev_drake.systems.discrete_controller.discrete_controller_system`).
     """
 
-    AK: np.ndarray
-    BK: np.ndarray
-    CK: np.ndarray
-    DK: np.ndarray
-
-    def __iter__(self):
-        return iter((self.AK, self.BK, self.CK, self.DK))
+    closed_loop: tuple
+    norm_ab13dd: float
+    norm_sweep: float
+    spectral_radius: float
+    continuous: SynthesisResult
+    computation_delay: bool = False
 
 
 @dataclass(frozen=True)
@@ -237,7 +253,11 @@ class SynthesisResult:
     K : ndarray or None
         State-feedback gain, u = +K x (None for output feedback).
     controller : DynamicController or None
-        Output-feedback controller (None for state feedback).
+        The controller, one type for both kinds: the output-feedback controller, or for state
+        feedback the static controller of ``K`` (AK 0 × 0, DK = K; derived from ``K``, so
+        ``replace(K=...)`` keeps them together).  None only for the thesis-literal (6.22)
+        result, which has gamma only.  ``controller.to_drake()`` and
+        ``controller.to_statespace()`` convert it.
     P : ndarray or None
         Closed-loop Lyapunov matrix (see above).
     X, Y : ndarray or None
@@ -272,6 +292,12 @@ class SynthesisResult:
         ``winf_of_thesis_lmi``, ``winf_disturbance_thesis``), which are not certified.
     attempts : list of str
         What the call tried before this result, in order: "<what>: <seconds> s, <outcome>".
+    dt : float
+        0.0 for a continuous-time result; the sample period (s) of a discrete-time one
+        (:func:`~sobolev_drake.synthesis.discrete.hinf_discrete`), whose controller runs in z
+        and whose ``gamma`` bounds the discrete closed loop's H∞ norm.
+    discrete : DiscreteDesign or None
+        A discrete-time result's check in z and its continuous design (None when ``dt == 0``).
     well_posed : bool
         True when ``warnings`` is empty.
     certified : bool
@@ -286,8 +312,8 @@ class SynthesisResult:
     ...                              Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=2.0)
     >>> res.kind, res.method, res.gamma, res.well_posed
     ('state_feedback', 'riccati', 2.0, True)
-    >>> res.certificate.ok, res.K.shape, res.controller is None
-    (True, (1, 2), True)
+    >>> res.certificate.ok, res.K.shape, res.controller.nk, bool((res.controller.DK == res.K).all())
+    (True, (1, 2), 0, True)
     """
 
     kind: str  # "state_feedback" | "output_feedback"
@@ -314,6 +340,19 @@ class SynthesisResult:
     method: str = "lmi"  # "riccati" | "lmi" | "thesis_lmi" (uncertified thesis-literal forms)
     #: what the call tried before this result, in order: "<what>: <seconds> s, <outcome>"
     attempts: list = field(default_factory=list)
+    dt: float = 0.0  # 0: continuous time; > 0: the sample period of a discrete-time result
+    discrete: DiscreteDesign | None = None  # a discrete-time result's check in z
+
+    def __post_init__(self):
+        if self.K is not None:   # state feedback: the controller is the static one of K
+            object.__setattr__(self, "controller", DynamicController.static(self.K, self.dt))
+        elif self.controller is not None and self.controller.dt != self.dt:
+            raise ValueError(f"controller.dt = {self.controller.dt} but the result's dt = "
+                             f"{self.dt}: a controller runs at its result's sample period")
+        if (self.discrete is None) != (self.dt == 0):
+            raise ValueError("a discrete-time result (dt > 0) carries its DiscreteDesign and a "
+                             f"continuous one none; got dt = {self.dt} and discrete = "
+                             f"{type(self.discrete).__name__}")
 
     def replace(self, **changes):
         """A copy with ``changes`` applied (``dataclasses.replace``; the copy is not

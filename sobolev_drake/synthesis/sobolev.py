@@ -24,11 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..validation import state_input_disturbance
 from .certificates import as_matrix, check_weight, sqrtm_psd
 from .hinf import GeneralizedPlant, output_feedback, state_feedback
 from .interop import is_linear_system, state_space_matrices
-from .lmi import InfeasibleLMIError, LMIProgram, bmat
-from .problem import SynthesisResult
+from .lmi import InfeasibleLMIError
+from .thesis_lmi import winf_of_thesis_lmi, winf_sf_thesis_lmi
 
 __all__ = [
     "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
@@ -38,20 +39,6 @@ __all__ = [
 ]
 
 
-def _abd(A, B, D):
-    A = as_matrix("A", A)
-    n = A.shape[0]
-    as_matrix("A", A, (n, n))
-    if n == 0:   # before the weights, whose checks would fail on empty matrices
-        raise ValueError(f"A must be a non-empty square matrix (the plant has no state), got "
-                         f"shape {A.shape}")
-    B, D = as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
-    for name, M, what in (("B", B, "control input"), ("D", D, "disturbance")):
-        if M.shape[1] == 0:
-            raise ValueError(f"{name} must have at least one {what} column, got shape {M.shape}")
-    return A, B, D
-
-
 def _plant(A, B, D, C, *, measured):
     """(A, B, D, C) from matrices or from a linear system given as ``A`` (its B, and its C as
     the measurement when ``measured``; D defaults to B, a disturbance at the inputs)."""
@@ -59,7 +46,7 @@ def _plant(A, B, D, C, *, measured):
         if B is None or D is None:
             raise TypeError("B and D are required when A is a matrix (or pass a linear system "
                             "as A: a Drake LinearSystem, a python-control StateSpace)")
-        return (*_abd(A, B, D), C)
+        return (*state_input_disturbance(A, B, D), C)
     if B is not None:
         raise TypeError("B comes from the linear system given as A; do not pass it again")
     A, B, Cs, Ds = state_space_matrices(A, "A")
@@ -68,7 +55,7 @@ def _plant(A, B, D, C, *, measured):
             raise ValueError("the linear system's measurement has a feedthrough D ≠ 0; the "
                              "W∞ plant measures y = C x (pass C explicitly)")
         C = Cs
-    return (*_abd(A, B, B if D is None else D), C)
+    return (*state_input_disturbance(A, B, B if D is None else D), C)
 
 
 def _measured_plant(A, B, D, C):
@@ -85,33 +72,58 @@ def _require_weights(name0, W0, name1, W1):
             raise TypeError(f"{name} is required")
 
 
-def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
+def _required_d(fn, D):
+    """D, or the TypeError of a call in the former order (A, B, D, ...) that landed D on C."""
+    if D is None:
+        raise TypeError(f"D (the disturbance matrix of x' = A x + B u + D w) is required: "
+                        f"{fn} takes python-control's order (A, B, C, D) with C = None for the "
+                        f"full state, and its weights by name; a call in the former order "
+                        f"{fn}(A, B, D, ...) puts D in C's place")
+    return D
+
+
+def winf_plant(A, B, C=None, D=None, *, Gamma0=None, Gamma1=None):
     """Generalized plant of the W∞ channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
+
+    Arguments in python-control's order (A, B, C, D), as :func:`winf_output_feedback`; the
+    weights by name (a call in the former order ``(A, B, D, Gamma0, Gamma1, C)`` is refused
+    with a TypeError instead of being read as another plant).
 
     Parameters
     ----------
-    A, B, D : array_like
+    A, B : array_like
         x' = A x + B u + D w (6.1).
+    C : array_like or None
+        Measurement y = C x (None: the full state, for state feedback).
+    D : array_like
+        Disturbance matrix of (6.1) (required).
     Gamma0, Gamma1 : array_like
-        Positive semidefinite weights of x and x' (n × n, or a vector for a diagonal).
-    C : array_like, optional
-        Measurement y = C x (default: the full state).
+        Positive semidefinite weights of x and x' (n × n, or a vector for a diagonal;
+        keyword-only, required).
 
     Returns
     -------
     GeneralizedPlant
 
+    Raises
+    ------
+    TypeError
+        When D or a weight is missing (e.g. a call in the former argument order).
+
     Examples
     --------
     >>> import sobolev_drake as sd
     >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
-    >>> P = sd.winf_plant(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
+    >>> P = sd.winf_plant(A, B, D=D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
     >>> P.nz, P.nw, P.nu, P.ny          # z = [x; 0.1^1/2 x'], y = x
     (4, 2, 1, 2)
     >>> P.D12.ravel().round(4)          # u enters z through x' = ... + B u
     array([0.    , 0.    , 0.    , 0.3162])
+    >>> sd.winf_plant(A, B, [[1, 0]], D, Gamma0=[1, 1], Gamma1=[0.1, 0.1]).ny    # y = x1
+    1
     """
-    A, B, D = _abd(A, B, D)
+    _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
+    A, B, D = state_input_disturbance(A, B, _required_d("winf_plant", D))
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
     G0 = sqrtm_psd(check_weight("Gamma0", Gamma0, n, definite=False))
     G1 = sqrtm_psd(check_weight("Gamma1", Gamma1, n, definite=False))
@@ -122,31 +134,41 @@ def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
     return GeneralizedPlant.make(A, D, B, C1, D11, D12, C2, None)
 
 
-def hinf_plant(A, B, D, Q, R, C=None):
+def hinf_plant(A, B, C=None, D=None, *, Q=None, R=None):
     """Generalized plant of the classic H∞ channel z = [Q^1/2 x ; R^1/2 u].
+
+    Arguments as :func:`winf_plant`: python-control's order (A, B, C, D), weights by name.
 
     Parameters
     ----------
-    A, B, D : array_like
+    A, B : array_like
         x' = A x + B u + D w.
+    C : array_like or None
+        Measurement y = C x (None: the full state).
+    D : array_like
+        Disturbance matrix (required).
     Q, R : array_like
-        Weights of x (positive semidefinite) and u (positive definite).
-    C : array_like, optional
-        Measurement y = C x (default: the full state).
+        Weights of x (positive semidefinite) and u (positive definite); keyword-only, required.
 
     Returns
     -------
     GeneralizedPlant
 
+    Raises
+    ------
+    TypeError
+        When D or a weight is missing (e.g. a call in the former argument order).
+
     Examples
     --------
     >>> import sobolev_drake as sd
     >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
-    >>> P = sd.hinf_plant(A, B, D, Q=[1, 1], R=[1], C=[[1, 0]])
+    >>> P = sd.hinf_plant(A, B, [[1, 0]], D, Q=[1, 1], R=[1])
     >>> P.nz, P.nw, P.nu, P.ny          # z = [x; u], y = x1
     (3, 2, 1, 1)
     """
-    A, B, D = _abd(A, B, D)
+    _require_weights("Q", Q, "R", R)
+    A, B, D = state_input_disturbance(A, B, _required_d("hinf_plant", D))
     n, nu = A.shape[0], B.shape[1]
     Qh = sqrtm_psd(check_weight("Q", Q, n, definite=False))
     Rh = sqrtm_psd(check_weight("R", R, nu, definite=True))
@@ -202,7 +224,7 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
     """
     _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
-    return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **options)
+    return state_feedback(winf_plant(A, B, None, D, Gamma0=Gamma0, Gamma1=Gamma1), **options)
 
 
 def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **options):
@@ -246,7 +268,7 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     """
     _require_weights("Gamma0", Gamma0, "Gamma1", Gamma1)
     A, B, D, C = _measured_plant(A, B, D, C)
-    return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **options)
+    return output_feedback(winf_plant(A, B, C, D, Gamma0=Gamma0, Gamma1=Gamma1), **options)
 
 
 def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
@@ -279,7 +301,7 @@ def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
     """
     _require_weights("Q", Q, "R", R)
     A, B, D, _ = _plant(A, B, D, None, measured=False)
-    return state_feedback(hinf_plant(A, B, D, Q, R), **options)
+    return state_feedback(hinf_plant(A, B, None, D, Q=Q, R=R), **options)
 
 
 def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options):
@@ -315,93 +337,7 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
     """
     _require_weights("Q", Q, "R", R)
     A, B, D, C = _measured_plant(A, B, D, C)
-    return output_feedback(hinf_plant(A, B, D, Q, R, C), **options)
-
-
-def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
-    """(6.7) written out as in the thesis (variables S, R, gamma*), uncertified.
-
-    Used to cross-check the generalized-plant formulation (same optimal gamma). Arguments as
-    :func:`winf_state_feedback`; ``backend`` as :class:`~.lmi.LMIProgram`.
-
-    Returns
-    -------
-    SynthesisResult
-        ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``K = R S^-1``,
-        ``X = S``; no certificate (``certified`` False): gamma is not a verified bound.
-    """
-    A, B, D = _abd(A, B, D)
-    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
-    G0 = check_weight("Gamma0", Gamma0, n)
-    G1 = check_weight("Gamma1", Gamma1, n)
-    prog = LMIProgram()
-    S, R, g = prog.sym(n), prog.full(nu, n), prog.scalar()
-    prog.add_pos(S, 1e-7)
-    AS = A @ S + B @ R
-    prog.add_lmi(bmat([[AS.sym(), D, AS.T, S],
-                       [D.T, -g * np.eye(nw), D.T, None],
-                       [AS, D, -np.linalg.inv(G1), None],
-                       [S, None, None, -np.linalg.inv(G0)]]), 1e-7)
-    prog.minimize(g)
-    out = prog.solve(backend)
-    if not out.success:
-        raise InfeasibleLMIError(f"(6.7) not solved: {out.status}", out.status)
-    Sv = S.value(out.x)
-    K = np.linalg.solve(Sv, R.value(out.x).T).T
-    gamma = float(np.sqrt(g.value(out.x)[0, 0]))
-    return _thesis_result("state_feedback", gamma, out, K=K, X=Sv)
-
-
-def _thesis_result(kind, gamma, out, **fields):
-    """The uncertified SynthesisResult of a thesis-literal LMI solve ``out``."""
-    return SynthesisResult(kind=kind, gamma=gamma, gamma_opt=gamma, solver=out.solver,
-                           backend=out.backend, status=out.status, method="thesis_lmi",
-                           warnings=["thesis-literal LMI: gamma is the solver's optimum, "
-                                     "not certified"], **fields)
-
-
-def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
-    """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*), uncertified.
-
-    The thesis' (2,1) block is 0: the free Gahinet-Apkarian variable Ak has been set to
-    -(A + B Df C)^T, which does not change the optimum. Used to cross-check
-    :func:`winf_output_feedback` (same optimal gamma), whose arguments it takes.
-
-    Returns
-    -------
-    SynthesisResult
-        ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``X = S``,
-        ``Y = W``; no controller (the thesis reconstructs none) and no certificate.
-    """
-    A, B, D = _abd(A, B, D)
-    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
-    C = as_matrix("C", C, (None, n))
-    ny = C.shape[0]
-    G0 = check_weight("Gamma0", Gamma0, n)
-    G1 = check_weight("Gamma1", Gamma1, n)
-    prog = LMIProgram()
-    S, W = prog.sym(n), prog.sym(n)
-    Bs, Cs, Df, g = prog.full(n, ny), prog.full(nu, n), prog.full(nu, ny), prog.scalar()
-    I = np.eye(n)
-    prog.add_pos(bmat([[S, I], [I, W]]), 1e-6)
-    Psi1 = (A @ S + B @ Cs).sym()
-    Psi3 = (W @ A + Bs @ C).sym()
-    ABC = A + B @ Df @ C
-    # rows of the lower blocks ordered (w, Gamma0, Gamma1) as in Psi6
-    col_x = bmat([[np.zeros((nw, n)) + D.T], [S], [A @ S + B @ Cs]])
-    col_y = bmat([[D.T @ W], [I], [ABC]])
-    Psi6 = bmat([[-g * np.eye(nw), None, D.T],
-                 [None, -np.linalg.inv(G0), None],
-                 [D, None, -np.linalg.inv(G1)]])
-    prog.add_lmi(bmat([[Psi1, np.zeros((n, n)), col_x.T],
-                       [np.zeros((n, n)), Psi3, col_y.T],
-                       [col_x, col_y, Psi6]]), 1e-7)
-    prog.minimize(g)
-    out = prog.solve(backend)
-    if not out.success:
-        raise InfeasibleLMIError(f"(6.22) not solved: {out.status}", out.status)
-    return _thesis_result("output_feedback", float(np.sqrt(g.value(out.x)[0, 0])), out,
-                          X=S.value(out.x), Y=W.value(out.x))
+    return output_feedback(hinf_plant(A, B, C, D, Q=Q, R=R), **options)
 
 
 # --------------------------------------------------------------------------- disturbance model
@@ -460,12 +396,12 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
     InfeasibleLMIError
         ``strict=True`` and the (d, v) weight is singular, or the solver failed.
     """
-    A, B, D = _abd(A, B, D)
+    A, B, D = state_input_disturbance(A, B, D)
     Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
     rep = disturbance_model_degeneracy(Ad, Bd, Cd, U0, U1)
     n, nv = A.shape[0], Bd.shape[1]
     DCd = np.hstack([D @ Cd, np.zeros((n, nv))])
-    plant = winf_plant(A, B, DCd, Gamma0, Gamma1, C)
+    plant = winf_plant(A, B, C, DCd, Gamma0=Gamma0, Gamma1=Gamma1)
     fn = state_feedback if C is None else output_feedback
     Wt = rep.weight
     if strict and rep.singular:
@@ -483,9 +419,13 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
                      certificates=[])
 
 
-def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):
-    """Plant with state (x, d), input v, z = [Gamma0^1/2 x; Gamma1^1/2 xdot], y = C x (d unmeasured)."""
-    A, B, D = _abd(A, B, D)
+def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None):
+    """Plant with state (x, d), input v, z = [Gamma0^1/2 x; Gamma1^1/2 xdot], y = C x (d unmeasured).
+
+    ``C`` is keyword-only, as in :func:`winf_disturbance_augmented` and
+    :func:`winf_disturbance_thesis`.
+    """
+    A, B, D = state_input_disturbance(A, B, D)
     nw_ = as_matrix("Cd", Cd).shape[0]
     Ad, Bd, Cd, _, _ = _dist(Ad, Bd, Cd, np.zeros((nw_, nw_)), np.zeros((nw_, nw_)))
     n, nd, nu, nv = A.shape[0], Ad.shape[0], B.shape[1], Bd.shape[1]
@@ -507,4 +447,4 @@ def winf_disturbance_augmented(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None, *
     The gain certified is from v (L2) to z = [Gamma0^1/2 x; Gamma1^1/2 xdot]; the controller
     is dynamic (it estimates d from the measured x or y = C x).
     """
-    return output_feedback(augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C), **kw)
+    return output_feedback(augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=C), **kw)

@@ -17,12 +17,11 @@ maps the connected signal (e.g. a plant's full state) to the linear model's stat
 so no extra MatrixGain is needed.  The matrix sizes (and the controller order) are fixed at
 construction.
 
-Drake-native (issue #31).  Both are ``TemplateSystem`` s: ``ToAutoDiffXd()``, ``ToSymbolic()``
-and therefore Drake's ``Linearize`` work on them and on diagrams holding them (a converted
-system starts from the construction gains; ``Linearize(diagram, context)`` copies the gains of
-``context``).  Drake's C++ ``LinearSystem``/``AffineSystem`` would convert too, but they hold
-their matrices in the system, not in the context, and neither clip nor sample with a first
-output at initialization, so they cannot keep the per-context gains above.
+Both are ``TemplateSystem`` s: ``ToAutoDiffXd()``, ``ToSymbolic()`` and Drake's ``Linearize``
+work on them and on diagrams holding them (a converted system starts from the construction
+gains; ``Linearize(diagram, context)`` copies those of ``context``).  Drake's ``LinearSystem``
+(``DynamicController.to_drake()``) converts too, but holds its matrices in the system, not
+the context, and neither clips nor samples.
 
 ``period`` (None: continuous) samples the controller: at t = k·period the command is computed
 from the inputs at that instant and held until the next sample (a state-space controller
@@ -33,11 +32,9 @@ a ZeroOrderHold in front of a controller; before it, the held command is the ope
 input.  ``computation_delay=True`` applies each sample's command one period later (at [0, T)
 and [T, 2T) the command computed at t = 0).
 
-Drake's controller port names are accepted as aliases (``GetInputPort("estimated_state")`` is
-``x`` / ``y``, ``"desired_state"`` is ``x_r``, ``GetOutputPort("control")`` is ``u``), and
-``get_input_port_estimated_state()``, ``get_input_port_desired_state()``,
-``get_output_port_control()`` exist as on Drake's ``PidController``: swapping one for the other
-is one line.
+Drake's controller port names are aliases (``estimated_state`` is ``x`` / ``y``,
+``desired_state`` is ``x_r``, ``control`` is ``u``, with the ``get_input_port_...`` methods of
+Drake's ``PidController``): swapping one for the other is one line.
 """
 
 from __future__ import annotations
@@ -50,8 +47,7 @@ import scipy.linalg
 from pydrake.systems.framework import BasicVector_, Context, ContinuousState, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from sobolev_drake.systems.control_output import (ControlOutput, template_signature,
-                                                  value_of, vector_of)
+from sobolev_drake.systems.control_output import ControlOutput, template_signature, value_of, vector_of
 from sobolev_drake.synthesis.problem import DynamicController, SynthesisResult
 from sobolev_drake.validation import bounds_pair, positive_scalar, real_matrix
 
@@ -66,17 +62,14 @@ def _bounds(nu, u_min, u_max):
     """Elementwise (lo, hi) of size nu, or None without bounds."""
     if u_min is None and u_max is None:
         return None
-    lo = -np.inf if u_min is None else u_min
-    hi = np.inf if u_max is None else u_max
-    return bounds_pair("u_min", lo, "u_max", hi, nu)
+    return bounds_pair("u_min", -np.inf if u_min is None else u_min,
+                       "u_max", np.inf if u_max is None else u_max, nu)
 
 
 def _selection(S, n):
     """Selection matrix S (n x m) or None (identity, m = n); returns (S or None, m)."""
-    if S is None:
-        return None, n
-    S = _mat("S", S, (n, None))
-    return S, S.shape[1]
+    S = None if S is None else _mat("S", S, (n, None))
+    return S, n if S is None else S.shape[1]
 
 
 @TemplateSystem.define("LinearStateFeedback_")
@@ -188,6 +181,12 @@ def LinearStateFeedback_(T):  # noqa: N802  (Drake's template naming)
 LinearStateFeedback = LinearStateFeedback_[None]
 
 
+def _continuous(name, obj):
+    """Refuse a discrete-time result or controller (run as continuous it is another one)."""
+    if getattr(obj, "dt", 0):
+        raise TypeError(f"{name} is discrete-time (dt = {obj.dt}): use sd.discrete_controller_system")
+
+
 def _controller_matrices(controller, name="controller", accepted=""):
     """(AK, BK, CK, DK) of a DynamicController, an output-feedback SynthesisResult or a tuple
     (``name`` and ``accepted``, further accepted kinds, for the message)."""
@@ -197,6 +196,7 @@ def _controller_matrices(controller, name="controller", accepted=""):
                         "wire it with LinearStateFeedback(result.K) instead")
     if kind is not None:
         controller = controller.controller
+    _continuous(name, controller)
     try:
         AK, BK, CK, DK = controller
     except (TypeError, ValueError):
@@ -490,6 +490,7 @@ def controller_system(result: SynthesisResult | DynamicController | ArrayLike, *
     array([0.6925])
     """
     sampling = dict(period=period, computation_delay=computation_delay)
+    _continuous("result", result)
     kind = getattr(result, "kind", None)
     try:
         matrix = kind is None and not hasattr(result, "AK") and np.ndim(result) == 2

@@ -175,7 +175,7 @@ def wind_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
     from sobolev_drake.synthesis import sobolev as sb
 
     C = None if ctrl["kind"] == "sf" else ctrl["C"]
-    return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, lin.D, GAMMA0, GAMMA1, C), ctrl)
+    return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, C, lin.D, Gamma0=GAMMA0, Gamma1=GAMMA1), ctrl)
 
 
 def _solve(lin, spec, backend, x0=None):
@@ -204,7 +204,7 @@ def _solve(lin, spec, backend, x0=None):
                                       region=region, time_limit=None), None, notes
     if spec.disturbance == "none":
         C = output_matrix()
-        return hinf.output_feedback(sb.winf_plant(A, B, D, GAMMA0, GAMMA1, C), region=region,
+        return hinf.output_feedback(sb.winf_plant(A, B, C, D, Gamma0=GAMMA0, Gamma1=GAMMA1), region=region,
                                     backend=backend, initial_states=x0, time_limit=None), C, notes
     Ad, Bd, Cd = _disturbance_model()
     if thesis_form:
@@ -218,7 +218,7 @@ def _solve(lin, spec, backend, x0=None):
         # does (exogenous input (d, v) through [D Cd, 0], weight L' diag(Υ0, Υ1) L), in balanced
         # coordinates; its γ is the solver's value, not a verified bound.
         nv = Bd.shape[1]
-        plant = sb.winf_plant(A, B, np.hstack([D @ Cd, np.zeros((A.shape[0], nv))]), GAMMA0, GAMMA1, C)
+        plant = sb.winf_plant(A, B, C, np.hstack([D @ Cd, np.zeros((A.shape[0], nv))]), Gamma0=GAMMA0, Gamma1=GAMMA1)
         kw = dict(input_weight=rep.weight, regularize=False, verify=False, margin=0.0, backend=backend,
                   time_limit=None)
         try:
@@ -232,7 +232,7 @@ def _solve(lin, spec, backend, x0=None):
         notes.append("non-strict solve: γ is the solver's value, not a verified bound")
         return r, C, notes
     C = output_matrix() if of else None
-    plant = sb.augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, GAMMA0, GAMMA1, C)
+    plant = sb.augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, GAMMA0, GAMMA1, C=C)
     notes.append("well-posed: filter states in the plant, unmeasured; γ bounds ‖T_vz‖∞")
     # The thesis adds the disk to its output-feedback designs against "undesired fast poles";
     # the well-posed W∞-D is an output-feedback synthesis too and without it has closed-loop

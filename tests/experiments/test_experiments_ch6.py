@@ -220,7 +220,7 @@ def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backen
     disk = regions.disk(bl.RADIUS["of"])
     rho = bl.RHO_TUNED["H∞-O.F."]
     r0, _, _ = bl.design("H∞-O.F.", lin, rho=rho, regularize=False)
-    plant = sb.hinf_plant(A, B, D, bl.GAMMA0_OF, np.array([[rho]]), bl.C_OF)
+    plant = sb.hinf_plant(A, B, bl.C_OF, D, Q=bl.GAMMA0_OF, R=np.array([[rho]]))
     rows = bp.gain_growth(plant, disk, r0.gamma_opt, (0.2, 0.05), backend=bl.OF_BACKEND)
     assert all("error" not in r and r["certified"] for r in rows)
     assert rows[1]["norm_Y"] > 3 * rows[0]["norm_Y"] and rows[1]["peak_gain"] > 1.5 * rows[0]["peak_gain"]
@@ -229,7 +229,7 @@ def test_balance_of_lmi_optimum_is_not_attained_and_fixed_gamma_design_is_backen
     # the experiment's W∞-O.F. design (pinned backend) re-solved by Drake at the same γ
     rw, _, _ = bl.design("W∞-O.F.", lin)
     assert rw.regularized and rw.certificate.ok and rw.solver.lower().startswith("clarabel")
-    pw = sb.winf_plant(A, B, D, bl.GAMMA0_OF, bl.GAMMA1_OF, bl.C_OF)
+    pw = sb.winf_plant(A, B, bl.C_OF, D, Gamma0=bl.GAMMA0_OF, Gamma1=bl.GAMMA1_OF)
     rd, _ = quiet(output_feedback, pw, region=disk, gamma=rw.gamma, backend="drake")
     np.testing.assert_allclose(rd.controller.DK, rw.controller.DK, rtol=1e-2, atol=0.05)
     pk = [bp.controller_peak_gain(r.controller) for r in (rw, rd)]
@@ -297,8 +297,8 @@ def test_quadrotor_polytopic_certificate_every_vertex_and_inside(quad_smoke):
             verts.append((A, B, D))  # B in Ω² units, as designed
         pts = verts + random_interior_points(verts, 3, rng=1)
         for A, B, D in pts:
-            plant = (sb.winf_plant(A, B, D, qp.GAMMA0, qp.GAMMA1) if name == "W∞"
-                     else sb.hinf_plant(A, B, D, qp.GAMMA0, m["rho"] / m["input_scale"] ** 2 * np.eye(4)))
+            plant = (sb.winf_plant(A, B, D=D, Gamma0=qp.GAMMA0, Gamma1=qp.GAMMA1) if name == "W∞"
+                     else sb.hinf_plant(A, B, D=D, Q=qp.GAMMA0, R=m["rho"] / m["input_scale"] ** 2 * np.eye(4)))
             Acl, B1, C, Dcl = plant.closed_loop(K=K)
             M = _brl(Acl, B1, C, Dcl, P, gamma)
             assert np.linalg.eigvalsh(0.5 * (M + M.T)).max() <= 1e-9 * np.abs(M).max(), name

@@ -116,7 +116,7 @@ def test_linear_simple_brl_scale_is_normalization_free(simple_designs):
     certificate: ~1 for the state feedback (gamma^2 form), and scaling P by c divides it by c;
     an indefinite P is rejected."""
     spec, K, res = simple_designs["W∞"]
-    plant = winf_plant(sl.A, sl.B, sl.D, sl.GAMMA0, sl.GAMMA1)
+    plant = winf_plant(sl.A, sl.B, D=sl.D, Gamma0=sl.GAMMA0, Gamma1=sl.GAMMA1)
     cl = plant.closed_loop(K=K)
     s1 = clb.brl_scale(*cl, res.P, res.gamma)
     assert s1 == pytest.approx(1.0, rel=1e-3)

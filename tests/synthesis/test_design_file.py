@@ -7,7 +7,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from sobolev_drake.datafile import DataFileError
+from sobolev_drake.datafile import DataFileError, fingerprint, from_tree, to_tree
 from sobolev_drake.synthesis.design_file import load_result, save_result
 from sobolev_drake.synthesis.hinf import output_feedback, state_feedback
 from sobolev_drake.synthesis.random_plants import random_plant
@@ -17,10 +17,15 @@ from sobolev_drake.synthesis.regions import disk
 @pytest.fixture(scope="module")
 def results():
     p = random_plant(np.random.default_rng(3), 4, "unstable").plant
+    import control
+    import sobolev_drake as sd
+    oscillator = control.ss([[0, 1], [-4, -0.2]], [[0, 0], [1, 1]],
+                            [[1, 0], [0, 0], [1, 0]], [[0, 0], [0, 1], [0.1, 0]])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return {"sf": state_feedback(p), "of": output_feedback(p),
-                "sf_region": state_feedback(p, region=disk(50.0))}
+                "sf_region": state_feedback(p, region=disk(50.0)),
+                "discrete": sd.hinf_discrete(control.c2d(oscillator, 0.01), 1, 1)}
 
 
 def same(a, b):
@@ -41,18 +46,42 @@ def same(a, b):
 
 
 @pytest.mark.parametrize("suffix", [".json", ".npz"])
-@pytest.mark.parametrize("which", ["sf", "of", "sf_region"])
+@pytest.mark.parametrize("which", ["sf", "of", "sf_region", "discrete"])
 def test_round_trip_is_exact(results, tmp_path, suffix, which):
     res = results[which]
     back = load_result(save_result(res, tmp_path / f"design{suffix}"))
     assert same(back, res)
     assert back.closed_loop.__self__ is back and back.certificate.ok
+    assert back.dt == res.dt and back.controller.dt == res.dt
+    if res.dt:   # the discrete record, with the continuous design inside, comes back too
+        assert same(back.discrete.continuous, res.discrete.continuous)
+        assert back.discrete.continuous.dt == 0 and back.discrete.closed_loop[0].shape == \
+            res.discrete.closed_loop[0].shape
+
+
+@pytest.mark.parametrize("which", ["sf", "of"])
+def test_a_schema_1_file_still_loads(results, tmp_path, which):
+    """Schema 1 (before dt / discrete, no controller for state feedback) reads as the
+    continuous-time result it holds; the state-feedback controller is rebuilt from K."""
+    res = results[which]
+    path = save_result(res, tmp_path / "design.json")
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    tree = doc["result"]
+    del tree["dt"], tree["discrete"]
+    if which == "sf":
+        tree["controller"] = None
+    else:
+        del tree["controller"]["dt"]
+    doc.update(schema=1, checksum=fingerprint(to_tree(from_tree(tree))))
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    back = load_result(path)
+    assert same(back, res) and back.dt == 0.0 and back.discrete is None
 
 
 def test_json_file_is_readable_text(results, tmp_path):
     path = save_result(results["of"], tmp_path / "design.json")
     doc = json.loads(path.read_text(encoding="utf-8"))
-    assert doc["format"] == "sobolev_drake synthesis result" and doc["schema"] == 1
+    assert doc["format"] == "sobolev_drake synthesis result" and doc["schema"] == 2
     assert doc["result"]["controller"]["AK"]["__array__"] == "float64"
 
 
@@ -61,9 +90,9 @@ def test_wrong_schema_edit_and_corruption_are_refused(results, tmp_path):
     doc = json.loads(path.read_text(encoding="utf-8"))
     doc["schema"] = 99
     path.write_text(json.dumps(doc), encoding="utf-8")
-    with pytest.raises(DataFileError, match="schema 99, this version reads schema 1"):
+    with pytest.raises(DataFileError, match=r"schema 99, this version reads schemas \[1, 2\]"):
         load_result(path)
-    doc["schema"] = 1
+    doc["schema"] = 2
     doc["result"]["gamma"] = 0.5 * doc["result"]["gamma"]   # a better gamma than certified
     path.write_text(json.dumps(doc), encoding="utf-8")
     with pytest.raises(DataFileError, match="does not match its checksum"):

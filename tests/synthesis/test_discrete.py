@@ -34,16 +34,24 @@ def quiet(fn, *a, **kw):
 def test_discrete_plant_certified_against_an_independent_discrete_norm(dt):
     P = control.c2d(OSCILLATOR, dt)                      # python-control, dt > 0
     res = sd.hinf_discrete(P, 1, 1)
-    assert res.spectral_radius < 1
+    # the one result type: its dt, a discrete controller, the check in z as its certificate
+    assert type(res) is sd.SynthesisResult and res.dt == dt and res.controller.dt == dt
+    assert res.certified and res.kind == "output_feedback" and res.P is None
+    d = res.discrete
+    assert d.spectral_radius < 1 and res.certificate.achieved == d.norm_ab13dd
     # γ bounds both estimates; ab13dd (tolerance 1e-10) and the refined sweep agree to the
     # sweep's grid resolution (measured 3e-6)
-    assert res.norm_ab13dd <= res.gamma and res.norm_sweep <= res.gamma
-    assert res.norm_sweep == pytest.approx(res.norm_ab13dd, rel=1e-4)
+    assert d.norm_ab13dd <= res.gamma and d.norm_sweep <= res.gamma
+    assert d.norm_sweep == pytest.approx(d.norm_ab13dd, rel=1e-4)
     # the bilinear map preserves the norm: the discrete loop's norm is the continuous one's
-    assert res.norm_ab13dd == pytest.approx(res.continuous.certificate.achieved, rel=1e-4)
-    # python-control's own discrete norm of the closed loop, a third estimate
-    cl = control.ss(*res.closed_loop, dt)
-    assert control.norm(cl, "inf") == pytest.approx(res.norm_ab13dd, rel=1e-4)
+    assert d.norm_ab13dd == pytest.approx(d.continuous.certificate.achieved, rel=1e-4)
+    # python-control's own discrete norm of the closed loop, a third estimate; the same loop
+    # closed with the controller converted to python-control (its dt kept)
+    cl = control.ss(*d.closed_loop, dt)
+    assert control.norm(cl, "inf") == pytest.approx(d.norm_ab13dd, rel=1e-4)
+    K = res.controller.to_statespace()
+    assert K.dt == dt and control.norm(P.lft(K), "inf") == pytest.approx(d.norm_ab13dd, rel=1e-4)
+    assert res.controller.to_drake().time_period() == dt
 
 
 def test_drake_discrete_system_is_accepted():
@@ -105,15 +113,15 @@ def test_sampled_data_design_on_the_arm_meets_gamma_in_hybrid_simulation(delay):
     q0 = np.array([0.3, 0.5])
     A, B, D = linearize_mechanical(m, q0, np.zeros(2), np.linalg.solve(m.B(q0), m.g(q0)))
     G0, G1 = sd.winf_weights(5.0, 0.8, dof=2)
-    plant = sd.winf_plant(A, B, D, G0, G1)
+    plant = sd.winf_plant(A, B, D=D, Gamma0=G0, Gamma1=G1)
     dt = 0.01
     res = quiet(sd.hinf_discrete, sampled_data_plant(plant, dt, computation_delay=delay),
                 None, None, dt=dt, computation_delay=delay)
-    assert res.spectral_radius < 1 and res.norm_ab13dd <= res.gamma
+    assert res.discrete.spectral_radius < 1 and res.discrete.norm_ab13dd <= res.gamma
     # worst-case-ish inputs: white noise, and a long sinusoid at the discrete loop's peak
     # frequency along its top input direction (its ratio approaches the norm: measured
     # 2.0478 for γ = 2.0528 without delay, 2.1256 for γ = 2.1360 with it)
-    Acl, Bcl, Ccl, Dcl = res.closed_loop
+    Acl, Bcl, Ccl, Dcl = res.discrete.closed_loop
     theta = np.linspace(1e-4, np.pi, 4000)
     G = np.array([Ccl @ np.linalg.solve(np.exp(1j * t) * np.eye(len(Acl)) - Acl, Bcl) + Dcl
                   for t in theta])
@@ -129,15 +137,21 @@ def test_sampled_data_design_on_the_arm_meets_gamma_in_hybrid_simulation(delay):
                                      T=dt * np.arange(N)).outputs[:, :N - 1]
         assert r == pytest.approx(np.linalg.norm(zd) / np.linalg.norm(W[:, :N - 1]), rel=1e-6)
         assert r <= res.gamma
-    assert r >= 0.95 * res.norm_ab13dd       # the peak input is worst-case-ish indeed
+    assert r >= 0.95 * res.discrete.norm_ab13dd       # the peak input is worst-case-ish indeed
 
 
 def test_discrete_controller_system_refuses_a_continuous_result_and_checks_shapes():
     A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
     cont = sd.winf_state_feedback(A, B, B, Gamma0=[1, 1], Gamma1=[0, 1], gamma=10.0)
-    with pytest.raises(TypeError, match="DiscreteSynthesisResult"):
+    with pytest.raises(TypeError, match="discrete-time SynthesisResult .* got a continuous-time "
+                                        "state_feedback result"):
         sd.discrete_controller_system(cont)
     res = sd.hinf_discrete(control.c2d(OSCILLATOR, 0.01), 1, 1)
+    # and the continuous wiring refuses the discrete result or controller (run as a
+    # continuous controller it would be another one)
+    for wrong in (res, res.controller):
+        with pytest.raises(TypeError, match="discrete-time .*discrete_controller_system"):
+            sd.controller_system(wrong)
     with pytest.raises(ValueError, match="y_op"):
         sd.discrete_controller_system(res, y_op=[0.0, 1.0])
     # with an operating point the held command is u_op + u_k
@@ -155,33 +169,28 @@ def test_sampled_double_integrator_is_designed_whichever_path_answers():
                                  C1=[[1, 0], [0, 0]], D12=[[0], [1]], C2=[[1, 0]],
                                  D21=[[0, 0.1]])
     res = sd.hinf_discrete(sampled_data_plant(P, 0.01), None, None, dt=0.01)
-    said = tuple(res.notes) + tuple(res.continuous.attempts)
-    assert any("LMI" in line or "certified gamma" in line for line in said), said
-    assert res.spectral_radius < 1 and res.norm_ab13dd <= res.gamma
-    assert 1.28 < res.norm_ab13dd < 1.35
+    assert res.attempts == res.discrete.continuous.attempts
+    assert any("LMI" in line or "certified gamma" in line for line in res.attempts), res.attempts
+    assert res.discrete.spectral_radius < 1 and res.discrete.norm_ab13dd <= res.gamma
+    assert 1.28 < res.discrete.norm_ab13dd < 1.35
 
 
-def test_a_riccati_give_up_is_retried_by_the_lmi_path_with_a_note(monkeypatch):
-    # the retry in hinf_discrete, forced: the first (default-chain) call gives up
-    from sobolev_drake.synthesis import discrete
+def test_a_riccati_give_up_falls_back_to_the_lmi_path_and_is_recorded(monkeypatch):
+    # the default chain's own fallback, forced: the Riccati path gives up on the bilinear image
+    # (as it may on a sampled double integrator, above); hinf_discrete has no retry of its own
+    from sobolev_drake.synthesis import strategy
     from sobolev_drake.synthesis.riccati import RiccatiInfeasible
-    calls = []
-    real = discrete.hinfsyn
 
-    def gives_up_first(*args, **kwargs):
-        calls.append(kwargs.get("method"))
-        if len(calls) == 1:
-            raise RiccatiInfeasible("forced by the test")
-        return real(*args, **kwargs)
+    def gives_up(*args, **kwargs):
+        raise RiccatiInfeasible("forced by the test")
 
-    monkeypatch.setattr(discrete, "hinfsyn", gives_up_first)
+    monkeypatch.setattr(strategy, "riccati_synthesis", gives_up)
     res = sd.hinf_discrete(control.c2d(OSCILLATOR, 0.01), 1, 1)
-    assert calls == [None, "lmi"]
-    assert any("forced by the test" in n and "LMI" in n for n in res.notes), res.notes
-    assert res.spectral_radius < 1 and res.norm_ab13dd <= res.gamma
-    # an explicit method is the user's choice: no retry behind their back
-    calls.clear()
-    with pytest.raises(RiccatiInfeasible):
+    assert res.method == "lmi" and "Riccati path failed" in res.fallback
+    assert any("forced by the test" in a for a in res.attempts), res.attempts
+    assert res.discrete.spectral_radius < 1 and res.discrete.norm_ab13dd <= res.gamma
+    # an explicit method is the user's choice: no fallback behind their back
+    with pytest.raises(sd.SynthesisError, match="forced by the test"):
         sd.hinf_discrete(control.c2d(OSCILLATOR, 0.01), 1, 1, method="riccati")
 
 

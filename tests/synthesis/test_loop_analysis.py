@@ -34,7 +34,7 @@ def test_disk_gain_range_lies_inside_the_exact_uniform_gain_margin():
     A = np.array([[0.0, 1.0], [4.0, -0.2]])
     B = np.array([[0.0], [1.0]])
     res = sd.winf_state_feedback(A, B, B, Gamma0=[1, 1], Gamma1=[0.1, 0.1], gamma=5.0)
-    an = sd.loop_analysis(res, sd.winf_plant(A, B, B, [1, 1], [0.1, 0.1]))
+    an = sd.loop_analysis(res, sd.winf_plant(A, B, D=B, Gamma0=[1, 1], Gamma1=[0.1, 0.1]))
     lo, hi = input_gain_margins(A, B, res.K)
     g = 10 ** (an.input_margins.disk_gain_db[0] / 20)
     assert an.stable
@@ -47,7 +47,7 @@ def test_performance_peak_below_certified_gamma_and_poles_match(arm):
     A, B, D = arm
     G0, G1 = [1, 1, 1, 1], [0.1] * 4
     res = sd.winf_state_feedback(A, B, D, Gamma0=G0, Gamma1=G1, gamma=4.0)
-    an = sd.loop_analysis(res, sd.winf_plant(A, B, D, G0, G1))
+    an = sd.loop_analysis(res, sd.winf_plant(A, B, D=D, Gamma0=G0, Gamma1=G1))
     # the grid peak is a lower bound of the norm, itself certified below gamma
     assert an.hinf_norm <= res.gamma
     assert an.hinf_norm >= 0.9 * res.certificate.achieved
@@ -62,7 +62,7 @@ def test_fast_poles_warn_with_a_disk_that_removes_them():
     # poles beyond 1e4 rad/s
     A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])
     G0, G1 = sd.winf_weights(5.0, 0.8, dof=1)
-    P = sd.winf_plant(A, B, np.eye(2), G0, G1)
+    P = sd.winf_plant(A, B, D=np.eye(2), Gamma0=G0, Gamma1=G1)
     res = quiet(sd.winf_state_feedback, A, B, np.eye(2), Gamma0=G0, Gamma1=G1)
     an = sd.loop_analysis(res, P, gain_limit=1e3)
     assert an.closed_loop.fastest > 1e4
@@ -150,7 +150,7 @@ def test_discrete_loop_nyquist_ringing_is_reported_and_the_suggested_disk_remove
     # frequency (z near -1, damping 0.01); the warning's bilinear-domain disk removes it
     A, B, D = arm
     G0, G1 = sd.winf_weights(5.0, 0.8, dof=2)
-    sdp = sd.sampled_data_plant(sd.winf_plant(A, B, D, G0, G1), 0.01, computation_delay=delay)
+    sdp = sd.sampled_data_plant(sd.winf_plant(A, B, D=D, Gamma0=G0, Gamma1=G1), 0.01, computation_delay=delay)
     res = quiet(sd.hinf_discrete, sdp, None, None, dt=0.01, computation_delay=delay)
     an = sd.loop_analysis(res, sdp)
     assert an.dt == 0.01 and an.stable and an.hinf_norm <= res.gamma

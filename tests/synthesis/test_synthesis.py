@@ -84,7 +84,7 @@ def random_plant(rng, n, sensor_noise=0.1):
     B, D, C = rng.normal(size=(n, nu)), rng.normal(size=(n, nw)), rng.normal(size=(ny, n))
     G0 = np.diag(rng.uniform(0.5, 2, n))
     G1 = np.diag(rng.uniform(0.01, 0.2, n))
-    p = winf_plant(A, B, D, G0, G1, C)
+    p = winf_plant(A, B, C, D, Gamma0=G0, Gamma1=G1)
     # measurement noise as extra disturbance inputs keeps the output-feedback problem regular
     B1 = np.hstack([p.B1, np.zeros((n, ny))])
     D11 = np.hstack([p.D11, np.zeros((p.nz, ny))])
@@ -243,7 +243,7 @@ def test_performance_compression_preserves_norm():
     from sobolev_drake.synthesis.hinf import compress_performance
     rng = np.random.default_rng(5)
     A = rng.normal(size=(4, 4)) - 4 * np.eye(4)
-    p = winf_plant(A, rng.normal(size=(4, 1)), rng.normal(size=(4, 1)), np.eye(4), 0.1 * np.eye(4))
+    p = winf_plant(A, rng.normal(size=(4, 1)), D=rng.normal(size=(4, 1)), Gamma0=np.eye(4), Gamma1=0.1 * np.eye(4))
     q = compress_performance(p)
     assert q.nz < p.nz
     K = rng.normal(size=(1, 4))
@@ -298,7 +298,7 @@ def _bench3_plant():
     (gamma 1.002) fails the norm certificate by 18 %."""
     A = np.array([[0, 0, 1.0], [0, -0.5, 2], [30, 1, -0.5]])
     B, D = np.array([[0.0], [2], [-3]]), np.array([[0.0, 0], [1, 0], [0, 1]])
-    return winf_plant(A, B, D, np.eye(3), 0.1 * np.eye(3), np.array([[1.0, 0, 0]]))
+    return winf_plant(A, B, np.array([[1.0, 0, 0]]), D, Gamma0=np.eye(3), Gamma1=0.1 * np.eye(3))
 
 
 def test_auto_backend_falls_back_and_says_so():

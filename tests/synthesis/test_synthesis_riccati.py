@@ -89,7 +89,7 @@ def test_singular_state_feedback_is_regularized_with_bounded_gain():
     path's optimum agrees with the estimate to the LMI's accuracy on this unattained infimum."""
     A = np.array([[0.0, 1.0], [2.0, -0.5]])
     B = np.array([[0.0], [1.0]])
-    p = winf_plant(A, B, np.array([[1.0], [0.0]]), np.eye(2), np.zeros((2, 2)))  # unmatched w
+    p = winf_plant(A, B, D=np.array([[1.0], [0.0]]), Gamma0=np.eye(2), Gamma1=np.zeros((2, 2)))  # unmatched w
     with pytest.warns(UserWarning, match=r"singular problem \(rank D12 = 0 < 1\)"):
         r = state_feedback(p)
     assert r.regularized and r.method == "riccati" and r.certificate.ok
@@ -174,7 +174,7 @@ def test_singular_levels_keep_the_certified_controller_when_time_runs_out(monkey
     BudgetExceeded and dropped its certified controller.  Now the climb stops and returns it."""
     import types
     from sobolev_drake.synthesis import hinf_riccati
-    p = winf_plant([[0.0, 1.0], [-1.0, -0.5]], [[0.0], [1.0]], np.eye(2), [1, 1], [0, 0])
+    p = winf_plant([[0.0, 1.0], [-1.0, -0.5]], [[0.0], [1.0]], D=np.eye(2), Gamma0=[1, 1], Gamma1=[0, 0])
     monkeypatch.setattr(hinf_riccati, "pole_ratio", lambda res, plant: 1e9)  # always too fast
     offset = [0.0]   # hinf_riccati's own clock, jumped past the deadline after one level
     monkeypatch.setattr(hinf_riccati, "time", types.SimpleNamespace(

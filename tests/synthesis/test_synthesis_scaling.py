@@ -21,7 +21,7 @@ def _plant(seed=3, n=6, nu=2, nw=2):
     A = rng.standard_normal((n, n)) + 0.5 * np.eye(n)  # open-loop unstable
     B = rng.standard_normal((n, nu))
     D = rng.standard_normal((n, nw))
-    return hinf_plant(A, B, D, np.eye(n), np.eye(nu))
+    return hinf_plant(A, B, D=D, Q=np.eye(n), R=np.eye(nu))
 
 
 def _badly_scaled(p, S, su):
@@ -102,7 +102,7 @@ def _of_plant(seed, n=5, sensor_noise=0.1):
     A = rng.normal(size=(n, n))
     A -= (np.linalg.eigvals(A).real.max() - 0.5) * np.eye(n)
     B, D, C = rng.normal(size=(n, nu)), rng.normal(size=(n, nw)), rng.normal(size=(ny, n))
-    p = winf_plant(A, B, D, np.diag(rng.uniform(0.5, 2, n)), np.diag(rng.uniform(0.01, 0.2, n)), C)
+    p = winf_plant(A, B, C, D, Gamma0=np.diag(rng.uniform(0.5, 2, n)), Gamma1=np.diag(rng.uniform(0.01, 0.2, n)))
     B1 = np.hstack([p.B1, np.zeros((n, ny))])
     D11 = np.hstack([p.D11, np.zeros((p.nz, ny))])
     D21 = np.hstack([np.zeros((ny, nw)), sensor_noise * np.eye(ny)])

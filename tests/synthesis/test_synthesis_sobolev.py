@@ -44,7 +44,7 @@ def test_winf_channel_matches_thesis_lmi_67():
 
 def test_winf_channel_is_sobolev_norm():
     """z = [G0^1/2 x; G1^1/2 xdot]: |z|^2 = x'G0x + xdot'G1xdot for any (x, u, w)."""
-    p = winf_plant(A, B, D, G0, np.diag([1.0, 2.0]))
+    p = winf_plant(A, B, D=D, Gamma0=G0, Gamma1=np.diag([1.0, 2.0]))
     rng = np.random.default_rng(1)
     x, u, w = rng.normal(size=2), rng.normal(size=1), rng.normal(size=1)
     z = p.C1 @ x + p.D11 @ w + p.D12 @ u
@@ -92,7 +92,7 @@ def test_disturbance_model_well_posed_alternative_verified():
 
 
 def test_classic_hinf_channel():
-    p = hinf_plant(A, B, D, np.eye(2), 0.1)
+    p = hinf_plant(A, B, D=D, Q=np.eye(2), R=0.1)
     r = state_feedback(p)
     Acl, Bcl, Ccl, Dcl = p.closed_loop(K=r.K)
     assert np.allclose(Ccl[2:], np.sqrt(0.1) * r.K)  # z_u = R^1/2 u
@@ -112,7 +112,7 @@ def test_polytopic_common_lyapunov():
     r = robust_winf_state_feedback(verts, np.diag([10.0, 1.0]), np.diag([0.1, 0.1]), region=region)
     assert len(r.certificates) == 4 and all(c.ok for c in r.certificates)
     for Ai, Bi, Di in random_interior_points(verts, 10, rng=0):
-        p = winf_plant(Ai, Bi, Di, np.diag([10.0, 1.0]), np.diag([0.1, 0.1]))
+        p = winf_plant(Ai, Bi, D=Di, Gamma0=np.diag([10.0, 1.0]), Gamma1=np.diag([0.1, 0.1]))
         cl = p.closed_loop(K=r.K)
         ev = np.linalg.eigvals(cl[0])
         assert np.all(region.contains(ev, 1e-6 * np.abs(ev).max()))
@@ -121,13 +121,13 @@ def test_polytopic_common_lyapunov():
 
 def test_bad_weights_and_vertices():
     with pytest.raises(ValueError, match="Gamma0 must be symmetric"):
-        winf_plant(A, B, D, [[1.0, 2], [0, 1]], G1)
+        winf_plant(A, B, D=D, Gamma0=[[1.0, 2], [0, 1]], Gamma1=G1)
     with pytest.raises(ValueError, match="Gamma1 must be positive semidefinite"):
-        winf_plant(A, B, D, G0, np.diag([1.0, -1]))
+        winf_plant(A, B, D=D, Gamma0=G0, Gamma1=np.diag([1.0, -1]))
     with pytest.raises(ValueError, match="R must be positive definite"):
-        hinf_plant(A, B, D, np.eye(2), 0.0)
+        hinf_plant(A, B, D=D, Q=np.eye(2), R=0.0)
     with pytest.raises(ValueError, match="shape"):
-        winf_plant(A, np.ones((3, 1)), D, G0, G1)
+        winf_plant(A, np.ones((3, 1)), D=D, Gamma0=G0, Gamma1=G1)
     with pytest.raises(ValueError, match="absent from nominal"):
         interval_vertices(_quad_like, {"m": 1.0}, {"q": 0.1})
 

@@ -35,7 +35,7 @@ def exact_cost(res, plant, X0):
 
 
 def test_state_feedback_transient_objective_bounds_and_beats_least_gain():
-    p = winf_plant(A, B, B, G0, G1)
+    p = winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)
     least = state_feedback(p, method="lmi")  # the LMI path's least-gain regularization
     r = state_feedback(p, initial_states=X0)
     assert r.regularized and r.certificate.ok
@@ -53,7 +53,7 @@ def test_riccati_state_feedback_is_transient_optimal_at_its_gamma():
     x0 at once: the default (Riccati) controller's transient cost equals the optimum of the
     LMI's transient objective at the same gamma.  Tolerance: the LMI optimum is accurate to
     Clarabel's relative gap (~1e-8) and P to the ARE residual; 1e-4 is far above both."""
-    p = winf_plant(A, B, B, G0, G1)
+    p = winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)
     ric = state_feedback(p)  # optimum on the feedthrough bound: regularized at (1+delta)
     assert ric.method == "riccati" and ric.regularized
     lmi = state_feedback(p, method="lmi", gamma=ric.gamma, initial_states=X0)
@@ -63,7 +63,7 @@ def test_riccati_state_feedback_is_transient_optimal_at_its_gamma():
 def test_state_feedback_transient_bound_approaches_lqr_cost_when_gamma_is_loose():
     """With a loose gamma the H∞ constraint is inactive: the minimal bound is the cost of
     the LQR with Q = C1'C1, R = D12'D12, S = C1'D12 (Riccati, independent of the LMI)."""
-    p = winf_plant(A, B, B, G0, G1)
+    p = winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)
     r = state_feedback(p, gamma=50.0, initial_states=X0)
     Q, R, S = p.C1.T @ p.C1, p.D12.T @ p.D12, p.C1.T @ p.D12
     Pr = solve_continuous_are(p.A, p.B2, Q, R, s=S)
@@ -74,7 +74,7 @@ def test_state_feedback_transient_bound_approaches_lqr_cost_when_gamma_is_loose(
 
 def test_output_feedback_transient_objective():
     C = np.array([[1.0, 1.0]])
-    p = winf_plant(A, B, B, G0, G1, C)
+    p = winf_plant(A, B, C, B, Gamma0=G0, Gamma1=G1)
     least = output_feedback(p, region=disk(500.0), regularize=True)
     r = output_feedback(p, region=disk(500.0), regularize=True, initial_states=X0)
     assert r.certificate.ok and np.isclose(r.gamma, least.gamma)
@@ -84,13 +84,13 @@ def test_output_feedback_transient_objective():
 
 
 def test_initial_states_bad_input():
-    p = winf_plant(A, B, B, G0, G1)
+    p = winf_plant(A, B, D=B, Gamma0=G0, Gamma1=G1)
     with pytest.raises(ValueError, match="initial_states must have shape"):
         state_feedback(p, initial_states=np.ones(3))
     with pytest.raises(ValueError, match="initial_states must be finite"):
         state_feedback(p, initial_states=np.zeros(2))
     with pytest.raises(ValueError, match="initial_states must have shape"):
-        output_feedback(winf_plant(A, B, B, G0, G1, np.eye(2)), initial_states=np.ones((2, 2, 1)))
+        output_feedback(winf_plant(A, B, np.eye(2), B, Gamma0=G0, Gamma1=G1), initial_states=np.ones((2, 2, 1)))
 
 
 def test_output_feedback_transient_gain_weight_is_a_tie_breaker():
@@ -98,7 +98,7 @@ def test_output_feedback_transient_gain_weight_is_a_tie_breaker():
     to the transient objective: each result certified with a valid bound, and the transient
     bound can only grow with w (scalarized bi-objective: the first objective is monotone in w)."""
     C = np.array([[1.0, 1.0]])
-    p = winf_plant(A, B, B, G0, G1, C)
+    p = winf_plant(A, B, C, B, Gamma0=G0, Gamma1=G1)
     bounds = []
     for w in (0.0, 1e-3, 1e-1):
         r = output_feedback(p, region=disk(500.0), regularize=True, initial_states=X0,

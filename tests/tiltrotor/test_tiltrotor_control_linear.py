@@ -142,7 +142,7 @@ def test_smoke_design_certified_and_stable(smoke):
     lin = linearize(trim_hover())
     Acl = lin.A + lin.B @ K
     assert np.linalg.eigvals(Acl).real.max() < 0
-    cl = sb.winf_plant(lin.A, lin.B, lin.D, ld.GAMMA0, ld.GAMMA1).closed_loop(K=K)
+    cl = sb.winf_plant(lin.A, lin.B, D=lin.D, Gamma0=ld.GAMMA0, Gamma1=ld.GAMMA1).closed_loop(K=K)
     n_ham = hinf_norm(*cl)[0]
     n_sweep = hinf_norm_sweep(*cl)[0]
     assert n_sweep <= n_ham * (1 + 1e-6)
@@ -207,7 +207,7 @@ def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
     out, res = smoke
     K = np.load(res.outputs["controllers_npz"])["d0_K"]
     lin = linearize(trim_hover())
-    Acl, Bcl, Ccl, Dcl = sb.winf_plant(lin.A, lin.B, lin.D, ld.GAMMA0, ld.GAMMA1).closed_loop(K=K)
+    Acl, Bcl, Ccl, Dcl = sb.winf_plant(lin.A, lin.B, D=lin.D, Gamma0=ld.GAMMA0, Gamma1=ld.GAMMA1).closed_loop(K=K)
     Ad, Bd, Cd, _ = von_karman_state_space()
     w = np.concatenate([[0.0], np.logspace(-3, 3, 600)])
 
