@@ -155,7 +155,12 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                  "sobolev_drake.simulation", "sobolev_drake.harness", "sobolev_drake.plots",
                  "sobolev_drake.viz", "sobolev_drake.recording_html", "sobolev_drake.analysis_plots",
                  *(f"sobolev_drake.synthesis.{m}" for m in (
-                     "loop_analysis", "weights", "discrete", "design_file")),
+                     "loop_analysis", "weights", "discrete", "design_file", "certificates",
+                     "closed_loop_bounds", "designs", "galerkin", "galerkin_balance",
+                     "galerkin_basis", "galerkin_problem", "hinf", "hinf_common", "hinf_riccati",
+                     "hinf_surface", "interop", "lmi", "margins", "mechanical", "options",
+                     "output_feedback", "polytopic", "problem", "random_plants", "regions",
+                     "riccati", "scaling", "sdp_ipm", "sobolev", "sobolev_plants", "strategy")),
                  *(f"sobolev_drake.systems.{m}" for m in (
                      "bounded_ls", "control_output", "discrete_controller", "disturbances",
                      "floating_state", "galerkin_controller", "hinf_baseline", "inner_laws",

@@ -21,35 +21,32 @@ d not measured, synthesized with the output-feedback LMI; its gain is from v to 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .certificates import as_matrix, check_weight, sqrtm_psd
 from .hinf import GeneralizedPlant, output_feedback, state_feedback
 from .interop import is_linear_system, state_space_matrices
 from .lmi import InfeasibleLMIError, LMIProgram, bmat
 from .problem import SynthesisResult
+# the plants, importable from here as before
+from .sobolev_plants import hinf_plant, plant_matrices, winf_plant
+
+if TYPE_CHECKING:   # a linear system given as A (see state_space_matrices)
+    import control
+    import scipy.signal
+    from numpy.typing import ArrayLike
+    from pydrake.systems.primitives import AffineSystem
+    MatrixOrSystem = ArrayLike | AffineSystem | control.StateSpace | scipy.signal.StateSpace
 
 __all__ = [
-    "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
+    "plant_matrices", "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
     "hinf_state_feedback_qr", "hinf_output_feedback_qr", "winf_sf_thesis_lmi",
     "winf_of_thesis_lmi", "DegeneracyReport", "disturbance_model_degeneracy",
     "winf_disturbance_thesis", "augmented_disturbance_plant", "winf_disturbance_augmented",
 ]
-
-
-def _abd(A, B, D):
-    A = as_matrix("A", A)
-    n = A.shape[0]
-    as_matrix("A", A, (n, n))
-    if n == 0:   # before the weights, whose checks would fail on empty matrices
-        raise ValueError(f"A must be a non-empty square matrix (the plant has no state), got "
-                         f"shape {A.shape}")
-    B, D = as_matrix("B", B, (n, None)), as_matrix("D", D, (n, None))
-    for name, M, what in (("B", B, "control input"), ("D", D, "disturbance")):
-        if M.shape[1] == 0:
-            raise ValueError(f"{name} must have at least one {what} column, got shape {M.shape}")
-    return A, B, D
 
 
 def _plant(A, B, D, C, *, measured):
@@ -59,7 +56,7 @@ def _plant(A, B, D, C, *, measured):
         if B is None or D is None:
             raise TypeError("B and D are required when A is a matrix (or pass a linear system "
                             "as A: a Drake LinearSystem, a python-control StateSpace)")
-        return (*_abd(A, B, D), C)
+        return (*plant_matrices(A, B, D), C)
     if B is not None:
         raise TypeError("B comes from the linear system given as A; do not pass it again")
     A, B, Cs, Ds = state_space_matrices(A, "A")
@@ -68,7 +65,7 @@ def _plant(A, B, D, C, *, measured):
             raise ValueError("the linear system's measurement has a feedthrough D ≠ 0; the "
                              "W∞ plant measures y = C x (pass C explicitly)")
         C = Cs
-    return (*_abd(A, B, B if D is None else D), C)
+    return (*plant_matrices(A, B, B if D is None else D), C)
 
 
 def _measured_plant(A, B, D, C):
@@ -85,78 +82,9 @@ def _require_weights(name0, W0, name1, W1):
             raise TypeError(f"{name} is required")
 
 
-def winf_plant(A, B, D, Gamma0, Gamma1, C=None):
-    """Generalized plant of the W∞ channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
-
-    Parameters
-    ----------
-    A, B, D : array_like
-        x' = A x + B u + D w (6.1).
-    Gamma0, Gamma1 : array_like
-        Positive semidefinite weights of x and x' (n × n, or a vector for a diagonal).
-    C : array_like, optional
-        Measurement y = C x (default: the full state).
-
-    Returns
-    -------
-    GeneralizedPlant
-
-    Examples
-    --------
-    >>> import sobolev_drake as sd
-    >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
-    >>> P = sd.winf_plant(A, B, D, Gamma0=[1, 1], Gamma1=[0.1, 0.1])
-    >>> P.nz, P.nw, P.nu, P.ny          # z = [x; 0.1^1/2 x'], y = x
-    (4, 2, 1, 2)
-    >>> P.D12.ravel().round(4)          # u enters z through x' = ... + B u
-    array([0.    , 0.    , 0.    , 0.3162])
-    """
-    A, B, D = _abd(A, B, D)
-    n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
-    G0 = sqrtm_psd(check_weight("Gamma0", Gamma0, n, definite=False))
-    G1 = sqrtm_psd(check_weight("Gamma1", Gamma1, n, definite=False))
-    C1 = np.vstack([G0, G1 @ A])
-    D11 = np.vstack([np.zeros((n, nw)), G1 @ D])
-    D12 = np.vstack([np.zeros((n, nu)), G1 @ B])
-    C2 = np.eye(n) if C is None else as_matrix("C", C, (None, n))
-    return GeneralizedPlant.make(A, D, B, C1, D11, D12, C2, None)
-
-
-def hinf_plant(A, B, D, Q, R, C=None):
-    """Generalized plant of the classic H∞ channel z = [Q^1/2 x ; R^1/2 u].
-
-    Parameters
-    ----------
-    A, B, D : array_like
-        x' = A x + B u + D w.
-    Q, R : array_like
-        Weights of x (positive semidefinite) and u (positive definite).
-    C : array_like, optional
-        Measurement y = C x (default: the full state).
-
-    Returns
-    -------
-    GeneralizedPlant
-
-    Examples
-    --------
-    >>> import sobolev_drake as sd
-    >>> A, B, D = [[0, 1], [-1, -0.5]], [[0], [1]], [[1, 0], [0, 1]]
-    >>> P = sd.hinf_plant(A, B, D, Q=[1, 1], R=[1], C=[[1, 0]])
-    >>> P.nz, P.nw, P.nu, P.ny          # z = [x; u], y = x1
-    (3, 2, 1, 1)
-    """
-    A, B, D = _abd(A, B, D)
-    n, nu = A.shape[0], B.shape[1]
-    Qh = sqrtm_psd(check_weight("Q", Q, n, definite=False))
-    Rh = sqrtm_psd(check_weight("R", R, nu, definite=True))
-    C1 = np.vstack([Qh, np.zeros((nu, n))])
-    D12 = np.vstack([np.zeros((n, nu)), Rh])
-    C2 = np.eye(n) if C is None else as_matrix("C", C, (None, n))
-    return GeneralizedPlant.make(A, D, B, C1, None, D12, C2, None)
-
-
-def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
+def winf_state_feedback(A: MatrixOrSystem, B: ArrayLike | None = None, D: ArrayLike | None = None,
+                        Gamma0: ArrayLike | None = None, Gamma1: ArrayLike | None = None,
+                        **options: Any) -> SynthesisResult:
     """Full-state W∞ controller (6.7), certified; u = +K x.
 
     Parameters
@@ -205,7 +133,9 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
     return state_feedback(winf_plant(A, B, D, Gamma0, Gamma1), **options)
 
 
-def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **options):
+def winf_output_feedback(A: MatrixOrSystem, B: ArrayLike | None = None, C: ArrayLike | None = None,
+                         D: ArrayLike | None = None, Gamma0: ArrayLike | None = None,
+                         Gamma1: ArrayLike | None = None, **options: Any) -> SynthesisResult:
     """Dynamic output-feedback W∞ controller (6.22) with y = C x, certified.
 
     Parameters
@@ -249,7 +179,9 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     return output_feedback(winf_plant(A, B, D, Gamma0, Gamma1, C), **options)
 
 
-def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
+def hinf_state_feedback_qr(A: MatrixOrSystem, B: ArrayLike | None = None, D: ArrayLike | None = None,
+                           Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                           **options: Any) -> SynthesisResult:
     """Classic H∞ state feedback with z = [Q^1/2 x; R^1/2 u], certified; u = +K x.
 
     Parameters
@@ -282,7 +214,9 @@ def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
     return state_feedback(hinf_plant(A, B, D, Q, R), **options)
 
 
-def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options):
+def hinf_output_feedback_qr(A: MatrixOrSystem, B: ArrayLike | None = None, C: ArrayLike | None = None,
+                            D: ArrayLike | None = None, Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                            **options: Any) -> SynthesisResult:
     """Classic H∞ dynamic output feedback with z = [Q^1/2 x; R^1/2 u] and y = C x, certified.
 
     Parameters
@@ -318,7 +252,8 @@ def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options
     return output_feedback(hinf_plant(A, B, D, Q, R, C), **options)
 
 
-def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
+def winf_sf_thesis_lmi(A: ArrayLike, B: ArrayLike, D: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike,
+                       backend: str | None = None) -> SynthesisResult:
     """(6.7) written out as in the thesis (variables S, R, gamma*), uncertified.
 
     Used to cross-check the generalized-plant formulation (same optimal gamma). Arguments as
@@ -330,7 +265,7 @@ def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
         ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``K = R S^-1``,
         ``X = S``; no certificate (``certified`` False): gamma is not a verified bound.
     """
-    A, B, D = _abd(A, B, D)
+    A, B, D = plant_matrices(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
     G0 = check_weight("Gamma0", Gamma0, n)
     G1 = check_weight("Gamma1", Gamma1, n)
@@ -360,7 +295,8 @@ def _thesis_result(kind, gamma, out, **fields):
                                      "not certified"], **fields)
 
 
-def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
+def winf_of_thesis_lmi(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, Gamma0: ArrayLike,
+                       Gamma1: ArrayLike, backend: str | None = None) -> SynthesisResult:
     """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*), uncertified.
 
     The thesis' (2,1) block is 0: the free Gahinet-Apkarian variable Ak has been set to
@@ -373,7 +309,7 @@ def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
         ``method="thesis_lmi"``, ``gamma = gamma_opt`` = the LMI optimum, ``X = S``,
         ``Y = W``; no controller (the thesis reconstructs none) and no certificate.
     """
-    A, B, D = _abd(A, B, D)
+    A, B, D = plant_matrices(A, B, D)
     n, nu, nw = A.shape[0], B.shape[1], D.shape[1]
     C = as_matrix("C", C, (None, n))
     ny = C.shape[0]
@@ -425,7 +361,8 @@ def _dist(Ad, Bd, Cd, Ups0, Ups1):
     return Ad, Bd, Cd, U0, U1
 
 
-def disturbance_model_degeneracy(Ad, Bd, Cd, Upsilon0, Upsilon1):
+def disturbance_model_degeneracy(Ad: ArrayLike, Bd: ArrayLike, Cd: ArrayLike, Upsilon0: ArrayLike,
+                                 Upsilon1: ArrayLike) -> DegeneracyReport:
     """Diagnose the (d, v) block of (6.31)/(6.36): -gamma^2 L' diag(Ups0, Ups1) L."""
     Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
     nd, nv = Bd.shape
@@ -439,8 +376,10 @@ def disturbance_model_degeneracy(Ad, Bd, Cd, Upsilon0, Upsilon1):
     return DegeneracyReport(k, k > 0, Wt, msg)
 
 
-def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsilon1, *, C=None,
-                            strict=True, **kw):
+def winf_disturbance_thesis(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                            Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike, Upsilon0: ArrayLike,
+                            Upsilon1: ArrayLike, *, C: ArrayLike | None = None, strict: bool = True,
+                            **kw: Any) -> SynthesisResult:
     """(6.31) (C None: state feedback) or (6.36) (output feedback y = C x) as written.
 
     The exogenous input is (d, v) entering through B1 = [D Cd, 0]; the -gamma^2 I block is
@@ -460,7 +399,7 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
     InfeasibleLMIError
         ``strict=True`` and the (d, v) weight is singular, or the solver failed.
     """
-    A, B, D = _abd(A, B, D)
+    A, B, D = plant_matrices(A, B, D)
     Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
     rep = disturbance_model_degeneracy(Ad, Bd, Cd, U0, U1)
     n, nv = A.shape[0], Bd.shape[1]
@@ -483,9 +422,11 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
                      certificates=[])
 
 
-def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):
+def augmented_disturbance_plant(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                                Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike,
+                                C: ArrayLike | None = None) -> GeneralizedPlant:
     """Plant with state (x, d), input v, z = [Gamma0^1/2 x; Gamma1^1/2 xdot], y = C x (d unmeasured)."""
-    A, B, D = _abd(A, B, D)
+    A, B, D = plant_matrices(A, B, D)
     nw_ = as_matrix("Cd", Cd).shape[0]
     Ad, Bd, Cd, _, _ = _dist(Ad, Bd, Cd, np.zeros((nw_, nw_)), np.zeros((nw_, nw_)))
     n, nd, nu, nv = A.shape[0], Ad.shape[0], B.shape[1], Bd.shape[1]
@@ -501,7 +442,9 @@ def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, C=None):
     return GeneralizedPlant.make(Aa, B1, B2, C1, None, D12, C2, None)
 
 
-def winf_disturbance_augmented(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None, **kw):
+def winf_disturbance_augmented(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                               Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike, *,
+                               C: ArrayLike | None = None, **kw: Any) -> SynthesisResult:
     """Well-posed disturbance-model W∞ design (output-feedback LMI on (x, d)).
 
     The gain certified is from v (L2) to z = [Gamma0^1/2 x; Gamma1^1/2 xdot]; the controller
