@@ -166,7 +166,10 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                      "floating_state", "galerkin_controller", "hinf_baseline", "inner_laws",
                      "linear_controllers", "mechanical_controller", "mechanical_sample",
                      "multirotor_control", "partition", "plant_dynamics", "reference_catalogue",
-                     "rotor_allocation", "scalar_law", "scalar_time")))
+                     "rotor_allocation", "scalar_law", "scalar_time", "controller_ports",
+                     "mechanical_law", "mechanical_hinf", "reference_smoothing", "references",
+                     "wind", "von_karman")),
+                 "sobolev_drake.optional", "sobolev_drake.simulation_errors", "sobolev_drake.tuning")
 
 
 def _type_checking_names(module):
