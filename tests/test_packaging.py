@@ -169,7 +169,14 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                      "rotor_allocation", "scalar_law", "scalar_time", "controller_ports",
                      "mechanical_law", "mechanical_hinf", "reference_smoothing", "references",
                      "wind", "von_karman")),
-                 "sobolev_drake.optional", "sobolev_drake.simulation_errors", "sobolev_drake.tuning")
+                 "sobolev_drake.optional", "sobolev_drake.simulation_errors", "sobolev_drake.tuning",
+                 "sobolev_drake.experiments",
+                 *(f"sobolev_drake.experiments.{m}" for m in (
+                     "_balance_linear_designs", "_balance_linear_posedness", "_balance_linear_report",
+                     "_balance_linear_variants", "balance_coupled", "balance_linear", "balance_sgaa",
+                     "linear_simple", "manipulator", "models_tour", "quadrotor_attitude",
+                     "quadrotor_figure8", "quadrotor_polytopic", "tiltrotor_hover_linear",
+                     "tiltrotor_missions")))
 
 
 def _type_checking_names(module):
