@@ -21,7 +21,7 @@ from sobolev_drake.models.base import check_vector
 from sobolev_drake.systems.disturbances import HeldGaussianNoise
 from sobolev_drake.systems.scalar_time import interval_indicator, smooth_window, template_signature
 if TYPE_CHECKING:
-    from pydrake.systems.framework import Context, OutputPort, System
+    from pydrake.systems.framework import Context, ContinuousState, OutputPort, System
 
 # the spectra and filters, importable from here as before
 from sobolev_drake.systems.von_karman import (VonKarmanParameters, discrete_filter,  # noqa: F401
@@ -75,7 +75,7 @@ def VonKarmanFilter_(T):   # the class for scalar type T (float, AutoDiffXd, Exp
 
         __signature__ = template_signature(_construct)
 
-        def DoCalcTimeDerivatives(self, context, derivatives):
+        def DoCalcTimeDerivatives(self, context: Context, derivatives: ContinuousState) -> None:
             x = context.get_continuous_state_vector().CopyToVector()
             derivatives.get_mutable_vector().SetFromVector(self._A @ x + self._B @ self._noise.Eval(context))
 
