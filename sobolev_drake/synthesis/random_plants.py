@@ -43,7 +43,7 @@ class PlantCase:
     def regular(self) -> bool:
         return self.family != "singular"
 
-    def __str__(self):
+    def __str__(self) -> str:
         p = self.plant
         return f"{self.family}[seed {self.seed}] n={p.n} nw={p.nw} nu={p.nu} nz={p.nz} ny={p.ny}"
 
@@ -119,7 +119,7 @@ class SingularCase:
     plant: GeneralizedPlant
     output_feedback: bool
 
-    def __str__(self):
+    def __str__(self) -> str:
         p = self.plant
         return f"{self.variant}[seed {self.seed}] n={p.n} nu={p.nu} ny={p.ny}"
 

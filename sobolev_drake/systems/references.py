@@ -223,7 +223,7 @@ class PiecewiseTrajectory:
     """
 
     def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
-                 breakpoints: Sequence[float] = (), description: str = ""):
+                 breakpoints: Sequence[float] = (), description: str = "") -> None:
         names = sequence("names", names, "coordinate-name strings")
         if not all(isinstance(n, str) for n in names):
             raise TypeError(f"names must be a sequence of coordinate-name strings, got {names!r}")
