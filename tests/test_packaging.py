@@ -202,10 +202,16 @@ def test_the_package_is_typed_and_its_typed_modules_are_complete():
     assert (PACKAGE / "py.typed").is_file()
     assert "py.typed" in tomllib.loads((ROOT / "pyproject.toml").read_text())[
         "tool"]["setuptools"]["package-data"]["sobolev_drake"]
+    from pydrake.systems.scalar_conversion import TemplateSystem
     missing = []
     for name in TYPED_MODULES:
         module = importlib.import_module(name)
         localns = _type_checking_names(module)
+        # every scalar instantiation of the module's TemplateSystems, whatever ran before (the
+        # classes appear in the module as X_𝓣AutoDiffXd𝓤 ... when first requested)
+        for template in [t for t in vars(module).values() if isinstance(t, TemplateSystem)]:
+            for param in template.param_list:
+                template[param]
         functions = [(f"{name}.{n}", f) for n, f in vars(module).items()
                      if inspect.isfunction(f) and f.__module__ == name and not n.startswith("_")]
         for cname, cls in vars(module).items():
