@@ -35,7 +35,7 @@ class SimulationTimeout(SimulationError, TimeoutError):
     True
     """
 
-    def __init__(self, message: str, simulated: float):
+    def __init__(self, message: str, simulated: float) -> None:
         super().__init__(message)
         self.simulated = simulated
 
@@ -55,7 +55,7 @@ class SimulationDiverged(SimulationError, RuntimeError):
         simulated diagram (``"outer::inner"`` inside nested diagrams); kept as ``.subsystem``.
     """
 
-    def __init__(self, message: str, simulated: float, subsystem: str | None):
+    def __init__(self, message: str, simulated: float, subsystem: str | None) -> None:
         super().__init__(message)
         self.simulated = simulated
         self.subsystem = subsystem
@@ -91,7 +91,7 @@ class SimulationStalled(SimulationError, RuntimeError):
     5 True
     """
 
-    def __init__(self, message: str, simulated: float, steps: int):
+    def __init__(self, message: str, simulated: float, steps: int) -> None:
         super().__init__(message)
         self.simulated = simulated
         self.steps = steps

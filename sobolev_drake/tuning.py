@@ -7,12 +7,16 @@ falsi (:func:`match_by_regula_falsi`), and plain bisection inside a bracket (:fu
 
 from __future__ import annotations
 
+from typing import Any, Callable, Iterable
+
 import numpy as np
 
 __all__ = ["match_parameter", "match_by_regula_falsi", "bisect_log"]
 
 
-def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
+def match_parameter(f: Callable[[float], float], target: float, grid: Iterable[float], *,
+                    iters: int = 10, rtol: float = 0.01, refine: int = 0
+                    ) -> tuple[float, float, list[tuple[float, float]]]:
     """Find p with f(p) ≈ target: scan ``grid`` (ascending, > 0), then bisect on log p.
 
     f may fail (return nan) or be non-monotone: every interval between neighbouring evaluated
@@ -87,8 +91,10 @@ def match_parameter(f, target, grid, *, iters=10, rtol=0.01, refine=0):
     return p, v, hist
 
 
-def match_by_regula_falsi(evaluate, target, p0, *, iters=7, factor=3.0, rtol=0.02,
-                          decreasing=True):
+def match_by_regula_falsi(evaluate: Callable[[float], tuple[float, dict[str, Any]]], target: float,
+                          p0: float, *, iters: int = 7, factor: float = 3.0, rtol: float = 0.02,
+                          decreasing: bool = True
+                          ) -> tuple[float, dict[str, Any], list[tuple[float, float]]]:
     """Find p with ``evaluate(p)[0]`` ≈ ``target`` from a first guess, without a grid.
 
     Bracket by multiplying or dividing p by ``factor``, then regula falsi on (log p, log index),
@@ -158,7 +164,9 @@ def match_by_regula_falsi(evaluate, target, p0, *, iters=7, factor=3.0, rtol=0.0
     return best[0], runs[best[0]], hist
 
 
-def bisect_log(evaluate, target, bracket, *, iters=8, increasing=True):
+def bisect_log(evaluate: Callable[[float], tuple[float, Any]], target: float,
+               bracket: tuple[float, float], *, iters: int = 8, increasing: bool = True
+               ) -> tuple[float, float, Any]:
     """Bisection on log p inside ``bracket`` so that ``evaluate(p)[0]`` ≈ ``target``.
 
     Every midpoint is evaluated (never the ends); the midpoint whose index is closest to the

@@ -162,13 +162,28 @@ TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                  "sobolev_drake.simulation", "sobolev_drake.harness", "sobolev_drake.plots",
                  "sobolev_drake.viz", "sobolev_drake.recording_html", "sobolev_drake.analysis_plots",
                  *(f"sobolev_drake.synthesis.{m}" for m in (
-                     "loop_analysis", "weights", "discrete", "design_file")),
+                     "loop_analysis", "weights", "discrete", "design_file", "certificates",
+                     "closed_loop_bounds", "designs", "galerkin", "galerkin_balance",
+                     "galerkin_basis", "galerkin_problem", "hinf", "hinf_common", "hinf_riccati",
+                     "hinf_surface", "interop", "lmi", "margins", "mechanical", "options",
+                     "output_feedback", "polytopic", "problem", "random_plants", "regions",
+                     "riccati", "scaling", "sdp_ipm", "sobolev", "strategy", "thesis_lmi", "controller")),
                  *(f"sobolev_drake.systems.{m}" for m in (
                      "bounded_ls", "control_output", "discrete_controller", "disturbances",
                      "floating_state", "galerkin_controller", "hinf_baseline", "inner_laws",
                      "linear_controllers", "mechanical_controller", "mechanical_sample",
                      "multirotor_control", "partition", "plant_dynamics", "reference_catalogue",
-                     "rotor_allocation", "scalar_law", "scalar_time")))
+                     "rotor_allocation", "scalar_law", "scalar_time", "controller_ports",
+                     "mechanical_law", "mechanical_hinf", "reference_smoothing", "references",
+                     "wind", "von_karman")),
+                 "sobolev_drake.optional", "sobolev_drake.simulation_errors", "sobolev_drake.tuning",
+                 "sobolev_drake.experiments",
+                 *(f"sobolev_drake.experiments.{m}" for m in (
+                     "_balance_linear_designs", "_balance_linear_posedness", "_balance_linear_report",
+                     "_balance_linear_variants", "balance_coupled", "balance_linear", "balance_sgaa",
+                     "linear_simple", "manipulator", "models_tour", "quadrotor_attitude",
+                     "quadrotor_figure8", "quadrotor_polytopic", "tiltrotor_hover_linear",
+                     "tiltrotor_missions")))
 
 
 def _type_checking_names(module):
@@ -194,10 +209,16 @@ def test_the_package_is_typed_and_its_typed_modules_are_complete():
     assert (PACKAGE / "py.typed").is_file()
     assert "py.typed" in tomllib.loads((ROOT / "pyproject.toml").read_text())[
         "tool"]["setuptools"]["package-data"]["sobolev_drake"]
+    from pydrake.systems.scalar_conversion import TemplateSystem
     missing = []
     for name in TYPED_MODULES:
         module = importlib.import_module(name)
         localns = _type_checking_names(module)
+        # every scalar instantiation of the module's TemplateSystems, whatever ran before (the
+        # classes appear in the module as X_𝓣AutoDiffXd𝓤 ... when first requested)
+        for template in [t for t in vars(module).values() if isinstance(t, TemplateSystem)]:
+            for param in template.param_list:
+                template[param]
         functions = [(f"{name}.{n}", f) for n, f in vars(module).items()
                      if inspect.isfunction(f) and f.__module__ == name and not n.startswith("_")]
         for cname, cls in vars(module).items():

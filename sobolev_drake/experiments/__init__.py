@@ -64,7 +64,7 @@ class Experiment:
         (shorter runs divide by empty logs): MIN_DURATION_FACTOR x its default duration."""
         return None if self.default_duration is None else MIN_DURATION_FACTOR * self.default_duration
 
-    def check_duration(self, duration, option: str = "duration") -> None:
+    def check_duration(self, duration: float | None, option: str = "duration") -> None:
         """Refuse a simulated time outside [:attr:`min_duration`, :attr:`max_duration`]
         (``sobolev-drake run --duration`` and campaign cases follow the same rule).
 
@@ -101,12 +101,13 @@ REGISTRY: dict[str, Experiment] = {}
 
 
 class UnknownExperimentError(SobolevDrakeError, KeyError):
-    def __str__(self):  # KeyError quotes its message; we want plain text
+    def __str__(self) -> str:  # KeyError quotes its message; we want plain text
         return self.args[0]
 
 
-def register(name: str, summary: str, *, default_duration=None, flagship=0, thesis_ref="",
-             max_duration=None):
+def register(name: str, summary: str, *, default_duration: float | None = None, flagship: int = 0,
+             thesis_ref: str = "", max_duration: float | None = None
+             ) -> Callable[[Callable[..., ExperimentResult]], Callable[..., ExperimentResult]]:
     """Decorator registering ``run`` as experiment ``name`` (``max_duration``: see
     :attr:`Experiment.max_duration`)."""
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from sobolev_drake.harness import quiet
 from sobolev_drake.synthesis.designs import FeedbackTable, LinearDesign
+from sobolev_drake.synthesis.problem import SynthesisResult
 
 GAMMA0_SF = np.diag([0.2, 2.0, 0.3])
 GAMMA1_SF = np.diag([2.6, 0.25, 0.625])
@@ -52,7 +53,9 @@ OF_BACKEND = "clarabel"
 RHO_TUNED = {"H∞": 6.978, "H∞-O.F.": 8.058}
 
 
-def design(which, lin, *, rho=None, backend=None, regularize=None):
+def design(which: LinearDesign | str, lin: tuple[np.ndarray, np.ndarray, np.ndarray], *,
+           rho: float | None = None, backend: str | None = None, regularize: bool | str | None = None
+           ) -> tuple[SynthesisResult, list[str], float]:
     """Synthesize one design of Table 6.2 on the linearization, with its disk region.
 
     Parameters

@@ -13,18 +13,27 @@ See docs/experiments/balance-linear.md.
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.experiments._balance_linear_designs import (C_OF, DESIGN_SPECS, GAMMA0_OF, GAMMA1_OF,
                                                                OF_BACKEND, RADIUS, design)
 from sobolev_drake.harness import quiet
-from sobolev_drake.rigs.balance_linear import result_gains, theta_settling_time
+from sobolev_drake.rigs.balance_linear import BalanceLinearRig, result_gains, theta_settling_time
+
+if TYPE_CHECKING:
+    from sobolev_drake.report import ExperimentResult
+    from sobolev_drake.synthesis.problem import DynamicController, GeneralizedPlant
+    from sobolev_drake.synthesis.regions import LMIRegion
 
 #: frequencies [rad/s] of the controller peak-gain sweep (the disk radius is 150 rad/s)
 OMEGA = np.logspace(-2, 4, 400)
 
 
-def controller_peak_gain(ctrl, omega=OMEGA):
+def controller_peak_gain(ctrl: DynamicController | Sequence[ArrayLike], omega: ArrayLike = OMEGA) -> float:
     """max over ``omega`` of σ_max(C_K (jωI − A_K)⁻¹ B_K + D_K): invariant under the choice of
     controller state coordinates (unlike ‖B_K‖), defined also for unstable A_K."""
     AK, BK, CK, DK = (np.atleast_2d(np.asarray(m, float)) for m in ctrl)
@@ -36,7 +45,9 @@ def controller_peak_gain(ctrl, omega=OMEGA):
     return float(max(np.linalg.norm(CK @ np.linalg.solve(1j * w * I - AK, BK) + DK, 2) for w in omega))
 
 
-def gain_growth(plant, region, gamma_opt, deltas=(0.2, 0.1, 0.05, 0.02), *, backend=None):
+def gain_growth(plant: GeneralizedPlant, region: LMIRegion | None, gamma_opt: float,
+                deltas: Sequence[float] = (0.2, 0.1, 0.05, 0.02), *,
+                backend: str | None = None) -> list[dict[str, Any]]:
     """Controllers minimizing the LMI gain bound at γ = (1+δ)γ* for each δ.
 
     Returns a list of dicts (delta, gamma, norm_Y (γ² normalization), DK, peak_gain,
@@ -61,8 +72,11 @@ def gain_growth(plant, region, gamma_opt, deltas=(0.2, 0.1, 0.05, 0.02), *, back
     return rows
 
 
-def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), *, duration=5.0,
-                   gamma=None, plant=None, region=None):
+def backend_spread(which: str, lin: tuple[np.ndarray, np.ndarray, np.ndarray], rho: float | None,
+                   rig: BalanceLinearRig, backends: Sequence[str] = ("clarabel", "ipm", "drake"), *,
+                   duration: float = 5.0, gamma: float | None = None,
+                   plant: GeneralizedPlant | None = None, region: LMIRegion | None = None
+                   ) -> list[dict[str, Any]]:
     """``which`` designed by each backend: LMI optimum (``regularize=False``), regularized at
     (1+δ) times that backend's own γ*, and — with ``gamma``/``plant``/``region`` — the
     least-gain controller at that fixed γ.  Per row: γ, γ*, ‖Y‖, D_K, controller peak gain
@@ -92,7 +106,7 @@ def backend_spread(which, lin, rho, rig, backends=("clarabel", "ipm", "drake"), 
     return rows
 
 
-def spread(rows, key):
+def spread(rows: Sequence[dict[str, Any]], key: str) -> float:
     """Relative spread (max − min)/max|.| of ``key`` over the rows without error."""
     v = np.array([np.linalg.norm(r[key]) if isinstance(r[key], list) else r[key] for r in rows if "error" not in r])
     if v.size < 2:
@@ -100,7 +114,8 @@ def spread(rows, key):
     return float((v.max() - v.min()) / max(np.abs(v).max(), 1e-300))
 
 
-def posedness_table_rows(spread_rows, growth):
+def posedness_table_rows(spread_rows: Sequence[dict[str, Any]],
+                         growth: dict[str, tuple[float | None, list[dict[str, Any]]]]) -> list[list[Any]]:
     """Rows of the diagnostics table: backend comparison, then the gain-growth ladders."""
     rows = []
     for r in spread_rows:
@@ -126,7 +141,8 @@ POSEDNESS_COLUMNS = ["design", "ρ", "synthesis", "backend", "γ", "‖Y‖", "D
                      "θ settling [s]", "max |u| [N m]"]
 
 
-def diagnose(res, lin, rig_of, designs, out_dir):
+def diagnose(res: ExperimentResult, lin: tuple[np.ndarray, np.ndarray, np.ndarray], rig_of: BalanceLinearRig,
+             designs: dict[str, dict[str, Any]], out_dir: str | Path) -> None:
     """O.F. well-posedness table (see :mod:`._balance_linear_posedness`) and its claims."""
     from sobolev_drake.experiments import Claim
     from sobolev_drake.report import write_table

@@ -6,12 +6,16 @@ See docs/experiments/balance-linear.md.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from sobolev_drake.report import ExperimentResult
 
 from sobolev_drake.experiments._balance_linear_designs import DESIGNS, LOWER, THESIS_TABLE_6_2
 from sobolev_drake.rigs.balance_linear import DISTURBANCE_START, SETTLE_FRACTION, THETA0
 
 
-def plot_runs(runs, out_dir):
+def plot_runs(runs: dict[str, dict[str, Any]], out_dir: str | Path) -> dict[str, Path]:
     """State/input time series (cf. Figure 6.3) and the θ settling plot (cf. Figure 6.2)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -47,7 +51,7 @@ def plot_runs(runs, out_dir):
     return out
 
 
-def add_claims(res, metrics, *, full):
+def add_claims(res: ExperimentResult, metrics: dict[str, dict[str, Any]], *, full: bool) -> None:
     """The thesis' Table 6.2 statements (and the pole-disk constraints) evaluated on ``metrics``."""
     from sobolev_drake.experiments import Claim
     for a, b in (("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F.")):

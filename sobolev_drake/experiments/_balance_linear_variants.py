@@ -15,17 +15,26 @@ See docs/experiments/balance-linear.md.
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+
 import numpy as np
 
 from sobolev_drake.experiments._balance_linear_designs import LOWER, RADIUS, RHO_GRID, design
 from sobolev_drake.harness import quiet
-from sobolev_drake.rigs.balance_linear import DISTURBANCE_START, flight_indices, result_gains, theta_settling_time
+from sobolev_drake.rigs.balance_linear import (DISTURBANCE_START, BalanceLinearRig, flight_indices, result_gains,
+                                               theta_settling_time)
+from sobolev_drake.synthesis.problem import SynthesisResult
+
+if TYPE_CHECKING:
+    from sobolev_drake.report import ExperimentResult
 from sobolev_drake.tuning import match_parameter
 
 KEYS = ("settling_s", "ise_theta", "ise_phidot", "iadu", "gain", "max_abs_u")
 
 
-def variant_pair(label, w_res, h_of_rho, rig, grid, duration):
+def variant_pair(label: str, w_res: SynthesisResult, h_of_rho: Callable[[float], SynthesisResult],
+                 rig: BalanceLinearRig, grid: Sequence[float], duration: float) -> dict[str, Any]:
     """Match ρ of ``h_of_rho`` to the settling time of ``w_res`` on ``rig``; fly both for
     ``duration`` s.  Returns a dict with rho, the search history and both index sets."""
     from sobolev_drake.synthesis.lmi import SynthesisError
@@ -50,7 +59,8 @@ def variant_pair(label, w_res, h_of_rho, rig, grid, duration):
             "W": {k: iw[k] for k in KEYS}, "H": {k: ih[k] for k in KEYS}}
 
 
-def run_variants(lin, rigs, designs, duration):
+def run_variants(lin: tuple[np.ndarray, np.ndarray, np.ndarray], rigs: Mapping[str, BalanceLinearRig],
+                 designs: dict[str, dict[str, Any]], duration: float) -> list[dict[str, Any]]:
     """The variants of the module docstring; returns a list of :func:`variant_pair` dicts."""
     from sobolev_drake.synthesis import regions
     from sobolev_drake.synthesis import sobolev as sb
@@ -67,7 +77,7 @@ def run_variants(lin, rigs, designs, duration):
     return out
 
 
-def variant_rows(variants):
+def variant_rows(variants: Sequence[dict[str, Any]]) -> list[list[Any]]:
     """Table rows: one per design of each variant, with the W∞/H∞ ratios on the W∞ row."""
     rows = []
     for v in variants:
@@ -85,7 +95,7 @@ VARIANT_COLUMNS = ["variant", "design", "ρ", "θ settling [s]", "ISE θ", "ISE 
                    "max |u| [N m]"]
 
 
-def variant_claims(variants):
+def variant_claims(variants: Sequence[dict[str, Any]]) -> list[tuple[str, bool, str]]:
     """(text, held, detail) per variant: does W∞ beat H∞ on ISE ϕ̇, IADU and gain (thesis)?
     "Beat" means below ``LOWER`` times the H∞ value."""
     out = []
@@ -99,7 +109,9 @@ def variant_claims(variants):
     return out
 
 
-def add_variants(res, lin, rigs, designs, duration, out_dir):
+def add_variants(res: ExperimentResult, lin: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 rigs: Mapping[str, BalanceLinearRig], designs: dict[str, dict[str, Any]], duration: float,
+                 out_dir: str | Path) -> None:
     """Run the variants, write ``balance-linear_variants`` (md + json), add claims/metrics."""
     from sobolev_drake.experiments import Claim
     from sobolev_drake.report import write_table

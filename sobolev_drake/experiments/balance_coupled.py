@@ -13,14 +13,18 @@ See docs/experiments/balance-coupled.md.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
+from sobolev_drake.models.base import MechanicalModel
 from sobolev_drake.models.two_wheeled import add_two_wheeled, make_two_wheeled_model
 from sobolev_drake.report import percent_rows, reading_claim
-from sobolev_drake.rigs.mechanical import build_loop, compare_with_matched_hinf, run_loop, tracked_errors
+from sobolev_drake.rigs.mechanical import (MechanicalLoop, build_loop, compare_with_matched_hinf, run_loop,
+                                           tracked_errors)
 from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface, scaled_surface
 from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law
@@ -61,14 +65,14 @@ def disturbance() -> TimeProfiledForce:
     ])
 
 
-def indices(run) -> dict:
+def indices(run: dict[str, Any]) -> dict[str, float]:
     t = run["t"]
     return {"IADU": float(norms.iadu(t, run["u"]).sum()),
             "ISE θ": float(norms.ise(t, run["x"][:, 1])),      # θ_r ≡ 0
             "ISE ϕ̇": float(norms.ise(t, run["x"][:, 2]))}
 
 
-def annihilator_residual(run, model) -> np.ndarray:
+def annihilator_residual(run: dict[str, Any], model: MechanicalModel) -> np.ndarray:
     """‖B⊥(w − d)‖² along a run (Assumption 8) with d = g + K(q̇) (θ_r ≡ 0: no reference terms)."""
     out = np.empty(len(run["t"]))
     for k in range(len(out)):
@@ -77,7 +81,8 @@ def annihilator_residual(run, model) -> np.ndarray:
     return out
 
 
-def coupled_loop(model, w_inner, limit, hinf_phidot, record=False):
+def coupled_loop(model: MechanicalModel, w_inner: SobolevLaw, limit: float | None, hinf_phidot: str,
+                 record: bool = False) -> MechanicalLoop:
     """The closed loop of this experiment: τ = B†u* clipped to ±``limit`` (None: no limit) and,
     with ``hinf_phidot="matched"``, an H∞ law's ϕ̇ damping replaced by the W law's."""
     base, holder = make_allocation(limit), {}
@@ -100,7 +105,7 @@ def coupled_loop(model, w_inner, limit, hinf_phidot, record=False):
     return loop
 
 
-def hinf_reading(duration) -> dict:
+def hinf_reading(duration: float) -> dict[str, float]:
     """Indices of the classic H∞ of :data:`HINF_READING` (fitted to the thesis' H∞ row)."""
     w_inner = sobolev_inner()
     loop = coupled_loop(make_two_wheeled_model(), w_inner, None, "matched")
@@ -109,7 +114,7 @@ def hinf_reading(duration) -> dict:
                             label="H∞ reading"))
 
 
-def make_allocation(limit):
+def make_allocation(limit: float | None) -> Callable[[ArrayLike, ArrayLike, ArrayLike], np.ndarray]:
     """τ = B†u* = (u*_ϕ − u*_θ)/2 (5.118), saturated to ±``limit``: with a single input this is
     exactly the bounded least-squares allocation min ‖u* − Bτ‖ s.t. |τ| ≤ limit (a convex 1-D
     quadratic's constrained minimizer is its clipped unconstrained one), without a QP solve."""
@@ -119,8 +124,8 @@ def make_allocation(limit):
 
 @register("balance-coupled", "Two-wheeled vehicle, input-coupling law: W2/W∞ vs H∞ (Table 5.7)",
           default_duration=40.0, thesis_ref="5.3.2, Table 5.7, Fig. 5.5")
-def run(out_dir, *, duration=None, record=False, smoke=False, torque_limit=50.0,
-        hinf_phidot="matched") -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        torque_limit: float | None = 50.0, hinf_phidot: str = "matched") -> ExperimentResult:
     out_dir = Path(out_dir)
     duration = float(duration or (1.0 if smoke else 40.0))
     lim = None if torque_limit is None else float(torque_limit)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -27,7 +28,8 @@ from sobolev_drake.synthesis.designs import FeedbackTable, feedback_kind
 from sobolev_drake.tuning import match_parameter
 
 
-def synthesize_all(lin, rigs, *, search=True, log=print):
+def synthesize_all(lin: tuple[np.ndarray, np.ndarray, np.ndarray], rigs: Mapping[str, BalanceLinearRig], *,
+                   search: bool = True, log: Callable[[str], Any] = print) -> dict[str, dict[str, Any]]:
     """W∞ designs with the thesis' weights; H∞ designs by the equal-settling-time rule.
 
     Parameters
@@ -83,7 +85,8 @@ def synthesize_all(lin, rigs, *, search=True, log=print):
 @register("balance-linear", "Two-wheeled vehicle: linear W∞ vs H∞ (state and output feedback, "
           "disk regions) on the nonlinear Drake model (Table 6.2)", default_duration=25.0,
           thesis_ref="6.5.2, Table 6.2")
-def run(out_dir, *, duration=None, record=False, smoke=False, diagnose=None):
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        diagnose: bool | None = None) -> ExperimentResult:
     """Table 6.2.  ``smoke``: no ρ search (:data:`RHO_TUNED`), 5 s runs (long enough for the
     settling times, before the disturbances), no diagnostics.  ``diagnose`` (default: not
     smoke): O.F. well-posedness table (backend spread, gain growth towards γ*) and, for runs

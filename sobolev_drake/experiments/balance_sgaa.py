@@ -53,7 +53,8 @@ def _hinf_settling(model, nodes):
 
 @register("balance-sgaa", "Two-wheeled vehicle: W2, W∞, H∞ by successive Galerkin approximation",
           default_duration=DURATION, thesis_ref="4.4, Table 4.2")
-def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+        smoke: bool = False) -> ExperimentResult:
     from sobolev_drake import plots, report
 
     out_dir = Path(out_dir)

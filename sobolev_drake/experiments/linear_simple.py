@@ -70,7 +70,8 @@ def _decomposition(ctrls, duration, metrics, extra=None):
 
 @register("linear-simple", "Linear W∞ controllers on the simple system (6.41), Table 6.1",
           default_duration=10.0, thesis_ref="6.5.1, Table 6.1")
-def run(out_dir, *, duration=None, record=False, smoke=False):
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+        smoke: bool = False) -> ExperimentResult:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     duration = duration or (2.0 if smoke else 10.0)

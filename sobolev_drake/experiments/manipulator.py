@@ -11,18 +11,21 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from sobolev_drake import norms, plots, report
 from sobolev_drake.campaign import CampaignDefinition, register_campaign
+from sobolev_drake.campaign.case import Case
+from sobolev_drake.systems.mechanical_law import MechanicalLaw
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.models.arm import ArmParams, add_arm, make_arm_model
 from sobolev_drake.report import percent_rows, reading_claim
 from sobolev_drake.rigs.mechanical import (build_loop, compare_with_matched_hinf, run_loop, sobolev_bound,
                                            tracked_errors)
 from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface
-from sobolev_drake.synthesis.mechanical import controlled_gains
+from sobolev_drake.synthesis.mechanical import SobolevGains, controlled_gains
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
@@ -39,7 +42,8 @@ PRINTED = f"thesis-printed M (5.120), |τ| ≤ {PRINTED_TORQUE_LIMIT:g} N m"
 COLUMNS = ("IADU", "ISE q1", "ISE q2")
 
 
-def disturbance(step=40.0, step_from=10.0, sine=40.0, period=10.0, sine_from=25.0) -> TimeProfiledForce:
+def disturbance(step: float = 40.0, step_from: float = 10.0, sine: float = 40.0, period: float = 10.0,
+                sine_from: float = 25.0) -> TimeProfiledForce:
     """Table 5.2's torque disturbances (defaults); a campaign seed draws the five numbers."""
     return TimeProfiledForce(2, [
         {"index": 0, "value": step, "from": step_from, "to": step_from + 10.0},
@@ -48,7 +52,7 @@ def disturbance(step=40.0, step_from=10.0, sine=40.0, period=10.0, sine_from=25.
     ])
 
 
-def indices(run, law):
+def indices(run: dict[str, Any], law: MechanicalLaw) -> dict[str, float]:
     e, _ = tracked_errors(run, law)
     return {"IADU": float(norms.iadu(run["t"], run["u"]).sum()),
             "ISE q1": float(norms.ise(run["t"], e[:, 0])),
@@ -57,7 +61,8 @@ def indices(run, law):
 
 @register("manipulator", "Two-link arm: nonlinear W2/W∞ vs classic nonlinear H∞ (Table 5.3)",
           default_duration=40.0, thesis_ref="5.3.1, Tables 5.1-5.3, Fig. 5.2")
-def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+        smoke: bool = False) -> ExperimentResult:
     out_dir = Path(out_dir)
     duration = float(duration or (1.0 if smoke else 40.0))
     gains = controlled_gains(*WEIGHTS)
@@ -125,7 +130,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False) -> ExperimentResul
     return ExperimentResult("manipulator", outputs, metrics, claims, table)
 
 
-def printed_reading(duration, gains, smoke=False) -> dict:
+def printed_reading(duration: float, gains: SobolevGains, smoke: bool = False) -> dict[str, Any]:
     """W2/W∞ and the equal-IADU classic H∞ on the thesis-printed reading (:data:`PRINTED`), and
     W2/W∞ with the printed M alone: {"W2/W∞", "H∞", "unclipped": indices, "hinf_omega_u"}."""
     def printed_loop(lower=None, upper=None):
@@ -152,7 +157,7 @@ CAMPAIGN_DESIGNS = {"W2/W∞": SobolevLaw,
                     "H∞": lambda gains: matched_hinf_law(matched_hinf_surface(gains), HINF_OMEGA_U)}
 
 
-def campaign_case(case) -> dict:
+def campaign_case(case: Case) -> dict[str, Any]:
     """One design on a perturbed arm (the controller keeps the nominal model) under drawn
     disturbances: step on q1 and sine on q2 with amplitudes 20–60 N m, start times and period
     drawn around Table 5.2's."""

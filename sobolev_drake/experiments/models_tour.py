@@ -124,7 +124,8 @@ def _run_one(name, add, q0, qd0, u_mode, duration, record, out_dir):
 @register("models-tour", "Every plant (two-wheeled, arm, quadrotor, tilt-rotor) under gravity, "
           "recorded to standalone HTML, with energy checks", default_duration=DEFAULT_DURATION,
           flagship=1, thesis_ref="models of (4.30), (5.119), (5.123), section 7.2")
-def run(out_dir: Path, *, duration=None, record=True, smoke=False) -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = True,
+        smoke: bool = False) -> ExperimentResult:
     from sobolev_drake.report import write_table
 
     out_dir = Path(out_dir)

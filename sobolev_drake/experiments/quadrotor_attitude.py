@@ -11,8 +11,10 @@ See docs/experiments/quadrotor-attitude.md.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake import norms, plots, report
 from sobolev_drake.experiments import Claim, ExperimentResult, register
@@ -21,7 +23,8 @@ from sobolev_drake.report import percent_rows, reading_claim
 from sobolev_drake.rigs.mechanical import (build_loop, compare_with_matched_hinf, run_loop, sobolev_bound,
                                            tracked_errors)
 from sobolev_drake.synthesis.hinf_surface import matched_hinf_surface, scaled_surface
-from sobolev_drake.synthesis.mechanical import controlled_gains
+from sobolev_drake.synthesis.mechanical import SobolevGains, controlled_gains
+from sobolev_drake.systems.mechanical_law import MechanicalLaw
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law, omega_u_guess
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
@@ -52,11 +55,11 @@ def disturbance() -> TimeProfiledForce:
     ])
 
 
-def rotor_speed(u):
+def rotor_speed(u: ArrayLike) -> np.ndarray:
     return np.sqrt(np.clip(u, 0.0, None))
 
 
-def indices(run, law):
+def indices(run: dict[str, Any], law: MechanicalLaw) -> dict[str, float]:
     e, _ = tracked_errors(run, law)
     out = {"IADU": float(norms.iadu(run["t"], rotor_speed(run["u"])).sum())}
     for j, name in enumerate(NAMES):
@@ -66,7 +69,8 @@ def indices(run, law):
 
 @register("quadrotor-attitude", "Quadrotor altitude/attitude, reduced model: W2/W∞ vs H∞ (Table 5.6)",
           default_duration=30.0, thesis_ref="5.3.1, Tables 5.4-5.6, Figs. 5.3-5.4")
-def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        limits: bool = True) -> ExperimentResult:
     out_dir = Path(out_dir)
     duration = float(duration or (0.5 if smoke else 30.0))
     params = QuadrotorParams()
@@ -138,7 +142,8 @@ def run(out_dir, *, duration=None, record=False, smoke=False, limits=True) -> Ex
     return ExperimentResult("quadrotor-attitude", outputs, metrics, claims, table)
 
 
-def reading_runs(params, gains, duration) -> tuple:
+def reading_runs(params: QuadrotorParams, gains: SobolevGains, duration: float
+                 ) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
     """Indices of W2/W∞ on :data:`READING` (no rotor limits, Table 5.5 with ψ continued), of the
     classic H∞ of :data:`HINF_READING` on the same loop, and of W2/W∞ on :data:`LITERAL` (plant
     and controller with W′_η read literally): (W2/W∞, H∞, W2/W∞ literal)."""

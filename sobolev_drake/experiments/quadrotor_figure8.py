@@ -12,6 +12,7 @@ See docs/experiments/quadrotor-figure8.md.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -22,6 +23,7 @@ from sobolev_drake.report import percent_of, percent_rows
 from sobolev_drake.rigs.mechanical import (bperp_signal, build_loop, compare_with_matched_hinf, run_loop,
                                            tracked_errors)
 from sobolev_drake.synthesis.mechanical import controlled_gains, stabilized_gains
+from sobolev_drake.systems.mechanical_law import MechanicalLaw
 from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.hinf_baseline import matched_hinf_law
 from sobolev_drake.systems.mechanical_controller import Partition, SobolevLaw
@@ -56,7 +58,7 @@ def disturbance() -> TimeProfiledForce:
     ])
 
 
-def indices(run, law) -> dict:
+def indices(run: dict[str, Any], law: MechanicalLaw) -> dict[str, float]:
     """IADU of the rotor speeds Ω = √(Ω²) and the ISE of each tracked DOF."""
     e, _ = tracked_errors(run, law)
     out = {"IADU": float(norms.iadu(run["t"], np.sqrt(np.clip(run["u"], 0.0, None))).sum())}
@@ -65,15 +67,16 @@ def indices(run, law) -> dict:
     return out
 
 
-def position_error(run, law):
+def position_error(run: dict[str, Any], law: MechanicalLaw) -> np.ndarray:
     e, _ = tracked_errors(run, law)
     return np.linalg.norm(e[:, 1:], axis=1)
 
 
 @register("quadrotor-figure8", "Quadrotor figure-8, input-coupling law, untilted truth: W2/W∞ vs H∞ "
           "(Table 5.9)", default_duration=40.0, thesis_ref="5.3.2, Tables 5.8-5.9, Figs. 5.6-5.8")
-def run(out_dir, *, duration=None, record=False, smoke=False, allocation="pinv", limited=("bls",),
-        truth_tilt=0.0, tune_iters=7, on_reference=True) -> ExperimentResult:
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        allocation: str = "pinv", limited: Sequence[str] = ("bls",), truth_tilt: float = 0.0,
+        tune_iters: int = 7, on_reference: bool = True) -> ExperimentResult:
     """Headline comparison with ``allocation`` (default: the thesis' unlimited B†), H∞ tuned to
     the same IADU; then, for each allocation in ``limited``, the W2/W∞ law and the tuned H∞ law
     again with the rotor limits Ω² ∈ [0, 4·hover], from the thesis' initial state and (with

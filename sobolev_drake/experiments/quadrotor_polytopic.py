@@ -14,10 +14,13 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
+from typing import Any, Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.campaign import CampaignDefinition, register_campaign
+from sobolev_drake.campaign.case import Case
 from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.harness import quiet
 from sobolev_drake.models.quadrotor_linear import SPREAD, UNCERTAIN, hinf_input_weight, input_scale, vertices
@@ -25,6 +28,7 @@ from sobolev_drake.rigs.quadrotor_hover import (CAMPAIGN_INDICES, QuadrotorHover
                                                  check_campaign_gain, flight_indices)
 from sobolev_drake.rigs.quadrotor_hover_plots import plot_flights
 from sobolev_drake.synthesis.designs import LinearDesign
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.tuning import match_parameter
 
 GAMMA0 = np.diag([0.3183, 0.3183, 5.093, 10, 10, 10, 0.159, 0.159, 1.91, 0.05, 0.05, 0.5])
@@ -43,7 +47,9 @@ RHO_TUNED = 453.2
 WINF, HINF = LinearDesign("W∞", "winf"), LinearDesign("H∞", "hinf")   # rows of Table 6.4
 
 
-def design(spec, verts, *, rho=None, backend=None):
+def design(spec: LinearDesign, verts: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike]], *,
+           rho: float | None = None, backend: str | None = None
+           ) -> tuple[SynthesisResult, list[str], float]:
     """Robust state feedback with a common Lyapunov matrix over the polytope and the disk region.
 
     Parameters
@@ -81,7 +87,8 @@ def design(spec, verts, *, rho=None, backend=None):
 @register("quadrotor-polytopic", "Quadrotor: robust (polytopic ±10 % m, I) W∞ vs H∞ state feedback "
           "with a disk region, flown on the nonlinear Drake quadrotor (Table 6.4)", default_duration=40.0,
           thesis_ref="6.5.3, Table 6.4")
-def run(out_dir, *, duration=None, record=False, smoke=False, log=print):
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        log: Callable[[str], Any] = print) -> ExperimentResult:
     """Smoke mode: polytope over m only (2 vertices), ρ = :data:`RHO_TUNED` (no search), 1 s."""
     from sobolev_drake import viz
     from sobolev_drake.report import write_table
@@ -170,12 +177,12 @@ CAMPAIGN_DESIGNS = {WINF.label: {"spec": WINF}, HINF.label: {"spec": HINF, "rho"
 CAMPAIGN_SMOKE_DURATION = 2.0  # s
 
 
-def campaign_gain(label):
+def campaign_gain(label: str) -> np.ndarray:
     """K of a campaign design on the 16-vertex polytope (the campaign pins it once per run)."""
     return np.asarray(design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0].K)
 
 
-def campaign_case(case, K) -> dict:
+def campaign_case(case: Case, K: ArrayLike) -> dict[str, Any]:
     """A design of :data:`CAMPAIGN_DESIGNS` (its gain ``K``) flown on the truth, q(0) and
     disturbances its seed draws; returns "indices", "success" (no divergence) and "failure"."""
     duration = case.duration or (CAMPAIGN_SMOKE_DURATION if case.smoke else 40.0)

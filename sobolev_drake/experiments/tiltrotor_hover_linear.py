@@ -1,12 +1,11 @@
 """``tiltrotor-hover-linear``: linear W∞ designs for the tilt-rotor in helicopter mode, flown on the
 nonlinear plant (thesis §7.3.1, Table 7.2).
 
-The composition: trim and linearization, the syntheses of
-:mod:`sobolev_drake.tiltrotor.linear_design` (the thesis' disturbance-model LMIs are
-degenerate, docs/design.md §8.3, and are flown beside their well-posed form), the flights of
-:mod:`sobolev_drake.tiltrotor.hover_flight` along the Table 7.1 path in von Kármán wind, the
-tables of :mod:`sobolev_drake.tiltrotor.tables` and the claims.  The turbulence is
-σ-normalized (docs/design.md §6); a second table flies the noise read literally.
+The composition: trim and linearization, the syntheses of :mod:`sobolev_drake.tiltrotor.linear_design` (the
+thesis' disturbance-model LMIs are degenerate, docs/design.md §8.3, and are flown beside their well-posed
+form), the flights of :mod:`sobolev_drake.tiltrotor.hover_flight` along the Table 7.1 path in von Kármán
+wind, the tables of :mod:`sobolev_drake.tiltrotor.tables` and the claims.  The turbulence is σ-normalized
+(docs/design.md §6); a second table flies the noise read literally.
 
 See docs/experiments/tiltrotor-hover-linear.md.
 """
@@ -44,9 +43,10 @@ DM_PAIRS = (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"), ("W∞-O.F.", "
 @register("tiltrotor-hover-linear", "Tilt-rotor hover: linear W∞ state/output feedback and "
           "disturbance-model (von Kármán) designs flown on the nonlinear plant (Table 7.2)",
           default_duration=200.0, thesis_ref="7.3.1, Table 7.2")
-def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, record_design=None,
-        backend=None, velocity_reference="zero", regularization="transient", sensitivity=None,
-        crossflow="independence"):
+def run(out_dir: str | Path, *, duration: float | None = None, record: bool = False, smoke: bool = False,
+        designs: tuple[str, ...] | list[str] | None = None, record_design: str | None = None,
+        backend: str | None = None, velocity_reference: str = "zero", regularization: str = "transient",
+        sensitivity: bool | None = None, crossflow: str = "independence") -> ExperimentResult:
     """Synthesize ``designs`` (labels; default: all of DESIGNS, smoke: SMOKE_DESIGNS), fly each
     on the nonlinear plant, write the table beside Table 7.2, plots and metrics.
 
@@ -149,7 +149,7 @@ def run(out_dir, *, duration=None, record=False, smoke=False, designs=None, reco
     return res
 
 
-def add_claims(res, metrics, smoke):
+def add_claims(res: ExperimentResult, metrics: dict[str, dict], smoke: bool) -> None:
     """Thesis claims of §7.3.1 checked on our runs (the comparisons only with the full duration)."""
     base = {k: m for k, m in metrics.items() if "ise" in m}
     th = tables.THESIS_TABLE_7_2

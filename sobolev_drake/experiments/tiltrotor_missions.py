@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Sequence
 
 from sobolev_drake import viz
 from sobolev_drake.campaign import CampaignDefinition, register_campaign
@@ -32,8 +33,9 @@ SMOKE_DURATION = 10.0
 NAMES = {1: "tiltrotor-hover", 2: "tiltrotor-envelope"}
 
 
-def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
-                schedule="plant", design="thesis", compare=()):
+def run_mission(scenario: int, out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+                smoke: bool = False, schedule: str = "plant", design: str = "thesis",
+                compare: Sequence[str] = ()) -> ExperimentResult:
     """Fly mission ``scenario`` (1 or 2), score it, write figures, tables and metrics, check
     the claims; ``schedule``: tilt references, ``design``: the law's weighting
     (:func:`~sobolev_drake.tiltrotor.mission.build_mission`); ``compare``: other designs flown
@@ -111,15 +113,16 @@ def run_mission(scenario, out_dir, *, duration=None, record=False, smoke=False,
 @register("tiltrotor-hover", "Tilt-rotor helicopter mode (Table 7.1 path), nonlinear W∞ + "
           "allocation, lateral wind and force pulses", default_duration=200.0,
           thesis_ref="7.3.2 scenario 1, Figs 7.14-7.20")
-def run_hover(out_dir, *, duration=None, record=False, smoke=False):
+def run_hover(out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+              smoke: bool = False) -> ExperimentResult:
     return run_mission(1, out_dir, duration=duration, record=record, smoke=smoke)
 
 
 @register("tiltrotor-envelope", "Tilt-rotor full flight envelope: take-off, transition, 33 m/s "
           "cruise, turn, transition, landing; nonlinear W∞ + allocation with wind gusts",
           default_duration=250.0, flagship=10, thesis_ref="7.3.2 scenario 2, Figs 7.21-7.27")
-def run_envelope(out_dir, *, duration=None, record=False, smoke=False, schedule="plant",
-                 design="scheduled"):
+def run_envelope(out_dir: str | Path, *, duration: float | None = None, record: bool = False,
+                 smoke: bool = False, schedule: str = "plant", design: str = "scheduled") -> ExperimentResult:
     """``schedule``: "plant" (our level-flight trims, default) or "data" (mission-file
     polynomial, as the thesis author's simulator) for the tilt references; ``design``:
     "scheduled" (the envelope gain schedule, default, claimed) or "thesis" (the thesis tuning

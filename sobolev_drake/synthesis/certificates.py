@@ -15,11 +15,16 @@ by how much. Input validation (shapes, weights, PBH stabilizability) lives here 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import describe, real_matrix, real_scalar, real_vector
 from .lmi import SynthesisError
+
+if TYPE_CHECKING:
+    from sobolev_drake.synthesis.regions import LMIRegion
 
 __all__ = [
     "as_matrix", "check_weight", "sqrtm_psd", "uncontrollable_modes", "require_stabilizable",
@@ -29,13 +34,13 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- validation
-def as_matrix(name, M, shape=None):
+def as_matrix(name: str, M: ArrayLike, shape: tuple[int | None, int | None] | None = None) -> np.ndarray:
     """Return M as a finite real 2-D float array; check its shape (None entries = any size).
     Empty matrices pass (e.g. D21 of a plant without measurements); complex ones are refused."""
     return real_matrix(name, M, shape, allow_empty=True)
 
 
-def check_weight(name, W, n, definite=True):
+def check_weight(name: str, W: ArrayLike, n: int, definite: bool = True) -> np.ndarray:
     """Symmetric positive (semi)definite n x n weight; scalars / vectors mean diagonal."""
     if np.ndim(W) == 0:
         W = real_scalar(name, W) * np.eye(n)
@@ -52,13 +57,14 @@ def check_weight(name, W, n, definite=True):
     return 0.5 * (W + W.T)
 
 
-def sqrtm_psd(W):
+def sqrtm_psd(W: np.ndarray) -> np.ndarray:
     """Symmetric square root of a PSD matrix."""
     ev, V = np.linalg.eigh(W)
     return (V * np.sqrt(np.clip(ev, 0, None))) @ V.T
 
 
-def uncontrollable_modes(A, B, tol=1e-8, stable_ok=True):
+def uncontrollable_modes(A: np.ndarray, B: np.ndarray, tol: float = 1e-8,
+                         stable_ok: bool = True) -> list[complex]:
     """PBH test: eigenvalues lam of A with rank[A - lam I, B] < n (only Re >= 0 if stable_ok)."""
     n = A.shape[0]
     bad = []
@@ -72,21 +78,21 @@ def uncontrollable_modes(A, B, tol=1e-8, stable_ok=True):
     return bad
 
 
-def require_stabilizable(A, B, what="(A, B2)"):
+def require_stabilizable(A: np.ndarray, B: np.ndarray, what: str = "(A, B2)") -> None:
     bad = uncontrollable_modes(A, B)
     if bad:
         raise ValueError(f"{what} is not stabilizable: PBH rank test fails at eigenvalue(s) "
                          f"{np.round(bad, 6).tolist()}")
 
 
-def require_detectable(A, C, what="(A, C2)"):
+def require_detectable(A: np.ndarray, C: np.ndarray, what: str = "(A, C2)") -> None:
     bad = uncontrollable_modes(A.T, C.T)
     if bad:
         raise ValueError(f"{what} is not detectable: PBH rank test fails at eigenvalue(s) "
                          f"{np.round(bad, 6).tolist()}")
 
 
-def parrott_bound(D11, D12, D21):
+def parrott_bound(D11: np.ndarray, D12: np.ndarray, D21: np.ndarray) -> float:
     """min over D_K of ||D11 + D12 D_K D21|| (Parrott): no gamma below it is achievable."""
     def perp(M, side):  # orthonormal basis of the left (rows) / right kernel
         U, s, Vt = np.linalg.svd(M)
@@ -106,7 +112,8 @@ def _sigma_max(A, B, C, D, w):
     return np.linalg.norm(G, 2)
 
 
-def hinf_norm(A, B, C, D, rtol=1e-7):
+def hinf_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike,
+              rtol: float = 1e-7) -> tuple[float, float]:
     """H∞ norm of C (sI-A)^-1 B + D by Hamiltonian iteration.
 
     Each iteration takes the imaginary-axis eigenvalues of the Hamiltonian at
@@ -215,7 +222,8 @@ def _certificate_norm(A, B, C, D):
     return hinf_norm(A, B, C, D)[0]
 
 
-def hinf_norm_sweep(A, B, C, D, freqs=None):
+def hinf_norm_sweep(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray,
+                    freqs: ArrayLike | None = None) -> tuple[float, float]:
     """Frequency-sweep lower estimate of the H∞ norm (for tests and plots)."""
     if freqs is None:
         freqs = np.concatenate([[0.0], np.logspace(-3, 5, 2000)])
@@ -241,16 +249,17 @@ class Certificate:
     failures: list = field(default_factory=list)
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         return not self.failures
 
-    def raise_if_failed(self):
+    def raise_if_failed(self) -> None:
         if self.failures:
             raise SynthesisError("certificate failed: " + "; ".join(self.failures))
 
 
-def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, solver_status="",
-                        region_tol=1e-6):
+def certify_closed_loop(Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray, Dcl: np.ndarray,
+                        gamma: float, *, region: LMIRegion | None = None, rtol: float = 1e-4,
+                        solver_status: str = "", region_tol: float = 1e-6) -> Certificate:
     """Check stability, region membership and ||T_zw||_inf <= gamma (1 + rtol)."""
     ev = np.linalg.eigvals(Acl) if Acl.size else np.zeros(0)
     mre = float(ev.real.max()) if ev.size else -np.inf
@@ -273,7 +282,8 @@ def certify_closed_loop(Acl, Bcl, Ccl, Dcl, gamma, *, region=None, rtol=1e-4, so
                        solver_status, ev, fails)
 
 
-def brl_residual(Acl, Bcl, Ccl, Dcl, P, gamma):
+def brl_residual(Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray, Dcl: np.ndarray,
+                 P: np.ndarray, gamma: float) -> float:
     """Largest eigenvalue of the gamma^2-form bounded-real matrix of the closed loop,
     [[A'P + PA + C'C, PB + C'D], [(PB + C'D)', D'D - gamma^2 I]], relative to its largest entry.
 

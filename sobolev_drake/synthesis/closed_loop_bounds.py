@@ -12,11 +12,19 @@ V(ξ(0)) = s ξ(0)ᵀ P ξ(0); its scale s is recovered from the bounded-real in
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
 
 from .sobolev import augmented_disturbance_plant, winf_plant
+
+if TYPE_CHECKING:
+    from sobolev_drake.synthesis.problem import SynthesisResult
+
+#: the gain K (state feedback) or the controller (AK, BK, CK, DK) of a LoopDesign
+LoopData = np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 __all__ = ["FilteredDisturbancePlant", "LoopDesign", "closed_loop_matrices", "initial_state",
            "initial_condition_energy", "brl_scale", "lyapunov_bound",
@@ -72,7 +80,7 @@ class LoopDesign:
     feedback: str
     disturbance_model: bool = False
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.feedback not in FEEDBACKS:
             raise ValueError(f"feedback must be one of {FEEDBACKS}, got {self.feedback!r}")
 
@@ -84,7 +92,8 @@ def _vector(name, v, n):
     return v
 
 
-def closed_loop_matrices(plant, design, data):
+def closed_loop_matrices(plant: FilteredDisturbancePlant, design: LoopDesign, data: LoopData
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closed loop with state [x; d; x_K], input v, outputs x, u, w.
 
     Parameters
@@ -119,7 +128,8 @@ def closed_loop_matrices(plant, design, data):
     return Acl, Bcl, Cx, Cu, Cw
 
 
-def initial_state(plant, design, data, x0, xk0=None):
+def initial_state(plant: FilteredDisturbancePlant, design: LoopDesign, data: LoopData,
+                  x0: ArrayLike, xk0: ArrayLike | None = None) -> np.ndarray:
     """Closed-loop state [x; d; x_K] at t = 0 (d(0) = 0).
 
     Parameters
@@ -146,7 +156,8 @@ def initial_state(plant, design, data, x0, xk0=None):
     return xi
 
 
-def initial_condition_energy(plant, design, data, x0, xk0=None):
+def initial_condition_energy(plant: FilteredDisturbancePlant, design: LoopDesign, data: LoopData,
+                             x0: ArrayLike, xk0: ArrayLike | None = None) -> float:
     """‖z‖² = ∫ |Γ0^½ x|² + |Γ1^½ ẋ|² dt of the response to ξ(0) (v = 0), exactly, from the
     observability Gramian of the closed loop.
 
@@ -183,7 +194,8 @@ def _performance_plant(plant, design, res, nk):
     return winf_plant(plant.A, plant.B, Cm, plant.D, Gamma0=plant.gamma0, Gamma1=plant.gamma1)
 
 
-def brl_scale(Acl, Bcl, Ccl, Dcl, P, gamma, tol=1e-7):
+def brl_scale(Acl: np.ndarray, Bcl: np.ndarray, Ccl: np.ndarray, Dcl: np.ndarray, P: np.ndarray,
+              gamma: float, tol: float = 1e-7) -> float:
     """Smallest s > 0 such that s P satisfies the γ²-form bounded-real inequality
     [[He(sP Acl) + CclᵀCcl, sP Bcl + CclᵀDcl], [., DclᵀDcl − γ² I]] ≤ 0 (relative ``tol``).
 
@@ -247,7 +259,8 @@ def brl_scale(Acl, Bcl, Ccl, Dcl, P, gamma, tol=1e-7):
     return float(np.exp(hi))
 
 
-def lyapunov_bound(plant, design, data, res, x0, xk0=None):
+def lyapunov_bound(plant: FilteredDisturbancePlant, design: LoopDesign, data: LoopData,
+                   res: SynthesisResult, x0: ArrayLike, xk0: ArrayLike | None = None) -> float:
     """V(ξ(0)) = s ξ0ᵀ P ξ0, the initial-condition term of (6.33): ‖z‖² ≤ γ²‖v‖² + V, with s
     from :func:`brl_scale` (so V is a certified bound whatever P's normalization).
 
@@ -281,7 +294,8 @@ def lyapunov_bound(plant, design, data, res, x0, xk0=None):
     return brl_scale(*cl, P, res.gamma) * float(xi @ P @ xi)
 
 
-def consistent_controller_state(plant, res, x0):
+def consistent_controller_state(plant: FilteredDisturbancePlant, res: SynthesisResult,
+                                x0: ArrayLike) -> np.ndarray:
     """x_K(0) minimizing V([x0; 0; x_K]) for a disturbance-model design (P on [x; d; x_K]).
 
     This is the controller state that makes the certified bound (6.33) on the initial-condition

@@ -7,11 +7,16 @@ continuous or discrete time; it converts to python-control and Drake systems.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..optional import python_control
 from .certificates import as_matrix
+
+if TYPE_CHECKING:   # python-control is optional; pydrake only imported when converting
+    import control
+    from pydrake.systems.primitives import LinearSystem
 
 __all__ = ["DynamicController"]
 
@@ -105,7 +110,7 @@ class DynamicController:
     def __iter__(self):
         return iter((self.AK, self.BK, self.CK, self.DK))
 
-    def to_statespace(self):
+    def to_statespace(self) -> control.StateSpace:
         """The controller as a python-control ``StateSpace`` (input y, output u; ``dt`` kept).
 
         Returns
@@ -120,7 +125,7 @@ class DynamicController:
         control = python_control("DynamicController.to_statespace")
         return control.ss(self.AK, self.BK, self.CK, self.DK, self.dt)
 
-    def to_drake(self):
+    def to_drake(self) -> LinearSystem:
         """The controller as Drake's ``LinearSystem`` (input y, output u; period ``dt``).
 
         The transfer function as a Drake system (scalar-convertible, ``Linearize``-able).  To

@@ -6,7 +6,8 @@ on its fields, never on the printed label.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from typing import Any
 from dataclasses import dataclass
 
 __all__ = ["LinearDesign", "NORMS", "FEEDBACKS", "FEEDBACK_ALIASES", "feedback_kind",
@@ -26,7 +27,7 @@ FEEDBACK_ALIASES = {"state": "state_feedback", "sf": "state_feedback",
                     "dyn": "output_feedback"}
 
 
-def feedback_kind(value, name="feedback"):
+def feedback_kind(value: str, name: str = "feedback") -> str:
     """The public spelling (one of :data:`FEEDBACKS`) of a feedback kind.
 
     Parameters
@@ -83,22 +84,22 @@ class FeedbackTable(Mapping):
     (40.0, 40.0, 150.0, ['state_feedback', 'output_feedback'])
     """
 
-    def __init__(self, state_feedback, output_feedback):
+    def __init__(self, state_feedback: Any, output_feedback: Any) -> None:
         self._values = {"state_feedback": state_feedback, "output_feedback": output_feedback}
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: str) -> Any:
         try:
             return self._values[feedback_kind(key, "key")]
         except ValueError as exc:
             raise KeyError(str(exc)) from None
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[str]:
         return iter(self._values)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return 2
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"FeedbackTable({self._values!r})"
 
 
@@ -121,5 +122,5 @@ class LinearDesign:
     norm: str
     feedback: str = "state_feedback"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "feedback", feedback_kind(self.feedback))

@@ -44,13 +44,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.validation import real_scalar
-from sobolev_drake.synthesis.galerkin_basis import (Box, ObjectEvaluationError, QuadratureRule,
-                                                    check_points, gauss_legendre)
+from sobolev_drake.synthesis.galerkin_basis import (Box, FunctionBasis, ObjectEvaluationError, PolynomialBasis,
+                                                    QuadratureRule, check_points, gauss_legendre)
 from sobolev_drake.synthesis.galerkin_problem import (
     AdmissibilityError, AffineGalerkinSystem, GalerkinConvergenceError, GalerkinDivergenceError,
     HinfCost, InputAffineModel, NodeData, SaddlePointError, W2Cost, WinfCost, autodiff_jacobian,
@@ -150,17 +151,17 @@ class GalerkinResult:
     iterations: int = 0
     diagnostics: dict = field(default_factory=dict)
 
-    def value(self, X):
+    def value(self, X: ArrayLike) -> np.ndarray:
         """V(X) = Φ(X) c, shape (Q,) (X float, or an object array as in :meth:`decision`)."""
         with _quiet(X):
             return self.basis.evaluate(X) @ self.coefficients
 
-    def gradient(self, X):
+    def gradient(self, X: ArrayLike) -> np.ndarray:
         """∇V(X), shape (Q, n) (X float, or an object array as in :meth:`decision`)."""
         with _quiet(X):
             return np.tensordot(self.basis.gradient(X), self.coefficients, axes=(1, 0))
 
-    def decision(self, X):
+    def decision(self, X: ArrayLike) -> np.ndarray:
         """Saddle decision v* = [u*; w*] = −S⁻¹(½Gᵀ∇V + s) at X (shape (Q, nu + nw)).
 
         Float X: vectorized, S⁻¹ by batched LU (the fast path).  Object X (AutoDiffXd or
@@ -189,20 +190,20 @@ class GalerkinResult:
                 return -solve_quasidefinite(S, rhs)
         return -np.linalg.solve(S, rhs[:, :, None])[:, :, 0]
 
-    def control(self, X):
+    def control(self, X: ArrayLike) -> np.ndarray:
         """u*(X) of (4.8) / (4.20) / H∞, shape (Q, nu)."""
         return self.decision(X)[:, :self.problem.model.nu]
 
-    def disturbance(self, X):
+    def disturbance(self, X: ArrayLike) -> np.ndarray:
         """Worst-case w*(X) of (4.19) (shape (Q, nw))."""
         return self.decision(X)[:, self.problem.model.nu:]
 
-    def residual(self, X):
+    def residual(self, X: ArrayLike) -> np.ndarray:
         """HJ residual ∇Vᵀ(f + g u* + k w*) + ℓ(x, u*, w*) at X."""
         nodes = self.problem.nodes_at(check_points("X", X, self.problem.model.n))
         return nodes.hamiltonian(self.coefficients, nodes.saddle(self.coefficients))
 
-    def feedback_gain(self, method: str = "auto"):
+    def feedback_gain(self, method: str = "auto") -> np.ndarray:
         """Linearization u ≈ K x at the origin, shape (nu, n).
 
         ``"autodiff"``: K = ∂u*/∂x(0) to rounding, u* evaluated on AutoDiffXd (see
@@ -247,8 +248,9 @@ class GalerkinProblem:
     test_points : points for the residual diagnostics (default 2000 seeded random points of Ω).
     """
 
-    def __init__(self, model: InputAffineModel, cost, basis, box: Box, quadrature=None,
-                 test_points=None):
+    def __init__(self, model: InputAffineModel, cost: W2Cost | WinfCost | HinfCost,
+                 basis: PolynomialBasis | FunctionBasis, box: Box, quadrature: QuadratureRule | int | None = None,
+                 test_points: ArrayLike | None = None) -> None:
         if not isinstance(box, Box):
             raise TypeError(f"box must be a Box, got {type(box).__name__}")
         if box.n != model.n or basis.n != model.n:
@@ -278,7 +280,7 @@ class GalerkinProblem:
         self._test = self.nodes_at(self.test_points)
         self._check_saddle(self._test)
 
-    def nodes_at(self, X):
+    def nodes_at(self, X: np.ndarray) -> NodeData:
         return NodeData(self.model, self.cost, self.basis, X, np.zeros(X.shape[0]))
 
     def _check_basis(self):
@@ -348,7 +350,7 @@ class GalerkinProblem:
                 "Ω too large, or gamma too small)", history)
         return eig
 
-    def solve(self, u0: Callable, *, tol: float = 1e-9, max_iter: int = 60, inner_tol=None,
+    def solve(self, u0: Callable, *, tol: float = 1e-9, max_iter: int = 60, inner_tol: float | None = None,
               max_inner: int = 60, method: str = "direct", disturbance_update: str = "best_response",
               check_u0: str = "simulate", divergence_factor: float = 1e6,
               atol: float = 0.0) -> GalerkinResult:
@@ -489,21 +491,28 @@ def _problem(f, g, k, cost, basis, box, quadrature, n):
     return GalerkinProblem(model, cost, basis, box, quadrature)
 
 
-def sgaa_w2(f, g, h, dh, sigma0, sigma1, u0, basis, box, *, quadrature=None, n=None, **kw):
+def sgaa_w2(f: Callable, g: Callable, h: Callable, dh: Callable, sigma0: ArrayLike, sigma1: ArrayLike,
+            u0: Callable, basis: PolynomialBasis | FunctionBasis, box: Box | tuple[ArrayLike, ArrayLike],
+            *, quadrature: QuadratureRule | int | None = None, n: int | None = None, **kw: Any) -> GalerkinResult:
     """W2 controller by Algorithm 4.1; returns :class:`GalerkinResult`.  ``box`` is a
     :class:`Box` or a (lower, upper) pair; ``kw`` go to :meth:`GalerkinProblem.solve`."""
     prob = _problem(f, g, None, W2Cost(h, dh, sigma0, sigma1), basis, box, quadrature, n)
     return prob.solve(u0, **kw)
 
 
-def sgaa_winf(f, g, k, h, dh, sigma0, sigma1, gamma, u0, basis, box, *, quadrature=None, n=None,
-              **kw):
+def sgaa_winf(f: Callable, g: Callable, k: Callable, h: Callable, dh: Callable, sigma0: ArrayLike,
+              sigma1: ArrayLike, gamma: float, u0: Callable, basis: PolynomialBasis | FunctionBasis,
+              box: Box | tuple[ArrayLike, ArrayLike], *, quadrature: QuadratureRule | int | None = None,
+              n: int | None = None, **kw: Any) -> GalerkinResult:
     """W∞ controller by Algorithm 4.2 (inner disturbance loop)."""
     prob = _problem(f, g, k, WinfCost(h, dh, sigma0, sigma1, gamma), basis, box, quadrature, n)
     return prob.solve(u0, **kw)
 
 
-def sgaa_hinf(f, g, k, h, Q, R, gamma, u0, basis, box, *, quadrature=None, n=None, **kw):
+def sgaa_hinf(f: Callable, g: Callable, k: Callable | None, h: Callable, Q: ArrayLike, R: ArrayLike,
+              gamma: float, u0: Callable, basis: PolynomialBasis | FunctionBasis,
+              box: Box | tuple[ArrayLike, ArrayLike], *, quadrature: QuadratureRule | int | None = None,
+              n: int | None = None, **kw: Any) -> GalerkinResult:
     """Classic nonlinear H∞ by the SGAA of Beard & McLain (1998): cost hᵀQh + uᵀRu − γ²wᵀw.
     ``k=None`` gives the nonlinear H2 (GHJB) iteration."""
     prob = _problem(f, g, k, HinfCost(h, Q, R, gamma if k is not None else 1.0), basis, box,

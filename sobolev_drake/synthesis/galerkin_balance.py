@@ -13,11 +13,13 @@ of the HJB/HJBI must equal.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
 
-from .galerkin import (GalerkinProblem, HinfCost, InputAffineModel, W2Cost, WinfCost,
+from .galerkin import (GalerkinProblem, GalerkinResult, HinfCost, InputAffineModel, W2Cost, WinfCost,
                        closed_loop_jacobian)
 from .galerkin_basis import Box, PolynomialBasis
 
@@ -49,7 +51,7 @@ class SgaaDesign:
     label: str
     cost: str
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.cost not in COSTS:
             raise ValueError(f"cost must be one of {COSTS}, got {self.cost!r}")
 
@@ -64,7 +66,7 @@ WINF = SgaaDesign("W∞", "winf")
 HINF = SgaaDesign("H∞", "hinf")
 
 
-def u0(X):
+def u0(X: np.ndarray) -> np.ndarray:
     """Initial stabilizing control (4.34), u0 = +K x.
 
     Parameters
@@ -80,7 +82,8 @@ def u0(X):
     return (X @ K_THESIS)[:, None]
 
 
-def sgaa_problem(design, model, nodes, rho=None):
+def sgaa_problem(design: SgaaDesign, model: tuple[Callable, Callable, Callable], nodes: int,
+                 rho: float | None = None) -> GalerkinProblem:
     """The Galerkin problem of one design with nodes³ Gauss–Legendre nodes on Ω (``nodes`` per axis).
 
     Parameters
@@ -110,7 +113,8 @@ def sgaa_problem(design, model, nodes, rho=None):
                            Box(BOX_LO, BOX_HI), quadrature=nodes)
 
 
-def sgaa_design(design, model, nodes=20, rho=None, **kw):
+def sgaa_design(design: SgaaDesign, model: tuple[Callable, Callable, Callable], nodes: int = 20,
+                rho: float | None = None, **kw: Any) -> GalerkinResult:
     """SGAA design (Algorithms 4.1, 4.2) from the initial control :func:`u0`.
 
     Parameters
@@ -133,7 +137,8 @@ def sgaa_design(design, model, nodes=20, rho=None, **kw):
     return sgaa_problem(design, model, nodes, rho).solve(u0, **kw)
 
 
-def riccati_gain(design, model, rho=None):
+def riccati_gain(design: SgaaDesign, model: tuple[Callable, Callable, Callable],
+                 rho: float | None = None) -> np.ndarray:
     """Gain of the *linearized* problem (game/LQR Riccati equation) — the linear part that any
     solution of the stated HJB/HJBI must have.
 
@@ -166,7 +171,9 @@ def riccati_gain(design, model, rho=None):
     return -np.linalg.solve(S, G.T @ P + N.T)[0]
 
 
-def design_model_response(law, model, x0, T=4.0, dt=0.01):
+def design_model_response(law: GalerkinResult, model: tuple[Callable, Callable, Callable],
+                          x0: ArrayLike, T: float = 4.0, dt: float = 0.01
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """θ(t) of the design model from ``x0`` (w = 0) under ``law.control`` (RK4).
 
     Parameters

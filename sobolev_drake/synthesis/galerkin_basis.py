@@ -25,9 +25,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.errors import ModelError
 
@@ -37,7 +38,7 @@ __all__ = ["Box", "QuadratureRule", "gauss_legendre", "midpoint", "PolynomialBas
            "FunctionBasis", "check_points", "object_call", "ObjectEvaluationError"]
 
 
-def check_points(name: str, X, n: int, *, keep_object: bool = False) -> np.ndarray:
+def check_points(name: str, X: ArrayLike, n: int, *, keep_object: bool = False) -> np.ndarray:
     """Return ``X`` as a float array of shape (Q, n) or raise a ``ValueError`` naming it.
 
     Parameters
@@ -68,7 +69,7 @@ def check_points(name: str, X, n: int, *, keep_object: bool = False) -> np.ndarr
 class Box:
     """Axis-aligned box Ω = Π [lower_i, upper_i] (the Galerkin domain)."""
 
-    def __init__(self, lower, upper):
+    def __init__(self, lower: ArrayLike, upper: ArrayLike) -> None:
         lo = np.atleast_1d(np.asarray(lower, dtype=float))
         hi = np.atleast_1d(np.asarray(upper, dtype=float))
         if lo.ndim != 1 or hi.shape != lo.shape:
@@ -84,7 +85,7 @@ class Box:
         self.lower, self.upper = lo, hi
 
     @classmethod
-    def symmetric(cls, half_widths) -> "Box":
+    def symmetric(cls, half_widths: ArrayLike) -> "Box":
         h = np.atleast_1d(np.asarray(half_widths, dtype=float))
         return cls(-h, h)
 
@@ -96,7 +97,7 @@ class Box:
     def volume(self) -> float:
         return float(np.prod(self.upper - self.lower))
 
-    def contains(self, X) -> np.ndarray:
+    def contains(self, X: ArrayLike) -> np.ndarray:
         X = check_points("X", X, self.n)
         return np.all((X >= self.lower) & (X <= self.upper), axis=1)
 
@@ -110,7 +111,7 @@ class Box:
         rng = np.random.default_rng(seed)
         return self.lower + (self.upper - self.lower) * rng.random((count, self.n))
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Box(lower={self.lower.tolist()}, upper={self.upper.tolist()})"
 
 
@@ -126,7 +127,7 @@ class QuadratureRule:
     def size(self) -> int:
         return self.weights.shape[0]
 
-    def integrate(self, values) -> np.ndarray:
+    def integrate(self, values: ArrayLike) -> np.ndarray:
         """∫Ω values dΩ for values sampled at the nodes, shape (Q, ...)."""
         return np.tensordot(self.weights, np.asarray(values), axes=(0, 0))
 
@@ -189,7 +190,7 @@ def _check_grid_size(per_axis):
                          f"more than {MAX_QUADRATURE_NODES:.0e}: use fewer nodes per axis or wider cells")
 
 
-def gauss_legendre(box: Box, nodes_per_dim) -> QuadratureRule:
+def gauss_legendre(box: Box, nodes_per_dim: int | Sequence[int]) -> QuadratureRule:
     """Tensor Gauss–Legendre rule with ``nodes_per_dim`` nodes per axis (int or per-axis list)."""
     if not isinstance(box, Box):
         raise TypeError(f"box must be a Box, got {type(box).__name__}")
@@ -210,7 +211,7 @@ def gauss_legendre(box: Box, nodes_per_dim) -> QuadratureRule:
     return _tensor_rule(box, nodes, weights, f"gauss-legendre {tuple(int(v) for v in p)}")
 
 
-def midpoint(box: Box, width=0.1) -> QuadratureRule:
+def midpoint(box: Box, width: float = 0.1) -> QuadratureRule:
     """Composite midpoint rule on cells of width ≈ ``width`` (the thesis' (4.32), Δ = 0.1)."""
     if not isinstance(box, Box):
         raise TypeError(f"box must be a Box, got {type(box).__name__}")
@@ -243,7 +244,8 @@ class PolynomialBasis:
     same function space.
     """
 
-    def __init__(self, n: int, degree: int, *, min_degree: int = 1, scale=None, names=None):
+    def __init__(self, n: int, degree: int, *, min_degree: int = 1, scale: ArrayLike | None = None,
+                 names: Sequence[str] | None = None) -> None:
         for name, v in (("n", n), ("degree", degree), ("min_degree", min_degree)):
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
                 raise TypeError(f"{name} must be an integer, got {v!r}")
@@ -288,7 +290,7 @@ class PolynomialBasis:
         # P[q, i, p] = (x_i/s_i)^p for p = 0..degree
         return Xs[:, :, None] ** np.arange(self.degree + 1)[None, None, :]
 
-    def evaluate(self, X) -> np.ndarray:
+    def evaluate(self, X: ArrayLike) -> np.ndarray:
         """Φ(X), shape (Q, N) (X may be an object array of AutoDiffXd or Expression)."""
         X = check_points("X", X, self.n, keep_object=True)
         P = self._powers(X)
@@ -297,7 +299,7 @@ class PolynomialBasis:
             out *= P[:, i, self.exponents[:, i]]
         return out
 
-    def gradient(self, X) -> np.ndarray:
+    def gradient(self, X: ArrayLike) -> np.ndarray:
         """∇Φ(X), shape (Q, N, n): entry [q, k, i] = ∂φ_k/∂x_i at X[q] (X may be an object
         array of AutoDiffXd or Expression: the same products, entries of that type)."""
         X = check_points("X", X, self.n, keep_object=True)
@@ -322,7 +324,7 @@ class PolynomialBasis:
             out.append("*".join(parts) if parts else "1")
         return out
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"PolynomialBasis(n={self.n}, degree={self.degree}, terms={len(self)})"
 
 
@@ -333,8 +335,9 @@ class FunctionBasis:
     (relative error tolerance ``fd_tol``; pass ``fd_tol=None`` to skip).
     """
 
-    def __init__(self, n: int, size: int, phi: Callable, grad: Callable, *, names=None,
-                 check_box: Box | None = None, fd_tol: float | None = 1e-5):
+    def __init__(self, n: int, size: int, phi: Callable, grad: Callable, *,
+                 names: Sequence[str] | None = None,
+                 check_box: Box | None = None, fd_tol: float | None = 1e-5) -> None:
         self.n, self._size = int(n), int(size)
         self._phi, self._grad = phi, grad
         self._names = list(names) if names is not None else [f"phi{k + 1}" for k in range(size)]
@@ -357,7 +360,7 @@ class FunctionBasis:
     def __len__(self) -> int:
         return self._size
 
-    def evaluate(self, X) -> np.ndarray:
+    def evaluate(self, X: ArrayLike) -> np.ndarray:
         X = check_points("X", X, self.n, keep_object=True)
         out = (object_call("basis phi", self._phi, X) if X.dtype == object
                else np.asarray(self._phi(X), dtype=float))
@@ -366,7 +369,7 @@ class FunctionBasis:
                              f"got {out.shape}")
         return out
 
-    def gradient(self, X) -> np.ndarray:
+    def gradient(self, X: ArrayLike) -> np.ndarray:
         X = check_points("X", X, self.n, keep_object=True)
         out = (object_call("basis grad", self._grad, X) if X.dtype == object
                else np.asarray(self._grad(X), dtype=float))

@@ -24,16 +24,18 @@ b is evaluated from the (cheap) pointwise cost at the quadrature nodes.
 
 from __future__ import annotations
 
-from contextlib import nullcontext
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydrake.autodiffutils import AutoDiffXd, InitializeAutoDiff
 
 from sobolev_drake.errors import SynthesisError
 
-from sobolev_drake.synthesis.galerkin_basis import Box, check_points, object_call
+from sobolev_drake.synthesis.galerkin_basis import (Box, FunctionBasis, PolynomialBasis,
+                                                    check_points, object_call)
 
 __all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
            "AffineGalerkinSystem", "solve_quasidefinite", "autodiff_jacobian", "quiet",
@@ -44,7 +46,7 @@ __all__ = ["InputAffineModel", "W2Cost", "WinfCost", "HinfCost", "NodeData",
 class GalerkinDivergenceError(SynthesisError):
     """The iteration diverged; ``history`` holds the per-iteration records (no coefficients)."""
 
-    def __init__(self, message, history=None):
+    def __init__(self, message: str, history: list[dict] | None = None) -> None:
         super().__init__(message)
         self.history = list(history or [])
 
@@ -52,7 +54,7 @@ class GalerkinDivergenceError(SynthesisError):
 class GalerkinConvergenceError(SynthesisError):
     """The iteration did not reach the tolerance within the iteration budget."""
 
-    def __init__(self, message, history=None):
+    def __init__(self, message: str, history: list[dict] | None = None) -> None:
         super().__init__(message)
         self.history = list(history or [])
 
@@ -65,7 +67,7 @@ class SaddlePointError(SynthesisError, ValueError):
     """γ (or the weights) violate the saddle-point condition (4.22) somewhere on Ω."""
 
 
-def bmm(A, B):
+def bmm(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """Batched product (Q, a, b) @ (Q, b, c) -> (Q, a, c) for a small contraction size b.
 
     numpy's stacked ``matmul`` is slow for tiny matrices; a loop over the (small) contraction
@@ -76,7 +78,7 @@ def bmm(A, B):
     return out
 
 
-def bmv(A, x):
+def bmv(A: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Batched matrix-vector product (Q, a, b) @ (Q, b) -> (Q, a)."""
     out = A[:, :, 0] * x[:, 0, None]
     for i in range(1, A.shape[2]):
@@ -105,7 +107,7 @@ class InputAffineModel:
     """
 
     def __init__(self, f: Callable, g: Callable, k: Callable | None = None, *, n: int,
-                 nu: int | None = None, nw: int | None = None):
+                 nu: int | None = None, nw: int | None = None) -> None:
         self.f, self.g, self.k, self.n = f, g, k, int(n)
         probe = np.zeros((2, self.n))
         probe[1] = 0.1
@@ -134,7 +136,7 @@ class InputAffineModel:
     def m(self) -> int:
         return self.nu + self.nw
 
-    def evaluate(self, X):
+    def evaluate(self, X: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """F (Q, n) and G = [g k] (Q, n, nu + nw) at the points X (float, or an object array of
         AutoDiffXd / Expression: then the functions' own outputs, a ``TypeError`` naming a
         function that fails on them)."""
@@ -169,19 +171,21 @@ class W2Cost:
     sigma1: np.ndarray
     kind = "w2"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         nz = np.atleast_2d(np.asarray(self.sigma0, dtype=float)).shape[0]
         self.sigma0 = _spd("sigma0", self.sigma0, nz)
         self.sigma1 = _spd("sigma1", self.sigma1, nz)
 
-    def gamma_value(self):
+    def gamma_value(self) -> float | None:
         return None
 
-    def coefficients(self, X, F, G, nu):
+    def coefficients(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=None)
 
-    def decision_terms(self, X, F, G, nu):
+    def decision_terms(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """(s, S) of ℓ = q + 2sᵀv + vᵀSv without q (no h needed; any scalar type)."""
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_terms(self, X, F, G, nu, nz, gamma=None)[1:]
@@ -198,17 +202,19 @@ class WinfCost:
     gamma: float
     kind = "winf"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         W2Cost.__post_init__(self)
 
-    def gamma_value(self):
+    def gamma_value(self) -> float | None:
         return float(self.gamma)
 
-    def coefficients(self, X, F, G, nu):
+    def coefficients(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_coefficients(self, X, F, G, nu, nz, gamma=float(self.gamma))
 
-    def decision_terms(self, X, F, G, nu):
+    def decision_terms(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """(s, S) of ℓ = q + 2sᵀv + vᵀSv without q (no h needed; any scalar type)."""
         nz = np.asarray(self.sigma0).shape[0]
         return _sobolev_terms(self, X, F, G, nu, nz, gamma=float(self.gamma))[1:]
@@ -224,21 +230,23 @@ class HinfCost:
     gamma: float
     kind = "hinf"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         nz = np.atleast_2d(np.asarray(self.Q, dtype=float)).shape[0]
         self.Q = _spd("Q", self.Q, nz)
         self.R = np.atleast_2d(np.asarray(self.R, dtype=float))
         self.R = _spd("R", self.R, self.R.shape[0])
 
-    def gamma_value(self):
+    def gamma_value(self) -> float | None:
         return float(self.gamma)
 
-    def coefficients(self, X, F, G, nu):
+    def coefficients(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         h = _call("h", self.h, X, (X.shape[0], self.Q.shape[0]), role="cost function")
         q = np.einsum("qi,ij,qj->q", h, self.Q, h)
         return (q, *self.decision_terms(X, F, G, nu))
 
-    def decision_terms(self, X, F, G, nu):
+    def decision_terms(self, X: np.ndarray, F: np.ndarray, G: np.ndarray, nu: int
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """(s, S) = (0, diag(R, −γ²I)) (constants)."""
         Qn, m, R = X.shape[0], G.shape[2], self.R
         if R.shape != (nu, nu):
@@ -276,7 +284,7 @@ def _sobolev_terms(cost, X, F, G, nu, nz, gamma):
     return BF, s, S
 
 
-def quiet(X):
+def quiet(X: ArrayLike) -> AbstractContextManager[Any]:
     """A context without floating-point warnings for an object array X (else a no-op).
 
     NumPy reads the processor's status flags after an object loop, so a flag left by earlier
@@ -295,7 +303,7 @@ def quiet(X):
     return np.errstate(all="ignore") if np.asarray(X).dtype == object else nullcontext()
 
 
-def autodiff_jacobian(fun: Callable, x) -> np.ndarray:
+def autodiff_jacobian(fun: Callable, x: ArrayLike) -> np.ndarray:
     """∂fun/∂x at the point x by one AutoDiffXd evaluation (exact to rounding).
 
     Parameters
@@ -320,7 +328,7 @@ def autodiff_jacobian(fun: Callable, x) -> np.ndarray:
     return J
 
 
-def solve_quasidefinite(S, r):
+def solve_quasidefinite(S: np.ndarray, r: np.ndarray) -> np.ndarray:
     """x = S⁻¹r for a batch S (Q, m, m), r (Q, m) of any scalar type (object arrays of
     AutoDiffXd or Expression), by Gaussian elimination in the natural order (no pivoting).
 
@@ -362,7 +370,9 @@ def solve_quasidefinite(S, r):
 class NodeData:
     """Everything evaluated once at a set of points: Φ, ∇Φ, F, G and the cost coefficients."""
 
-    def __init__(self, model: InputAffineModel, cost, basis, X, weights=None):
+    def __init__(self, model: InputAffineModel, cost: W2Cost | WinfCost | HinfCost,
+                 basis: PolynomialBasis | FunctionBasis, X: np.ndarray,
+                 weights: np.ndarray | None = None) -> None:
         self.X = X
         self.w = weights
         self.nu, self.nw = model.nu, model.nw
@@ -387,12 +397,12 @@ class NodeData:
             self.Sww_inv = np.linalg.inv(self.S[:, nu:, nu:])
 
     # policies ------------------------------------------------------------------------------
-    def saddle(self, c):
+    def saddle(self, c: np.ndarray) -> np.ndarray:
         """v*(c) = −S⁻¹(½Gᵀ∇Φᵀc + s) at the nodes, shape (Q, m)."""
         Qn, m, N = self.L_saddle.shape
         return self.v0_saddle + (self.L_saddle.reshape(Qn * m, N) @ c).reshape(Qn, m)
 
-    def best_response_w(self, c, u):
+    def best_response_w(self, c: np.ndarray, u: np.ndarray) -> np.ndarray:
         """argmax_w of the Hamiltonian for V = cᵀΦ and the given control u (Q, nu)."""
         nu = self.nu
         Qn, m, N = self.GtdPhi.shape
@@ -400,17 +410,17 @@ class NodeData:
         rhs = 0.5 * kdV + self.s[:, nu:] + bmv(self.S[:, nu:, :nu], u)
         return -bmv(self.Sww_inv, rhs)
 
-    def running_cost(self, v):
+    def running_cost(self, v: np.ndarray) -> np.ndarray:
         Sv = bmv(self.S, v)
         return self.q + np.sum((2.0 * self.s + Sv) * v, axis=1)
 
-    def hamiltonian(self, c, v):
+    def hamiltonian(self, c: np.ndarray, v: np.ndarray) -> np.ndarray:
         """∇Vᵀ(F + Gv) + ℓ(x, v) for V = cᵀΦ (the GHJ residual of the policy v)."""
         drift = self.F + bmv(self.G, v)
         return bmv(self.dPhi, drift) @ c + self.running_cost(v)
 
     # Galerkin system for an arbitrary policy evaluated at the nodes -----------------------
-    def system(self, v):
+    def system(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(A, b) of (4.25)/(4.28) for the decision v (Q, m) at the nodes."""
         drift = self.F + bmv(self.G, v)
         D = bmv(self.dPhi, drift)
@@ -429,8 +439,8 @@ class AffineGalerkinSystem:
     every call instead of using the tensor.
     """
 
-    def __init__(self, nodes: NodeData, v0, L, *, method="tensor", slow=0,
-                 chunk_entries=4_000_000):
+    def __init__(self, nodes: NodeData, v0: np.ndarray, L: np.ndarray, *, method: str = "tensor",
+                 slow: int = 0, chunk_entries: int = 4_000_000) -> None:
         if method not in ("tensor", "direct"):
             raise ValueError(f"method must be 'tensor' or 'direct', got {method!r}")
         self.nodes, self.v0, self.method, self.slow = nodes, v0, method, int(slow)
@@ -465,11 +475,11 @@ class AffineGalerkinSystem:
             self._cache_key, self._v_slow = key, v
         return self._v_slow, self._A_slow
 
-    def policy(self, p):
+    def policy(self, p: np.ndarray) -> np.ndarray:
         v_slow, _ = self._slow_part(np.asarray(p[:self.slow], dtype=float))
         return v_slow + self._apply(self.L_fast, p[self.slow:])
 
-    def solve(self, p):
+    def solve(self, p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, dtype=float)
         v_slow, A_slow = self._slow_part(p[:self.slow])
         v = v_slow + self._apply(self.L_fast, p[self.slow:])
@@ -481,7 +491,7 @@ class AffineGalerkinSystem:
         return solve_galerkin(A, b)
 
 
-def solve_galerkin(A, b):
+def solve_galerkin(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """c with A c = −b, refusing singular or non-finite systems."""
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
         raise GalerkinDivergenceError("non-finite Galerkin system (the policy blew up)")
@@ -493,6 +503,6 @@ def solve_galerkin(A, b):
     return np.linalg.solve(A, -b)
 
 
-def box_test_points(box: Box, count: int, seed: int = 12345):
+def box_test_points(box: Box, count: int, seed: int = 12345) -> np.ndarray:
     """Seeded uniform test points in Ω, used for residual and positivity diagnostics."""
     return box.sample(count, seed=seed)

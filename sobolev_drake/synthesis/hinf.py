@@ -28,8 +28,10 @@ from ``regions.py``.
 from __future__ import annotations
 
 import time
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,  # noqa: F401
                           compress_performance, first_lmi_attempt, note_regularized, publish_result,
@@ -40,7 +42,7 @@ from .lmi import LMIProgram, SynthesisError, bmat
 from .options import accepts_options
 from .output_feedback import output_feedback, reconstruct_controller  # noqa: F401
 from .hinf_riccati import REGULARIZE_DELTA
-from .regions import region_lmi
+from .regions import LMIRegion, region_lmi
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 from .scaling import balance_scaling, resolve_scaling, scale_plant, unscale_gain  # noqa: F401
 
@@ -99,10 +101,14 @@ def _sf_program(plants, *, region, gamma, input_weight, gain_bound, margin=EPS, 
 
 
 @accepts_options
-def state_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
-                   backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
-                   rtol=1e-4, verify=True, input_weight=None, vertices=None, margin=EPS,
-                   scaling=True, initial_states=None):
+def state_feedback(plant: GeneralizedPlant, *, method: str = "auto", time_limit: float | None = DEFAULT_TIME_LIMIT,
+                   region: LMIRegion | None = None, backend: str | Sequence[str] | None = None,
+                   solver_options: dict[str, Any] | None = None, gamma: float | None = None,
+                   regularize: bool | str = "auto", delta: float | None = None, rtol: float = 1e-4,
+                   verify: bool = True, input_weight: ArrayLike | None = None,
+                   vertices: Sequence[GeneralizedPlant] | None = None, margin: float = EPS,
+                   scaling: bool | Sequence[ArrayLike] | None = True,
+                   initial_states: ArrayLike | None = None) -> SynthesisResult:
     """H∞ state feedback u = K x, certified (sign convention: u = +K x).
 
     Parameters

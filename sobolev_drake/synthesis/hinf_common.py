@@ -10,13 +10,16 @@ from __future__ import annotations
 import time
 import warnings
 
+from typing import Any, Callable, Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .certificates import (brl_residual, certify_closed_loop, check_weight, require_detectable,
                            require_stabilizable)
 from ..validation import real_scalar
-from .lmi import BACKENDS, InfeasibleLMIError, SynthesisError
-from .problem import GeneralizedPlant, SynthesisWarning
+from .lmi import BACKENDS, InfeasibleLMIError, LMIProgram, SolveOutcome, SynthesisError
+from .problem import GeneralizedPlant, SynthesisResult, SynthesisWarning
 from .regions import LMIRegion
 
 __all__ = [
@@ -30,8 +33,11 @@ COUPLING_MARGIN = 1e-6  # [[X, I], [I, Y]] >= margin I keeps I - XY invertible (
 EPS = 1e-7  # strictness margin of the LMIs (absolute, problems are scaled by the weights)
 
 
-def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=None,
-                  backend=None, solver_options=None, input_weight=None):
+def check_options(plant: GeneralizedPlant, *, delta: float | None, rtol: float,
+                  margin: float | None = None, regularize: bool | str = "auto",
+                  region: LMIRegion | None = None, backend: str | Sequence[str] | None = None,
+                  solver_options: dict[str, Any] | None = None,
+                  input_weight: ArrayLike | None = None) -> None:
     """Validate the keywords shared by the syntheses, so that a bad value is named here instead
     of surfacing as solver noise (a NaN in the LMI data, an infeasible program)."""
     if not isinstance(plant, GeneralizedPlant):
@@ -56,7 +62,7 @@ def check_options(plant, *, delta, rtol, margin=None, regularize="auto", region=
         check_weight("input_weight", input_weight, plant.nw, definite=False)
 
 
-def check_gamma_request(gamma, bound, what="gamma"):
+def check_gamma_request(gamma: float | None, bound: float, what: str = "gamma") -> None:
     if gamma is not None:
         gamma = real_scalar(what, gamma, low=0.0, low_open=True)
     if gamma is not None and gamma <= bound * (1 + 1e-9):
@@ -68,7 +74,10 @@ FALLBACKS = ("drake", "drake:csdp")  # tried in order when the *default* backend
 AUTO_CHAIN = ("ipm", "clarabel", *FALLBACKS)  # backend="auto"
 
 
-def solve_lmi_program(prog, backend, options, timings, label, check=None, deadline=None):
+def solve_lmi_program(prog: LMIProgram, backend: str | Sequence[str] | None,
+                      options: dict[str, Any] | None, timings: dict[str, float], label: str,
+                      check: Callable[[SolveOutcome], SynthesisResult] | None = None,
+                      deadline: float | None = None) -> SolveOutcome:
     """Solve the LMI program with ``backend``; None and "auto" are chains of backends.
 
     ``None`` (default): direct Clarabel, then on solver failure Drake/Clarabel, then CSDP.
@@ -163,7 +172,8 @@ def _rejection(check, out):
     return None if cert.ok else "; ".join(cert.failures)
 
 
-def strict_check(res, plants, region, rtol, status):
+def strict_check(res: SynthesisResult, plants: Sequence[GeneralizedPlant], region: LMIRegion | None,
+                 rtol: float, status: str) -> SynthesisResult:
     """Certificate of ``res`` plus the Lyapunov test: the reported P must satisfy the
     gamma^2-form bounded-real inequality of every closed loop (``brl_residual`` <= BRL_TOL).
     Used to accept a result of the automatic chain's first (own IPM) backend: its norm can
@@ -179,7 +189,9 @@ def strict_check(res, plants, region, rtol, status):
     return res
 
 
-def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
+def regularization_ladder(solve_at: Callable[[float], SynthesisResult], g_opt: float, delta: float,
+                          deliberate: bool, res: SynthesisResult | None
+                          ) -> tuple[SynthesisResult | None, float]:
     """Re-solve at gamma = (1+d) g_opt minimizing a gain bound.
 
     ``deliberate`` (feedthrough bound / user request): d = delta, then 5 delta if that re-solve
@@ -204,7 +216,7 @@ def regularization_ladder(solve_at, g_opt, delta, deliberate, res):
     return res, steps[-1]
 
 
-def note_regularized(warns, on_bound, text):
+def note_regularized(warns: list[str], on_bound: bool, text: str) -> None:
     """Append ``text`` to ``warns``; on a feedthrough-bound optimum, on the line of
     :func:`first_lmi_attempt`'s on-bound warning (one line says what was done)."""
     if on_bound and warns and "sits on the feedthrough bound" in warns[-1]:
@@ -213,7 +225,7 @@ def note_regularized(warns, on_bound, text):
         warns.append(text)
 
 
-def compress_performance(p):
+def compress_performance(p: GeneralizedPlant) -> GeneralizedPlant:
     """Same plant with z replaced by U^T z, U an orthonormal basis of range [C1 D11 D12].
 
     |z| is unchanged (the dropped components vanish identically); the W∞ channel
@@ -228,7 +240,8 @@ def compress_performance(p):
     return GeneralizedPlant(p.A, p.B1, p.B2, U.T @ p.C1, U.T @ p.D11, U.T @ p.D12, p.C2, p.D21)
 
 
-def certify_result(res, plants, region, rtol, verify, status):
+def certify_result(res: SynthesisResult, plants: Sequence[GeneralizedPlant], region: LMIRegion | None,
+                   rtol: float, verify: bool, status: str) -> SynthesisResult:
     certs = []
     for p in plants:
         certs.append(certify_closed_loop(*res.closed_loop(p), res.gamma, region=region, rtol=rtol, solver_status=status))
@@ -271,8 +284,11 @@ def _raise_to_achieved(res, g_opt, delta, plants, region, rtol, status):
     return certify_result(res, plants, region, rtol, False, status)
 
 
-def first_lmi_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, regularize, warns,
-                   delta):
+def first_lmi_attempt(build: Callable[[SolveOutcome, float], SynthesisResult], out: SolveOutcome,
+                      g_opt: float, gamma: float | None, bound: float,
+                      plants: Sequence[GeneralizedPlant], region: LMIRegion | None, rtol: float,
+                      regularize: bool | str, warns: list[str], delta: float
+                      ) -> tuple[SynthesisResult | None, bool, bool]:
     """Certify the unregularized optimum; decide whether the regularizing ladder must run.
 
     The SDP optimum is approached from above, so without a requested gamma the result is
@@ -301,7 +317,9 @@ def first_lmi_attempt(build, out, g_opt, gamma, bound, plants, region, rtol, reg
     return res, on_bound, need
 
 
-def publish_result(res, warns, t0, plants, region, rtol, verify, recertify=True):
+def publish_result(res: SynthesisResult, warns: list[str], t0: float,
+                   plants: Sequence[GeneralizedPlant], region: LMIRegion | None, rtol: float,
+                   verify: bool, recertify: bool = True) -> SynthesisResult:
     """Attach and emit the warnings, total time, and run the final certificate check
     (``recertify=False``: keep the certificates already computed for this gamma)."""
     res = res.replace(warnings=list(warns))
@@ -321,7 +339,7 @@ def publish_result(res, warns, t0, plants, region, rtol, verify, recertify=True)
     return res
 
 
-def validate_plants(plants, need_detectable):
+def validate_plants(plants: Sequence[GeneralizedPlant], need_detectable: bool) -> None:
     p0 = plants[0]
     for p in plants:
         if tuple(M.shape for M in p.as_tuple()) != tuple(M.shape for M in p0.as_tuple()):

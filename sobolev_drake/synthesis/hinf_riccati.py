@@ -27,7 +27,10 @@ from __future__ import annotations
 
 import time
 
+from typing import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
 
 from .certificates import brl_residual, parrott_bound
@@ -55,13 +58,13 @@ SINGULAR_LEVELS = (5e-4, 9e-4, 3e-3, 1e-2, 5e-2)
 POLE_LIMIT = 1e4
 
 
-def plant_speed(A):
+def plant_speed(A: ArrayLike) -> float:
     """The plant's fastest mode (rad/s): max |eig A|, at least 1e-6 ‖A‖ and 1e-12."""
     A = np.asarray(A, float)
     return max(float(np.abs(np.linalg.eigvals(A)).max()), 1e-6 * np.linalg.norm(A, 2), 1e-12)
 
 
-def pole_ratio(res, plant):
+def pole_ratio(res: SynthesisResult, plant: GeneralizedPlant) -> float:
     """Fastest pole of the controller and of the closed loop / the plant's fastest mode."""
     fast = np.abs(np.linalg.eigvals(res.closed_loop(plant)[0])).max()
     if res.controller is not None and res.controller.AK.size:
@@ -74,7 +77,7 @@ class GammaNotReachable(InfeasibleLMIError):
     an ``InfeasibleLMIError`` like the LMI path's answer to the same request."""
 
 
-def perturbed_plant(p, eps_u, eps_y):
+def perturbed_plant(p: GeneralizedPlant, eps_u: float, eps_y: float) -> GeneralizedPlant:
     """``p`` with z extended by eps_u u (if eps_u > 0) and w by a noise v entering y as
     eps_y v (if eps_y > 0).  Any controller's closed-loop norm of ``p`` is at most that of the
     perturbed plant (the perturbed channel contains the original one)."""
@@ -268,8 +271,11 @@ def _certified_at(problem, eps, levels, gamma_opt, status, timings, rtol, deadli
     return None, last
 
 
-def riccati_synthesis(plant, output_feedback, *, gamma=None, delta=None, rtol=1e-4,
-                      scaling=True, regularize="auto", reference=None, deadline=None):
+def riccati_synthesis(plant: GeneralizedPlant, output_feedback: bool, *, gamma: float | None = None,
+                      delta: float | None = None, rtol: float = 1e-4,
+                      scaling: bool | Sequence[ArrayLike] | None = True, regularize: bool | str = "auto",
+                      reference: float | None = None, deadline: float | None = None
+                      ) -> tuple[SynthesisResult, list[str]]:
     """Certified Riccati controller for ``plant`` (not yet published: no warnings emitted).
 
     Returns (result, warnings).  ``reference``: a known optimum (e.g. an LMI's) used as the

@@ -9,12 +9,17 @@ fitted readings of the thesis' H∞ rows do.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from sobolev_drake.synthesis.mechanical import SobolevGains
 
 __all__ = ["matched_hinf_surface", "scaled_surface"]
 
 
-def matched_hinf_surface(gains) -> tuple[float, float, float]:
+def matched_hinf_surface(gains: SobolevGains) -> tuple[float, float, float]:
     """(ω1, ω2, ω3) of a classic H∞ sliding surface that aims at the W design's error dynamics.
 
     The thesis tunes its H∞ baselines "by trial and error" and prints no weights.  Our rule: the
@@ -41,7 +46,7 @@ def matched_hinf_surface(gains) -> tuple[float, float, float]:
     return 1.0, float(np.sqrt(max(w2sq, 0.0))), c0
 
 
-def scaled_surface(surface, c1_factor: float, c0_factor: float | None = None) -> tuple[float, float, float]:
+def scaled_surface(surface: tuple[float, float, float], c1_factor: float, c0_factor: float | None = None) -> tuple[float, float, float]:
     """A classic H∞ sliding surface with its error polynomial's coefficients scaled.
 
     The surface (ω1, ω2, ω3) steers the error along s² + c1 s + c0 with c1 = √(ω2² + 2ω1ω3)/ω1

@@ -2,23 +2,23 @@
 
 Accepted wherever the synthesis takes a plant model:
 
-* Drake ``LinearSystem`` / ``AffineSystem`` (e.g. from ``Linearize`` or
-  ``FirstOrderTaylorApproximation``): its A, B, C, D (continuous time only; an affine
-  system's offsets f0, y0 are the operating point, which the controller system takes as
-  ``x_op``/``u_op``, see ``systems.linear_controllers.controller_system``);
-* python-control ``StateSpace`` (continuous, ``dt == 0``), scipy ``signal.StateSpace``, or a
-  tuple ``(A, B, C, D)`` of matrices.
+* Drake ``LinearSystem`` / ``AffineSystem`` (e.g. from ``Linearize`` or ``FirstOrderTaylorApproximation``):
+  its A, B, C, D (continuous time only; an affine system's offsets f0, y0 are the operating point, which
+  the controller system takes as ``x_op``/``u_op``, see ``systems.linear_controllers.controller_system``);
+* python-control ``StateSpace`` (continuous, ``dt == 0``), scipy ``signal.StateSpace``, or a tuple
+  ``(A, B, C, D)`` of matrices.
 
-python-control's partition convention for a generalized plant P: inputs [w; u] with the last
-``ncon`` inputs the controls, outputs [z; y] with the last ``nmeas`` outputs the measurements.
+python-control's partition convention for a generalized plant P: inputs [w; u] with the last ``ncon``
+inputs the controls, outputs [z; y] with the last ``nmeas`` outputs the measurements.
 
-Sign convention, the same everywhere: u = +K x (state feedback), u = C_K x_K + D_K y (output
-feedback; positive, as python-control's ``hinfsyn``; Drake's LQR returns K for u = −K x).
+Sign convention, the same everywhere: u = +K x (state feedback), u = C_K x_K + D_K y (output feedback;
+positive, as python-control's ``hinfsyn``; Drake's LQR returns K for u = −K x).
 """
 
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -31,15 +31,20 @@ from .output_feedback import output_feedback
 from ..optional import python_control
 from ..validation import describe
 
-__all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_statespace",
-           "hinf_state_feedback", "hinf_output_feedback", "hinfsyn", "HinfsynOutput",
-           "CERTIFICATE_MARGIN", "ILL_POSED_COND"]
+if TYPE_CHECKING:
+    import control
+    import scipy.signal
+    from numpy.typing import ArrayLike
+    from pydrake.systems.primitives import AffineSystem
+    LinearSystemLike = AffineSystem | control.StateSpace | scipy.signal.StateSpace | tuple[ArrayLike, ...]
 
-#: when an estimate of the closed-loop norm of P with the returned controller exceeds the
-#: synthesis gamma, :func:`hinfsyn` publishes (1 + CERTIFICATE_MARGIN) x the largest estimate.
-#: It covers the estimates' own accuracies (the Hamiltonian iteration's bracket 2e-7, ab13dd's
-#: tolerance 1e-10), not the spread between them on ill-conditioned loops, which the maximum
-#: over the estimates covers (see :func:`hinfsyn`, Notes)
+__all__ = ["state_space_matrices", "is_linear_system", "generalized_plant", "to_statespace", "hinf_state_feedback",
+           "hinf_output_feedback", "hinfsyn", "HinfsynOutput", "CERTIFICATE_MARGIN", "ILL_POSED_COND"]
+
+#: when an estimate of the closed-loop norm of P with the returned controller exceeds the synthesis gamma,
+#: :func:`hinfsyn` publishes (1 + CERTIFICATE_MARGIN) x the largest estimate.  It covers the estimates' own
+#: accuracies (the Hamiltonian iteration's bracket 2e-7, ab13dd's tolerance 1e-10), not the spread between
+#: them on ill-conditioned loops, which the maximum over the estimates covers (see :func:`hinfsyn`, Notes)
 CERTIFICATE_MARGIN = 1e-6
 #: the loop of P and K is refused as ill-posed when I − D22 D_K (equivalently I + D_K D22 of
 #: the loop shift) has a condition number above this
@@ -55,7 +60,7 @@ def _system_kind(obj):
     return None
 
 
-def is_linear_system(obj) -> bool:
+def is_linear_system(obj: object) -> bool:
     """True for a Drake Linear/AffineSystem, a python-control or scipy StateSpace.
 
     Parameters
@@ -69,7 +74,7 @@ def is_linear_system(obj) -> bool:
     return _system_kind(obj) is not None
 
 
-def state_space_matrices(system, name="system"):
+def state_space_matrices(system: LinearSystemLike, name: str = "system") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C, D) of a continuous-time linear system (see the module docstring).
 
     Parameters
@@ -129,7 +134,7 @@ def _count(name, value, upper):
     return int(value)
 
 
-def generalized_plant(system, nmeas=None, ncon=None):
+def generalized_plant(system: LinearSystemLike, nmeas: int | None = None, ncon: int | None = None) -> tuple[GeneralizedPlant, np.ndarray]:
     """Partition a linear system into a :class:`GeneralizedPlant` (python-control convention).
 
     Parameters
@@ -177,7 +182,7 @@ def _as_plant(plant, nmeas, ncon, kind):
     return plant
 
 
-def hinf_state_feedback(plant, *, ncon=None, **options):
+def hinf_state_feedback(plant: GeneralizedPlant | LinearSystemLike, *, ncon: int | None = None, **options: Any) -> SynthesisResult:
     """H∞ state feedback u = +K x of a generalized plant, certified.
 
     Parameters
@@ -198,7 +203,8 @@ def hinf_state_feedback(plant, *, ncon=None, **options):
     return state_feedback(_as_plant(plant, None, ncon, "hinf_state_feedback"), **options)
 
 
-def hinf_output_feedback(plant, *, nmeas=None, ncon=None, **options):
+def hinf_output_feedback(plant: GeneralizedPlant | LinearSystemLike, *, nmeas: int | None = None,
+                         ncon: int | None = None, **options: Any) -> SynthesisResult:
     """H∞ dynamic output feedback u = C_K x_K + D_K y of a generalized plant, certified.
 
     Parameters
@@ -321,7 +327,7 @@ def _certify_on_p(P, plant, D22, controller, K, nmeas, ncon, gamma):
     return cert, estimates, closed
 
 
-def to_statespace(result_or_controller):
+def to_statespace(result_or_controller: SynthesisResult | DynamicController | ArrayLike) -> control.StateSpace:
     """python-control ``StateSpace`` of a controller (input y or x, output u; u = +K x).
 
     Parameters
@@ -362,18 +368,14 @@ class HinfsynOutput(tuple):
     gamma : float
         The bound certified on that closed loop (see :func:`hinfsyn`, Notes).
     rcond : ndarray, shape (4,)
-        Reciprocal condition numbers of [D12, D21, X, Y] (X, Y the solution's Lyapunov
-        blocks; NaN where absent).
+        Reciprocal condition numbers of [D12, D21, X, Y] (X, Y the solution's Lyapunov blocks; NaN where absent).
     result : SynthesisResult
-        The synthesis of the loop-shifted plant (D22 removed), with its certificate (not part
-        of the tuple).
+        The synthesis of the loop-shifted plant (D22 removed), with its certificate (not part of the tuple).
     certificate : Certificate
-        The check of K on P itself: stability, the largest norm estimate (``achieved``) and
-        ``gamma``.
+        The check of K on P itself: stability, the largest norm estimate (``achieved``) and ``gamma``.
     norm_estimates : dict
-        Every estimate of the closed-loop norm behind ``certificate.achieved``, by method and
-        closure (own Hamiltonian iteration, SLICOT ab13dd; loop closed by formula and by
-        python-control's ``lft``).
+        Every estimate of the closed-loop norm behind ``certificate.achieved``, by method and closure (own
+        Hamiltonian iteration, SLICOT ab13dd; loop closed by formula and by python-control's ``lft``).
 
     Attributes
     ----------
@@ -383,7 +385,8 @@ class HinfsynOutput(tuple):
         As above.
     """
 
-    def __new__(cls, K, CL, gamma, rcond, result, certificate=None, norm_estimates=None):
+    def __new__(cls, K: control.StateSpace, CL: control.StateSpace, gamma: float, rcond: np.ndarray, result: SynthesisResult,
+                certificate: Certificate | None = None, norm_estimates: dict[str, float] | None = None) -> HinfsynOutput:
         out = super().__new__(cls, (K, CL, gamma, rcond))
         out.result = result
         out.certificate = certificate
@@ -414,7 +417,7 @@ def _required_count(name, value):
                         f"ncon); got None{extra}")
 
 
-def hinfsyn(P, nmeas, ncon, **options):
+def hinfsyn(P: LinearSystemLike, nmeas: int, ncon: int, **options: Any) -> HinfsynOutput:
     """H∞ output-feedback synthesis with python-control's calling convention, certified on P.
 
     Parameters
@@ -452,34 +455,31 @@ def hinfsyn(P, nmeas, ncon, **options):
 
     Notes
     -----
-    The synthesis runs on P with D22 removed (y − D22 u is measured instead of y) and the
-    controller is mapped back by the loop shift.  The two closed loops are equal in exact
-    arithmetic, not in floating point: on singular plants (rank-deficient D12 or D21) the
-    controllers near the infimum can have gains of 1e5-1e7, the shift cancels terms of that
-    size, and the closed loop of the returned controller was measured 0.33 % above the
-    certified gamma of the shifted design (50-digit evaluation of the same matrices).  So the
-    returned K is certified again on P as given: the loop, with its algebraic loop
-    (I − D22 D_K)^-1, is closed twice -- by formula and by python-control's ``P.lft(K)`` --,
-    each closure must be stable, and its H∞ norm is estimated by the own Hamiltonian iteration
-    (``certificates.hinf_norm``, Bruinsma & Steinbuch) on the realization and on its real Schur
-    form, and, when slycot is installed, by SLICOT ab13dd (``control.linfnorm``), which shares
-    no code with the synthesis or the own iteration (the Hamiltonian values are the upper ends
-    of their brackets).  The published gamma is the synthesis gamma when no estimate exceeds
-    it, else (1 + CERTIFICATE_MARGIN) x the largest estimate: never below any of them.  An
-    excess above the margin goes into ``result.warnings`` and a :class:`SynthesisWarning`;
-    one below it is estimator noise (LMI designs, whose gamma is the Hamiltonian norm of the
-    shifted loop: ab13dd measured 5e-13 above) and only the published gamma shows it.  There
-    is no re-synthesis: the excess is rounding, which a design at a lower level (larger gains)
-    would not reduce.  On ill-conditioned loops (eigenvector condition 1e7 and more) the
-    double-precision estimates disagree far beyond their tolerances -- measured against
-    50-digit values of the same matrices: ab13dd up to 0.9 % above, the Hamiltonian iteration
-    up to 9e-5 below on the realization as given (a peak missed) and from 9e-6 below to 7e-5
-    above on the Schur form --, hence the maximum over methods and realizations rather than
-    one number trusted alone; the price is a gamma raised by the largest overestimate.
-    Measured on random regular plants (D22 = 0 and ≠ 0): the estimates agree to 2e-7 on the
-    stable, lightly damped and feedthrough families (the synthesis gamma is published); on
-    unstable and badly scaled ones they spread up to 2.4e-5 and gamma is raised by up to that
-    much.  Without slycot the bound rests on the two Hamiltonian estimates.
+    The synthesis runs on P with D22 removed (y − D22 u is measured instead of y) and the controller is
+    mapped back by the loop shift.  The two closed loops are equal in exact arithmetic, not in floating
+    point: on singular plants (rank-deficient D12 or D21) the controllers near the infimum can have gains
+    of 1e5-1e7, the shift cancels terms of that size, and the closed loop of the returned controller was
+    measured 0.33 % above the certified gamma of the shifted design (50-digit evaluation of the same
+    matrices).  So the returned K is certified again on P as given: the loop, with its algebraic loop (I −
+    D22 D_K)^-1, is closed twice -- by formula and by python-control's ``P.lft(K)`` --, each closure must
+    be stable, and its H∞ norm is estimated by the own Hamiltonian iteration (``certificates.hinf_norm``,
+    Bruinsma & Steinbuch) on the realization and on its real Schur form, and, when slycot is installed, by
+    SLICOT ab13dd (``control.linfnorm``), which shares no code with the synthesis or the own iteration
+    (the Hamiltonian values are the upper ends of their brackets).  The published gamma is the synthesis
+    gamma when no estimate exceeds it, else (1 + CERTIFICATE_MARGIN) x the largest estimate: never below
+    any of them.  An excess above the margin goes into ``result.warnings`` and a
+    :class:`SynthesisWarning`; one below it is estimator noise (LMI designs, whose gamma is the
+    Hamiltonian norm of the shifted loop: ab13dd measured 5e-13 above) and only the published gamma shows
+    it.  There is no re-synthesis: the excess is rounding, which a design at a lower level (larger gains)
+    would not reduce.  On ill-conditioned loops (eigenvector condition 1e7 and more) the double-precision
+    estimates disagree far beyond their tolerances -- measured against 50-digit values of the same
+    matrices: ab13dd up to 0.9 % above, the Hamiltonian iteration up to 9e-5 below on the realization as
+    given (a peak missed) and from 9e-6 below to 7e-5 above on the Schur form --, hence the maximum over
+    methods and realizations rather than one number trusted alone; the price is a gamma raised by the
+    largest overestimate. Measured on random regular plants (D22 = 0 and ≠ 0): the estimates agree to 2e-7
+    on the stable, lightly damped and feedthrough families (the synthesis gamma is published); on unstable
+    and badly scaled ones they spread up to 2.4e-5 and gamma is raised by up to that much.  Without slycot
+    the bound rests on the two Hamiltonian estimates.
 
     Examples
     --------

@@ -32,8 +32,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.sparse as sp
 
 from sobolev_drake.errors import SynthesisError
@@ -59,7 +61,7 @@ class InfeasibleLMIError(SynthesisError):
         The solver's status text (kept as ``.status``).
     """
 
-    def __init__(self, message, status=""):
+    def __init__(self, message: str, status: str = "") -> None:
         super().__init__(message)
         self.status = status
 
@@ -70,7 +72,7 @@ class Affine:
 
     __array_ufunc__ = None  # so ndarray @ Affine / ndarray * Affine defer to Affine
 
-    def __init__(self, const, coef):
+    def __init__(self, const: np.ndarray, coef: sp.spmatrix) -> None:
         self.const = np.atleast_2d(np.asarray(const, dtype=float))
         self.coef = sp.csr_matrix(coef)
         assert self.coef.shape[0] == self.const.size
@@ -86,7 +88,7 @@ class Affine:
         return sp.csr_matrix((c.data, (c.row, c.col)), shape=(c.shape[0], n))
 
     @staticmethod
-    def lift(x, ncols=0):
+    def lift(x: Affine | ArrayLike, ncols: int = 0) -> Affine:
         if isinstance(x, Affine):
             return x
         x = np.atleast_2d(np.asarray(x, dtype=float))
@@ -139,16 +141,16 @@ class Affine:
         perm = (np.arange(m)[None, :] * n + np.arange(n)[:, None]).ravel()
         return Affine(self.const.T, self.coef[perm])
 
-    def sym(self):
+    def sym(self) -> Affine:
         """X + X^T (the 'He' operator)."""
         return self + self.T
 
-    def value(self, x):
+    def value(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         return self.const + (self._ncols(x.size) @ x).reshape(self.shape)
 
 
-def bmat(blocks):
+def bmat(blocks: Sequence[Sequence[Affine | ArrayLike | None]]) -> Affine:
     """Block matrix of Affine / ndarray / None (zero) entries; like ``numpy.block``."""
     nr, nc = len(blocks), len(blocks[0])
     rows = [None] * nr
@@ -189,7 +191,7 @@ def bmat(blocks):
     return Affine(const, coef)
 
 
-def kron(a, X):
+def kron(a: ArrayLike, X: Affine) -> Affine:
     """Kronecker product of a constant matrix with an Affine expression (LMI regions)."""
     a = np.atleast_2d(np.asarray(a, dtype=float))
     X = Affine.lift(X)
@@ -215,7 +217,7 @@ class SolveOutcome:
 class LMIProgram:
     """Decision variables, LMIs ``F(x) <= -margin I`` and a linear objective."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.nvar = 0
         self.lmis: list[tuple[str, Affine, float]] = []
         self.objective: Affine | None = None
@@ -226,7 +228,7 @@ class LMIProgram:
         self.nvar += k
         return start
 
-    def sym(self, n, name=""):
+    def sym(self, n: int, name: str = "") -> Affine:
         """Symmetric n x n matrix variable."""
         iu = np.triu_indices(n)
         start = self._new(len(iu[0]))
@@ -236,34 +238,34 @@ class LMIProgram:
         coef = sp.csr_matrix((np.ones(n * n), (np.arange(n * n), idx.ravel())), shape=(n * n, self.nvar))
         return Affine(np.zeros((n, n)), coef)
 
-    def full(self, m, n, name=""):
+    def full(self, m: int, n: int, name: str = "") -> Affine:
         start = self._new(m * n)
         coef = sp.csr_matrix((np.ones(m * n), (np.arange(m * n), start + np.arange(m * n))),
                              shape=(m * n, self.nvar))
         return Affine(np.zeros((m, n)), coef)
 
-    def scalar(self, name=""):
+    def scalar(self, name: str = "") -> Affine:
         return self.full(1, 1, name)
 
-    def add_lmi(self, F, margin=0.0, name=""):
+    def add_lmi(self, F: Affine | ArrayLike, margin: float = 0.0, name: str = "") -> None:
         """Constrain the symmetric part of F to be <= -margin I (negative semidefinite)."""
         F = Affine.lift(F)
         if F.shape[0] != F.shape[1]:
             raise ValueError(f"LMI {name!r} is not square: {F.shape}")
         self.lmis.append((name, (F + F.T) * 0.5, float(margin)))
 
-    def add_pos(self, F, margin=0.0, name=""):
+    def add_pos(self, F: Affine | ArrayLike, margin: float = 0.0, name: str = "") -> None:
         """Constrain F >= margin I."""
         self.add_lmi(-Affine.lift(F), margin, name)
 
-    def minimize(self, f):
+    def minimize(self, f: Affine | ArrayLike) -> None:
         f = Affine.lift(f)
         if f.shape != (1, 1):
             raise ValueError("objective must be a scalar expression")
         self.objective = f
 
     # ---------------------------------------------------------------- backends
-    def solve(self, backend=None, options=None) -> SolveOutcome:
+    def solve(self, backend: str | None = None, options: dict[str, Any] | None = None) -> SolveOutcome:
         backend = (backend or DEFAULT_BACKEND).lower()
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")

@@ -18,11 +18,18 @@ perturbation is simultaneous on all inputs.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..validation import real_scalar
 
 from .certificates import as_matrix
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from sobolev_drake.synthesis.problem import DynamicController
 
 __all__ = ["input_gain_margins", "input_delay_margin"]
 
@@ -63,7 +70,9 @@ def _stable(M):
     return M.shape[0] == 0 or np.linalg.eigvals(M).real.max() < 0
 
 
-def input_gain_margins(A, B, K, C=None, *, k_max=1e3, rtol=1e-6):
+def input_gain_margins(A: ArrayLike, B: ArrayLike, K: ArrayLike | DynamicController,
+                       C: ArrayLike | None = None, *, k_max: float = 1e3,
+                       rtol: float = 1e-6) -> tuple[float, float]:
     """(k_low, k_high): the loop u = k K y is stable for every k in (k_low, k_high) ∋ 1.
 
     ``C`` defaults to the identity (state feedback).  ``k_high`` is ``inf`` when no gain up to
@@ -98,7 +107,9 @@ def input_gain_margins(A, B, K, C=None, *, k_max=1e3, rtol=1e-6):
             first_loss(np.geomspace(1.0, k_max, 200)[1:], np.inf))
 
 
-def input_delay_margin(A, B, K, C=None, *, w_min=1e-4, w_max=None, points=4000):
+def input_delay_margin(A: ArrayLike, B: ArrayLike, K: ArrayLike | DynamicController,
+                       C: ArrayLike | None = None, *, w_min: float = 1e-4,
+                       w_max: float | None = None, points: int = 4000) -> float:
     """Smallest uniform input delay τ (s) that puts a closed-loop pole on the imaginary axis.
 
     Exact up to the frequency grid: the loop gain G(jω) = K(jω) C (jωI − A)⁻¹ B is evaluated on

@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import solve_continuous_are
 
 from ..validation import one_of, real_array, real_scalar
@@ -44,7 +45,7 @@ __all__ = [
 _NORMS = ("W2", "Winf")
 
 
-def _weight(name: str, value, n: int | None, *, definite: bool) -> np.ndarray:
+def _weight(name: str, value: ArrayLike, n: int | None, *, definite: bool) -> np.ndarray:
     """Validate one weight: scalar, vector (diagonal) or symmetric matrix.
 
     ``definite=True`` demands positive definiteness, otherwise positive semidefiniteness.
@@ -122,12 +123,12 @@ class SobolevGains:
         """Weight on the highest derivative (Y3, Σ2 or Υ1): the E block of (5.70)."""
         return self.weights[{"controlled": "Y3", "regulated": "S2", "stabilized": "U1"}[self.group]]
 
-    def value(self, x) -> float:
+    def value(self, x: ArrayLike) -> float:
         """V = ½ xᵀ P x for a chain state x."""
         x = np.asarray(x, dtype=float)
         return 0.5 * float(x @ self.P @ x)
 
-    def stage_cost(self, x, acc) -> float:
+    def stage_cost(self, x: ArrayLike, acc: ArrayLike) -> float:
         """½(xᵀ D x + ëᵀ W ë): the integrand of the W^{m,2} norm (½ of (5.10))."""
         x = np.asarray(x, dtype=float)
         acc = np.asarray(acc, dtype=float)
@@ -187,7 +188,8 @@ def _norm(norm: str) -> str:
     return one_of("norm", norm, _NORMS)
 
 
-def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:
+def controlled_gains(Y0: ArrayLike, Y1: ArrayLike, Y2: ArrayLike, Y3: ArrayLike, *,
+                     norm: str = "W2") -> SobolevGains:
     """Controlled-DOF gains (W^{3,2} on z = ∫q̃c; Theorem 1 (5.18)–(5.24), Theorem 4 (5.77)–(5.82)).
 
     Y0 and Y3 must be positive definite; Y1, Y2 positive semidefinite suffice for the CARE (the
@@ -241,7 +243,7 @@ def controlled_gains(Y0, Y1, Y2, Y3, *, norm: str = "W2") -> SobolevGains:
                         {"Y0": Y0, "Y1": Y1, "Y2": Y2, "Y3": Y3}, A, B, _norm(norm))
 
 
-def regulated_gains(S0, S1, S2, *, norm: str = "W2") -> SobolevGains:
+def regulated_gains(S0: ArrayLike, S1: ArrayLike, S2: ArrayLike, *, norm: str = "W2") -> SobolevGains:
     """Regulated-DOF gains (W^{2,2} on z = q̃r; Theorem 12 (7.69)–(7.80)).
 
     Σ0 and Σ2 positive definite, Σ1 semidefinite (scalars, diagonals or symmetric matrices of
@@ -284,7 +286,7 @@ def regulated_gains(S0, S1, S2, *, norm: str = "W2") -> SobolevGains:
                         _norm(norm))
 
 
-def stabilized_gains(U0, U1, *, norm: str = "W2") -> SobolevGains:
+def stabilized_gains(U0: ArrayLike, U1: ArrayLike, *, norm: str = "W2") -> SobolevGains:
     """Stabilized-DOF gains (W^{1,2} on z = q̇s; (5.76)/(5.91), (7.70)).
 
     Parameters
@@ -319,7 +321,7 @@ def stabilized_gains(U0, U1, *, norm: str = "W2") -> SobolevGains:
                         _norm(norm))
 
 
-def sobolev_gains(*weights, norm: str = "W2") -> SobolevGains:
+def sobolev_gains(*weights: ArrayLike, norm: str = "W2") -> SobolevGains:
     """Dispatch on the number of weights: 4 → controlled, 3 → regulated, 2 → stabilized."""
     table = {4: controlled_gains, 3: regulated_gains, 2: stabilized_gains}
     if len(weights) not in table:
@@ -367,7 +369,7 @@ def stabilized_closed_form(u0: float, u1: float) -> dict:
     return {"U": float(np.sqrt(u0 * u1))}
 
 
-def winf_gamma(M, E) -> float:
+def winf_gamma(M: ArrayLike, E: ArrayLike) -> float:
     """Smallest γ with Π − γ²I ≤ 0, Π = M⁻¹ E M⁻¹ ((5.56)/(5.111)) at one configuration.
 
     ``M`` is the inertia matrix of the controlled model (M̄ for the reduced model (5.5)) and
@@ -409,7 +411,7 @@ class HinfMechanicalGains:
     c: float = field(init=False)
     s: float = field(init=False)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ("omega1", "omega3", "omega_u", "gamma"):
             setattr(self, name, real_scalar(name, getattr(self, name), low=0.0, low_open=True))
         self.omega2 = real_scalar("omega2", self.omega2, low=0.0)
@@ -444,11 +446,11 @@ class HinfMechanicalGains:
         a, b, c3, w1 = self.T11, self.T12, self.T13, self.omega1
         return np.array([[w1 ** 2 * b / a, w1 ** 2 * c3 / a], [w1 ** 2 * c3 / a, w1 ** 2 * b * c3 / a ** 2]])
 
-    def sigma(self, edot, e, e_int):
+    def sigma(self, edot: ArrayLike, e: ArrayLike, e_int: ArrayLike) -> np.ndarray | float:
         """σ = T11 q̃̇ + T12 q̃ + T13 ∫q̃ (controlled DOF); stabilized DOF: σ = T11 q̇s."""
         return self.T11 * np.asarray(edot) + self.T12 * np.asarray(e) + self.T13 * np.asarray(e_int)
 
-    def storage(self, M, sigma, e, e_int) -> float:
+    def storage(self, M: ArrayLike, sigma: ArrayLike, e: ArrayLike, e_int: ArrayLike) -> float:
         """V(x̃) = ½ σᵀ M σ + ½ [e; ∫e]ᵀ (K̄ ⊗ I) [e; ∫e] (M in the σ ordering)."""
         Kb = self.storage_matrix()
         e = np.asarray(e, dtype=float)
@@ -457,7 +459,7 @@ class HinfMechanicalGains:
         return 0.5 * float(sigma @ np.asarray(M) @ sigma + Kb[0, 0] * e @ e
                            + 2 * Kb[0, 1] * e @ ei + Kb[1, 1] * ei @ ei)
 
-    def stage_cost(self, edot, e, e_int, u) -> float:
+    def stage_cost(self, edot: ArrayLike, e: ArrayLike, e_int: ArrayLike, u: ArrayLike) -> float:
         """½(x̃ᵀQx̃ + uᵀRu)."""
         sq = lambda v: float(np.sum(np.asarray(v, dtype=float) ** 2))  # noqa: E731
         return 0.5 * (self.omega1 ** 2 * sq(edot) + self.omega2 ** 2 * sq(e)

@@ -15,9 +15,11 @@ import dataclasses
 import functools
 import inspect
 from dataclasses import dataclass
+from typing import Any, Callable
 
 from ..validation import one_of, real_scalar
 from .hinf_common import EPS
+from .problem import SynthesisResult
 from .regions import LMIRegion
 from .strategy import DEFAULT_TIME_LIMIT, METHODS
 
@@ -74,7 +76,7 @@ class SynthesisOptions:
     regularize: bool | str = "auto"
     delta: float | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         one_of("method", self.method, METHODS)
         if self.time_limit is not None:
             real_scalar("time_limit", self.time_limit, low=0.0, low_open=True)
@@ -98,7 +100,7 @@ def _same(a, b):
         return False
 
 
-def merge_options(options, keywords):
+def merge_options(options: SynthesisOptions | None, keywords: dict[str, Any]) -> dict[str, Any]:
     """``keywords`` completed by ``options``; a ValueError when both give a knob differently."""
     if options is None:
         return keywords
@@ -114,7 +116,7 @@ def merge_options(options, keywords):
     return merged
 
 
-def accepts_options(synthesis):
+def accepts_options(synthesis: Callable[..., SynthesisResult]) -> Callable[..., SynthesisResult]:
     """Decorate a synthesis ``f(plant, **keywords)`` to also take ``options=``.
 
     Parameters
@@ -128,10 +130,16 @@ def accepts_options(synthesis):
         Same docstring and keywords, plus ``options`` (a :class:`SynthesisOptions`).
     """
     @functools.wraps(synthesis)
-    def with_options(plant, *, options=None, **keywords):
+    def with_options(plant: Any, *, options: SynthesisOptions | None = None,
+                     **keywords: Any) -> SynthesisResult:
         return synthesis(plant, **merge_options(options, keywords))
     sig = inspect.signature(synthesis)
     with_options.__signature__ = sig.replace(parameters=[
         *sig.parameters.values(),
-        inspect.Parameter("options", inspect.Parameter.KEYWORD_ONLY, default=None)])
+        inspect.Parameter("options", inspect.Parameter.KEYWORD_ONLY, default=None,
+                          annotation="SynthesisOptions | None")])
+    # wraps() shared the synthesis' hints; add the keyword (as a resolved type: the synthesis'
+    # module need not import SynthesisOptions for typing.get_type_hints to read it)
+    with_options.__annotations__ = {**synthesis.__annotations__,
+                                    "options": SynthesisOptions | None}
     return with_options

@@ -11,17 +11,20 @@ controller is mapped back and certified on the original plant.
 from __future__ import annotations
 
 import time
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .certificates import parrott_bound
 from .hinf_common import (COUPLING_MARGIN, EPS, certify_result, check_gamma_request, check_options,
                           compress_performance, first_lmi_attempt, note_regularized, publish_result,
                           regularization_ladder, solve_lmi_program, strict_check, validate_plants)
-from .problem import DynamicController, SynthesisResult, check_initial_states, transient_bound
+from .problem import (DynamicController, GeneralizedPlant, SynthesisResult, check_initial_states,
+                      transient_bound)
 from .lmi import Affine, LMIProgram, SynthesisError, bmat
 from .hinf_riccati import REGULARIZE_DELTA
-from .regions import region_lmi
+from .regions import LMIRegion, region_lmi
 from .scaling import resolve_scaling, scale_plant, unscale_controller
 from .strategy import DEFAULT_TIME_LIMIT, check_method, lmi_only_options, synthesize
 from .options import accepts_options
@@ -95,7 +98,9 @@ def _of_program(p, *, region, gamma, input_weight, gain_bound, strictly_proper, 
     return prog, (X, Y, Ak, Bk, Ck, Dk), g
 
 
-def reconstruct_controller(p, X, Y, Ak, Bk, Ck, Dk, rank_tol=0.0):
+def reconstruct_controller(p: GeneralizedPlant, X: np.ndarray, Y: np.ndarray, Ak: np.ndarray,
+                           Bk: np.ndarray, Ck: np.ndarray, Dk: np.ndarray, rank_tol: float = 0.0
+                           ) -> tuple[DynamicController, np.ndarray | None]:
     """Controller from the linearizing variables; M N^T = I - X Y by SVD (balanced factors).
 
     At the LMI optimum I - XY tends to be rank deficient (a lower-order controller suffices);
@@ -127,7 +132,7 @@ def reconstruct_controller(p, X, Y, Ak, Bk, Ck, Dk, rank_tol=0.0):
     return DynamicController(AK, BK, CK, DK), P
 
 
-def singular_problem(plant, tol=1e-9):
+def singular_problem(plant: GeneralizedPlant, tol: float = 1e-9) -> str:
     """"" for a regular output-feedback problem, else which rank condition fails: D12 without
     full column rank (an input reaches z without cost) or D21 without full row rank (a
     measurement without noise, e.g. y = C x)."""
@@ -141,10 +146,15 @@ def singular_problem(plant, tol=1e-9):
 
 
 @accepts_options
-def output_feedback(plant, *, method="auto", time_limit=DEFAULT_TIME_LIMIT, region=None,
-                    backend=None, solver_options=None, gamma=None, regularize="auto", delta=None,
-                    rtol=1e-4, verify=True, input_weight=None, strictly_proper=False, margin=EPS,
-                    scaling=True, initial_states=None, transient_gain_weight=0.0):
+def output_feedback(plant: GeneralizedPlant, *, method: str = "auto", time_limit: float | None = DEFAULT_TIME_LIMIT,
+                    region: LMIRegion | None = None, backend: str | Sequence[str] | None = None,
+                    solver_options: dict[str, Any] | None = None, gamma: float | None = None,
+                    regularize: bool | str = "auto", delta: float | None = None, rtol: float = 1e-4,
+                    verify: bool = True, input_weight: ArrayLike | None = None,
+                    strictly_proper: bool | None = False, margin: float = EPS,
+                    scaling: bool | Sequence[ArrayLike] | None = True,
+                    initial_states: ArrayLike | None = None,
+                    transient_gain_weight: float = 0.0) -> SynthesisResult:
     """Full-order dynamic output-feedback H∞ synthesis, certified.
 
     The controller x_K' = AK x_K + BK y, u = CK x_K + DK y (sign convention: u = +(...), no

@@ -10,12 +10,16 @@ plants are the generalized plants of convex combinations of (A, B, D).
 from __future__ import annotations
 
 import itertools
+from typing import Any, Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import bounds_pair, real_scalar
 from .certificates import as_matrix
 from .hinf import state_feedback
+from .problem import SynthesisResult
+from .regions import LMIRegion
 from .sobolev import hinf_plant, winf_plant
 
 __all__ = [
@@ -28,7 +32,9 @@ __all__ = [
 MAX_UNCERTAIN = 12
 
 
-def interval_vertices(fn, nominal, spread):
+def interval_vertices(fn: Callable[..., Any], nominal: dict[str, Any],
+                      spread: dict[str, float | tuple[float, float]]
+                      ) -> list[tuple[dict[str, Any], Any]]:
     """Evaluate ``fn(**params)`` at all 2^k corners of interval parameters.
 
     ``nominal``: dict of parameter values; ``spread``: dict name -> relative spread (e.g. 0.1
@@ -86,19 +92,25 @@ def _vertex_triples(vertices):
     return out
 
 
-def robust_winf_state_feedback(vertices, Gamma0, Gamma1, *, region=None, **kw):
+def robust_winf_state_feedback(vertices: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike]],
+                               Gamma0: ArrayLike, Gamma1: ArrayLike, *,
+                               region: LMIRegion | None = None, **kw: Any) -> SynthesisResult:
     """Common-Lyapunov W∞ state feedback over vertices [(A, B, D), ...]."""
     plants = [winf_plant(A, B, D=D, Gamma0=Gamma0, Gamma1=Gamma1) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 
-def robust_hinf_state_feedback(vertices, Q, R, *, region=None, **kw):
+def robust_hinf_state_feedback(vertices: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike]],
+                               Q: ArrayLike, R: ArrayLike, *, region: LMIRegion | None = None,
+                               **kw: Any) -> SynthesisResult:
     """Common-Lyapunov classic H∞ state feedback over vertices [(A, B, D), ...]."""
     plants = [hinf_plant(A, B, D=D, Q=Q, R=R) for A, B, D in _vertex_triples(vertices)]
     return state_feedback(plants[0], vertices=plants[1:], region=region, **kw)
 
 
-def random_interior_points(vertices, count, rng=None):
+def random_interior_points(vertices: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike]], count: int,
+                           rng: np.random.Generator | int | None = None
+                           ) -> list[tuple[np.ndarray, ...]]:
     """Random convex combinations (Dirichlet weights) of vertex tuples (A, B, D)."""
     if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)) or count < 0:
         raise ValueError(f"count must be an integer >= 0, got {count!r}")

@@ -8,8 +8,10 @@ and :class:`SynthesisWarning`; the pipeline that produces them is in ``hinf_comm
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sobolev_drake.errors import SobolevDrakeWarning
 
@@ -84,7 +86,9 @@ class GeneralizedPlant:
     D21: np.ndarray
 
     @classmethod
-    def make(cls, A, B1, B2, C1, D11=None, D12=None, C2=None, D21=None):
+    def make(cls, A: ArrayLike, B1: ArrayLike, B2: ArrayLike, C1: ArrayLike,
+             D11: ArrayLike | None = None, D12: ArrayLike | None = None,
+             C2: ArrayLike | None = None, D21: ArrayLike | None = None) -> GeneralizedPlant:
         """Validated plant; D11, D12, D21 default to zero, C2 to the identity (full state).
 
         Parameters
@@ -127,7 +131,9 @@ class GeneralizedPlant:
     nz = property(lambda s: s.C1.shape[0])
     ny = property(lambda s: s.C2.shape[0])
 
-    def closed_loop(self, K=None, controller=None):
+    def closed_loop(self, K: ArrayLike | None = None,
+                    controller: DynamicController | tuple[ArrayLike, ...] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(A_cl, B_cl, C_cl, D_cl) of w -> z with u = K x or the dynamic controller.
 
         Parameters
@@ -153,7 +159,7 @@ class GeneralizedPlant:
         D = self.D11 + self.D12 @ DK @ self.D21
         return A, B, C, D
 
-    def convex_combination(self, other, t):
+    def convex_combination(self, other: GeneralizedPlant, t: float) -> GeneralizedPlant:
         """The plant (1 − t) self + t other, matrix by matrix (polytopic vertices).
 
         Parameters
@@ -169,7 +175,7 @@ class GeneralizedPlant:
         """
         return GeneralizedPlant(*[(1 - t) * a + t * b for a, b in zip(self.as_tuple(), other.as_tuple())])
 
-    def as_tuple(self):
+    def as_tuple(self) -> tuple[np.ndarray, ...]:
         """The eight matrices in constructor order.
 
         Returns
@@ -354,7 +360,7 @@ class SynthesisResult:
                              f"continuous one none; got dt = {self.dt} and discrete = "
                              f"{type(self.discrete).__name__}")
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> SynthesisResult:
         """A copy with ``changes`` applied (``dataclasses.replace``; the copy is not
         re-certified).
 
@@ -370,12 +376,12 @@ class SynthesisResult:
         return replace(self, **changes)
 
     @property
-    def well_posed(self):
+    def well_posed(self) -> bool:
         """True when the result has no warnings (see ``warnings``)."""
         return not self.warnings
 
     @property
-    def certified(self):
+    def certified(self) -> bool:
         """True when the independent certificate is present and passed.
 
         Derived from ``certificate`` (not stored), so a result and its design file cannot
@@ -384,7 +390,7 @@ class SynthesisResult:
         """
         return self.certificate is not None and bool(self.certificate.ok)
 
-    def closed_loop(self, plant):
+    def closed_loop(self, plant: GeneralizedPlant) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(A_cl, B_cl, C_cl, D_cl) of w -> z for ``plant`` closed by this result's controller.
 
         Parameters
@@ -406,7 +412,7 @@ class SynthesisResult:
         return plant.closed_loop(controller=self.controller)
 
 
-def check_initial_states(x0, n):
+def check_initial_states(x0: ArrayLike | None, n: int) -> np.ndarray | None:
     """``initial_states`` keyword -> float array (n, k), or None."""
     if x0 is None:
         return None
@@ -420,7 +426,7 @@ def check_initial_states(x0, n):
     return X0
 
 
-def transient_bound(res, X0):
+def transient_bound(res: SynthesisResult, X0: np.ndarray) -> float | None:
     """sum_i x0_i' P x0_i: bound on sum_i ||z||^2 from x(0) = x0_i (controller state 0), w = 0."""
     if res.P is None:
         return None

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from typing import Sequence
+
 import numpy as np
 
 from ..validation import one_of
@@ -38,10 +40,10 @@ class PlantCase:
     plant: GeneralizedPlant
 
     @property
-    def regular(self):
+    def regular(self) -> bool:
         return self.family != "singular"
 
-    def __str__(self):
+    def __str__(self) -> str:
         p = self.plant
         return f"{self.family}[seed {self.seed}] n={p.n} nw={p.nw} nu={p.nu} nz={p.nz} ny={p.ny}"
 
@@ -69,7 +71,9 @@ def _state_matrix(rng, n, family):
     return A
 
 
-def random_plant(rng, n, family="stable", *, nw=None, nu=None, nz=None, ny=None, seed=-1):
+def random_plant(rng: np.random.Generator, n: int, family: str = "stable", *, nw: int | None = None,
+                 nu: int | None = None, nz: int | None = None, ny: int | None = None,
+                 seed: int = -1) -> PlantCase:
     """One :class:`PlantCase` of ``family`` with ``n`` states (channel sizes random if None)."""
     one_of("family", family, FAMILIES)
     nu = int(rng.integers(1, 4)) if nu is None else nu
@@ -89,7 +93,8 @@ def random_plant(rng, n, family="stable", *, nw=None, nu=None, nz=None, ny=None,
     return PlantCase(family, seed, GeneralizedPlant.make(A, B1, B2, C1, D11, D12, C2, D21))
 
 
-def plant_family(count, sizes=(10, 40), *, seed=0, families=FAMILIES):
+def plant_family(count: int, sizes: tuple[int, int] = (10, 40), *, seed: int = 0,
+                 families: Sequence[str] = FAMILIES) -> list[PlantCase]:
     """``count`` plants cycling through ``families`` with sizes spread over ``sizes`` (inclusive);
     plant i uses the generator seeded (seed, i), so any case is reproducible on its own."""
     lo, hi = sizes
@@ -114,12 +119,13 @@ class SingularCase:
     plant: GeneralizedPlant
     output_feedback: bool
 
-    def __str__(self):
+    def __str__(self) -> str:
         p = self.plant
         return f"{self.variant}[seed {self.seed}] n={p.n} nu={p.nu} ny={p.ny}"
 
 
-def singular_family(count, sizes=(2, 20), *, seed=0):
+def singular_family(count: int, sizes: tuple[int, int] = (2, 20), *, seed: int = 0
+                    ) -> list[SingularCase]:
     """``count`` singular problems (D12 or D21 rank deficient) cycling through
     ``SINGULAR_VARIANTS``, sizes spread over ``sizes`` (inclusive), from unstable plants (one to
     three right-half-plane modes; ``"stable"`` below 3 states).  Case i uses the generator
@@ -168,7 +174,7 @@ def singular_family(count, sizes=(2, 20), *, seed=0):
     return out
 
 
-def reference_infimum(plant, output_feedback):
+def reference_infimum(plant: GeneralizedPlant, output_feedback: bool) -> float:
     """Upper estimate of a singular problem's infimum apart from the synthesis' own ladder, for
     tests and benchmarks: the upper end of a Riccati bisection (1e-7 relative) on the regular
     problem made by a perturbation of relative size 1e-7 (cost on u, noise on y), or 1e-6, 1e-5

@@ -32,11 +32,16 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
 
 from ..validation import real_matrix, real_scalar
+
+if TYPE_CHECKING:
+    from sobolev_drake.synthesis.lmi import Affine
 
 __all__ = ["LMIRegion", "disk", "half_plane", "sector", "damping", "strip", "intersect",
            "region_lmi"]
@@ -60,7 +65,7 @@ class LMIRegion:
     M: np.ndarray
     label: str = "region"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         L = real_matrix("L", self.L)
         M = real_matrix("M", self.M)
         if L.shape != M.shape or L.shape[0] != L.shape[1]:
@@ -70,16 +75,16 @@ class LMIRegion:
         object.__setattr__(self, "L", L)
         object.__setattr__(self, "M", M)
 
-    def __and__(self, other):
+    def __and__(self, other: object) -> LMIRegion:
         if not isinstance(other, LMIRegion):
             return NotImplemented
         return LMIRegion(sla.block_diag(self.L, other.L), sla.block_diag(self.M, other.M),
                          f"{self.label} & {other.label}")
 
-    def __str__(self):
+    def __str__(self) -> str:
         return self.label
 
-    def margin(self, s):
+    def margin(self, s: complex | ArrayLike) -> np.ndarray:
         """Largest eigenvalue of L + s M + conj(s) M^T for each s (< 0 means inside).
 
         Parameters
@@ -99,7 +104,7 @@ class LMIRegion:
             out.ravel()[k] = np.linalg.eigvalsh(0.5 * (F + F.conj().T)).max()
         return out
 
-    def contains(self, s, tol=0.0):
+    def contains(self, s: complex | ArrayLike, tol: float = 0.0) -> np.ndarray:
         """Whether each point is inside the region, ``margin(s) < tol``.
 
         Parameters
@@ -116,7 +121,7 @@ class LMIRegion:
         return self.margin(s) < tol
 
 
-def disk(radius, center=0.0):
+def disk(radius: float, center: float = 0.0) -> LMIRegion:
     """Disk |s - center| < radius (center real; the thesis uses center 0).
 
     Parameters
@@ -135,7 +140,7 @@ def disk(radius, center=0.0):
     return LMIRegion([[-r, c], [c, -r]], [[0.0, 1.0], [0.0, 0.0]], f"disk(r={r:g}, c={-c:g})")
 
 
-def half_plane(a):
+def half_plane(a: float) -> LMIRegion:
     """Re s < -a (decay rate a).
 
     Parameters
@@ -151,7 +156,7 @@ def half_plane(a):
     return LMIRegion([[2.0 * a]], [[1.0]], f"Re s < {-a:g}")
 
 
-def sector(theta):
+def sector(theta: float) -> LMIRegion:
     """Conic sector |Im s| < -Re s tan(theta), i.e. damping ratio >= cos(theta).
 
     Parameters
@@ -168,7 +173,7 @@ def sector(theta):
     return LMIRegion(np.zeros((2, 2)), [[s, c], [-c, s]], f"sector({np.degrees(th):.1f} deg)")
 
 
-def damping(zeta):
+def damping(zeta: float) -> LMIRegion:
     """Damping ratio >= zeta (a conic sector).
 
     Parameters
@@ -185,7 +190,7 @@ def damping(zeta):
     return sector(np.arccos(zeta))
 
 
-def strip(a_min, a_max):
+def strip(a_min: float, a_max: float) -> LMIRegion:
     """Vertical strip -a_max < Re s < -a_min.
 
     Parameters
@@ -204,7 +209,7 @@ def strip(a_min, a_max):
                      f"strip({-a_max:g} < Re s < {-a_min:g})")
 
 
-def intersect(*regions):
+def intersect(*regions: LMIRegion) -> LMIRegion:
     """Intersection of one or more regions (same as ``r1 & r2 & ...``).
 
     Parameters
@@ -225,7 +230,7 @@ def intersect(*regions):
     return out
 
 
-def region_lmi(region, X, AX):
+def region_lmi(region: LMIRegion, X: Affine, AX: Affine) -> Affine:
     """Affine expression L (x) X + M (x) AX + M^T (x) AX^T (must be < 0); see (6.38)-(6.40).
 
     Parameters

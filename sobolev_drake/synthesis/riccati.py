@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as sla
@@ -57,7 +58,7 @@ class RiccatiInfeasible(SynthesisError):
     """The level gamma is not reachable according to the Riccati tests (reason attached)."""
 
 
-def rank_deficiency(plant, output_feedback, tol=1e-9):
+def rank_deficiency(plant: GeneralizedPlant, output_feedback: bool, tol: float = 1e-9) -> str:
     """"" when the problem is regular, else which rank condition fails.
 
     Regular: D12 full column rank, and for output feedback D21 full row rank."""
@@ -175,7 +176,7 @@ def _y_riccati(p, gamma):
 
 
 # --------------------------------------------------------------------------- state feedback
-def state_feedback_test(p, gamma):
+def state_feedback_test(p: GeneralizedPlant, gamma: float) -> tuple[np.ndarray, np.ndarray]:
     """Gain K = F2 reaching ``gamma`` (see the module docstring), or RiccatiInfeasible."""
     d11 = np.linalg.norm(p.D11, 2) if p.D11.size else 0.0
     if gamma <= d11:
@@ -193,7 +194,7 @@ class Normalization:
     Tu: np.ndarray
     Ty: np.ndarray
 
-    def controller(self, ctrl):
+    def controller(self, ctrl: DynamicController) -> DynamicController:
         """Controller from y_n to u_n -> controller from y to u (same state)."""
         AK, BK, CK, DK = ctrl
         Tyi = np.linalg.inv(self.Ty)
@@ -206,7 +207,7 @@ def _complement(Q):
     return full[:, Q.shape[1]:]
 
 
-def normalize(p):
+def normalize(p: GeneralizedPlant) -> Normalization:
     """Equivalent plant with D12 = [0; I] and D21 = [0 I] (regular problems only).
 
     u = Tu u_n with Tu = (D12'D12)^-1/2, y = Ty y_n with Ty = (D21 D21')^1/2; z and w are
@@ -248,7 +249,7 @@ def _parrott_bound(pn):
     return fb
 
 
-def output_feedback_test(pn, gamma):
+def output_feedback_test(pn: GeneralizedPlant, gamma: float) -> OutputFeedbackLevel:
     """Riccati data at ``gamma`` for the normalized plant ``pn``, or RiccatiInfeasible."""
     fb = _parrott_bound(pn)
     if gamma <= fb:
@@ -262,7 +263,7 @@ def output_feedback_test(pn, gamma):
     return OutputFeedbackLevel(gamma, X, Y, F, L)
 
 
-def central_controller(pn, lev):
+def central_controller(pn: GeneralizedPlant, lev: OutputFeedbackLevel) -> DynamicController:
     """Central controller of the normalized plant at a reachable level (Glover & Doyle 1988;
     Zhou, Doyle & Glover 1996, Theorem 17.?: the parametrization with Q = 0), D11 allowed."""
     g2 = lev.gamma ** 2
@@ -293,7 +294,9 @@ class BudgetExceeded(SynthesisError):
     """The deadline passed during the gamma search."""
 
 
-def bisect_gamma(test, lower, *, rtol=1e-6, start=None, deadline=None, max_decades=16):
+def bisect_gamma(test: Callable[[float], Any], lower: float, *, rtol: float = 1e-6,
+                 start: float | None = None, deadline: float | None = None,
+                 max_decades: int = 16) -> tuple[float, float, Any, int]:
     """Smallest reachable gamma by bisection on the monotone predicate ``test`` (returns data
     at a reachable level, raises RiccatiInfeasible otherwise).
 

@@ -11,8 +11,14 @@ plant by the callers.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 import scipy.linalg as sla
+
+if TYPE_CHECKING:
+    from sobolev_drake.synthesis.problem import DynamicController, GeneralizedPlant
 
 __all__ = [
     "balance_scaling", "scale_plant", "resolve_scaling", "unscale_gain", "unscale_controller",
@@ -29,7 +35,8 @@ def _unit(norms):
     return _pow2(np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 1.0))
 
 
-def balance_scaling(plants, outputs=False):
+def balance_scaling(plants: Sequence[GeneralizedPlant], outputs: bool = False
+                    ) -> tuple[np.ndarray, ...]:
     """Diagonal state similarity T and input scaling Su (and output scaling Sy) as powers of 2.
 
     Su makes the columns of [B2; D12] unit-sized; T balances [[A, b], [c, 0]] (scipy's
@@ -66,7 +73,8 @@ def balance_scaling(plants, outputs=False):
     return T, Su, 1.0 / _unit(ry)
 
 
-def scale_plant(p, T, Su, Sy=None):
+def scale_plant(p: GeneralizedPlant, T: np.ndarray, Su: np.ndarray, Sy: np.ndarray | None = None
+                ) -> GeneralizedPlant:
     """Plant in coordinates x = T x~, u = Su u~, y = Sy y~ (w, z unchanged)."""
     Ti = 1.0 / T
     C2, D21 = p.C2 * T, p.D21
@@ -76,7 +84,8 @@ def scale_plant(p, T, Su, Sy=None):
                    p.C1 * T, p.D11, p.D12 * Su, C2, D21)
 
 
-def resolve_scaling(scaling, plants, outputs=False):
+def resolve_scaling(scaling: bool | Sequence[ArrayLike] | None, plants: Sequence[GeneralizedPlant],
+                    outputs: bool = False) -> tuple[np.ndarray, ...]:
     """``scaling`` keyword -> (T, Su) or (T, Su, Sy): True = automatic, False/None = identity,
     or explicit positive vectors of the right lengths."""
     p = plants[0]
@@ -97,12 +106,12 @@ def resolve_scaling(scaling, plants, outputs=False):
     return vals
 
 
-def unscale_gain(Ks, T, Su):
+def unscale_gain(Ks: np.ndarray, T: np.ndarray, Su: np.ndarray) -> np.ndarray:
     """State feedback of the scaled plant u~ = Ks x~  ->  u = K x with K = Su Ks T^-1."""
     return Su[:, None] * Ks / T
 
 
-def unscale_controller(ctrl, Su, Sy):
+def unscale_controller(ctrl: DynamicController, Su: np.ndarray, Sy: np.ndarray) -> DynamicController:
     """Controller (AK, BK, CK, DK) from y~ to u~ -> controller from y to u (same state)."""
     AK, BK, CK, DK = ctrl
     return type(ctrl)(AK, BK / Sy, Su[:, None] * CK, Su[:, None] * DK / Sy)

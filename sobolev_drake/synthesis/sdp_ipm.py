@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import time
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -57,7 +58,8 @@ def _max_step(X, dX):
     return np.inf if lo >= 0 else -1.0 / lo
 
 
-def solve_sdp(c, C, A, **kw):
+def solve_sdp(c: np.ndarray, C: list[np.ndarray], A: list[np.ndarray], **kw: Any
+              ) -> tuple[np.ndarray, str, dict[str, Any]]:
     """:func:`_solve_sdp` with single-threaded BLAS (threadpoolctl; restored afterwards)."""
     with _blas_threads().limit(limits=1, user_api="blas"):
         return _solve_sdp(c, C, A, **kw)

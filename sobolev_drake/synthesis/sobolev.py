@@ -21,15 +21,25 @@ d not measured, synthesized with the output-feedback LMI; its gain is from v to 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import state_input_disturbance
 from .certificates import as_matrix, check_weight, sqrtm_psd
 from .hinf import GeneralizedPlant, output_feedback, state_feedback
 from .interop import is_linear_system, state_space_matrices
 from .lmi import InfeasibleLMIError
+from .problem import SynthesisResult
 from .thesis_lmi import winf_of_thesis_lmi, winf_sf_thesis_lmi
+
+if TYPE_CHECKING:   # a linear system given as A (see state_space_matrices)
+    import control
+    import scipy.signal
+    from numpy.typing import ArrayLike
+    from pydrake.systems.primitives import AffineSystem
+    MatrixOrSystem = ArrayLike | AffineSystem | control.StateSpace | scipy.signal.StateSpace
 
 __all__ = [
     "winf_plant", "hinf_plant", "winf_state_feedback", "winf_output_feedback",
@@ -82,7 +92,9 @@ def _required_d(fn, D):
     return D
 
 
-def winf_plant(A, B, C=None, D=None, *, Gamma0=None, Gamma1=None):
+def winf_plant(A: ArrayLike, B: ArrayLike, C: ArrayLike | None = None, D: ArrayLike | None = None,
+               *, Gamma0: ArrayLike | None = None,
+               Gamma1: ArrayLike | None = None) -> GeneralizedPlant:
     """Generalized plant of the W∞ channel z = [Gamma0^1/2 x ; Gamma1^1/2 xdot].
 
     Arguments in python-control's order (A, B, C, D), as :func:`winf_output_feedback`; the
@@ -134,7 +146,8 @@ def winf_plant(A, B, C=None, D=None, *, Gamma0=None, Gamma1=None):
     return GeneralizedPlant.make(A, D, B, C1, D11, D12, C2, None)
 
 
-def hinf_plant(A, B, C=None, D=None, *, Q=None, R=None):
+def hinf_plant(A: ArrayLike, B: ArrayLike, C: ArrayLike | None = None, D: ArrayLike | None = None,
+               *, Q: ArrayLike | None = None, R: ArrayLike | None = None) -> GeneralizedPlant:
     """Generalized plant of the classic H∞ channel z = [Q^1/2 x ; R^1/2 u].
 
     Arguments as :func:`winf_plant`: python-control's order (A, B, C, D), weights by name.
@@ -178,7 +191,9 @@ def hinf_plant(A, B, C=None, D=None, *, Q=None, R=None):
     return GeneralizedPlant.make(A, D, B, C1, None, D12, C2, None)
 
 
-def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
+def winf_state_feedback(A: MatrixOrSystem, B: ArrayLike | None = None, D: ArrayLike | None = None,
+                        Gamma0: ArrayLike | None = None, Gamma1: ArrayLike | None = None,
+                        **options: Any) -> SynthesisResult:
     """Full-state W∞ controller (6.7), certified; u = +K x.
 
     Parameters
@@ -227,7 +242,9 @@ def winf_state_feedback(A, B=None, D=None, Gamma0=None, Gamma1=None, **options):
     return state_feedback(winf_plant(A, B, None, D, Gamma0=Gamma0, Gamma1=Gamma1), **options)
 
 
-def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **options):
+def winf_output_feedback(A: MatrixOrSystem, B: ArrayLike | None = None, C: ArrayLike | None = None,
+                         D: ArrayLike | None = None, Gamma0: ArrayLike | None = None,
+                         Gamma1: ArrayLike | None = None, **options: Any) -> SynthesisResult:
     """Dynamic output-feedback W∞ controller (6.22) with y = C x, certified.
 
     Parameters
@@ -271,7 +288,9 @@ def winf_output_feedback(A, B=None, C=None, D=None, Gamma0=None, Gamma1=None, **
     return output_feedback(winf_plant(A, B, C, D, Gamma0=Gamma0, Gamma1=Gamma1), **options)
 
 
-def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
+def hinf_state_feedback_qr(A: MatrixOrSystem, B: ArrayLike | None = None, D: ArrayLike | None = None,
+                           Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                           **options: Any) -> SynthesisResult:
     """Classic H∞ state feedback with z = [Q^1/2 x; R^1/2 u], certified; u = +K x.
 
     Parameters
@@ -304,7 +323,9 @@ def hinf_state_feedback_qr(A, B=None, D=None, Q=None, R=None, **options):
     return state_feedback(hinf_plant(A, B, None, D, Q=Q, R=R), **options)
 
 
-def hinf_output_feedback_qr(A, B=None, C=None, D=None, Q=None, R=None, **options):
+def hinf_output_feedback_qr(A: MatrixOrSystem, B: ArrayLike | None = None, C: ArrayLike | None = None,
+                            D: ArrayLike | None = None, Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                            **options: Any) -> SynthesisResult:
     """Classic H∞ dynamic output feedback with z = [Q^1/2 x; R^1/2 u] and y = C x, certified.
 
     Parameters
@@ -361,7 +382,8 @@ def _dist(Ad, Bd, Cd, Ups0, Ups1):
     return Ad, Bd, Cd, U0, U1
 
 
-def disturbance_model_degeneracy(Ad, Bd, Cd, Upsilon0, Upsilon1):
+def disturbance_model_degeneracy(Ad: ArrayLike, Bd: ArrayLike, Cd: ArrayLike, Upsilon0: ArrayLike,
+                                 Upsilon1: ArrayLike) -> DegeneracyReport:
     """Diagnose the (d, v) block of (6.31)/(6.36): -gamma^2 L' diag(Ups0, Ups1) L."""
     Ad, Bd, Cd, U0, U1 = _dist(Ad, Bd, Cd, Upsilon0, Upsilon1)
     nd, nv = Bd.shape
@@ -375,8 +397,10 @@ def disturbance_model_degeneracy(Ad, Bd, Cd, Upsilon0, Upsilon1):
     return DegeneracyReport(k, k > 0, Wt, msg)
 
 
-def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsilon1, *, C=None,
-                            strict=True, **kw):
+def winf_disturbance_thesis(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                            Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike, Upsilon0: ArrayLike,
+                            Upsilon1: ArrayLike, *, C: ArrayLike | None = None, strict: bool = True,
+                            **kw: Any) -> SynthesisResult:
     """(6.31) (C None: state feedback) or (6.36) (output feedback y = C x) as written.
 
     The exogenous input is (d, v) entering through B1 = [D Cd, 0]; the -gamma^2 I block is
@@ -419,7 +443,9 @@ def winf_disturbance_thesis(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, Upsilon0, Upsil
                      certificates=[])
 
 
-def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None):
+def augmented_disturbance_plant(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                                Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike, *,
+                                C: ArrayLike | None = None) -> GeneralizedPlant:
     """Plant with state (x, d), input v, z = [Gamma0^1/2 x; Gamma1^1/2 xdot], y = C x (d unmeasured).
 
     ``C`` is keyword-only, as in :func:`winf_disturbance_augmented` and
@@ -441,7 +467,9 @@ def augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None):
     return GeneralizedPlant.make(Aa, B1, B2, C1, None, D12, C2, None)
 
 
-def winf_disturbance_augmented(A, B, D, Ad, Bd, Cd, Gamma0, Gamma1, *, C=None, **kw):
+def winf_disturbance_augmented(A: ArrayLike, B: ArrayLike, D: ArrayLike, Ad: ArrayLike, Bd: ArrayLike,
+                               Cd: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike, *,
+                               C: ArrayLike | None = None, **kw: Any) -> SynthesisResult:
     """Well-posed disturbance-model W∞ design (output-feedback LMI on (x, d)).
 
     The gain certified is from v (L2) to z = [Gamma0^1/2 x; Gamma1^1/2 xdot]; the controller

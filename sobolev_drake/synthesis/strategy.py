@@ -20,6 +20,7 @@ and the LMI solver gets the remaining time as its own limit.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 
@@ -30,19 +31,25 @@ from .hinf_riccati import (REGULARIZE_DELTA, BudgetExceeded, GammaNotReachable,
 from .lmi import SynthesisError
 from .riccati import rank_deficiency
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from sobolev_drake.synthesis.problem import GeneralizedPlant, SynthesisResult
+    from sobolev_drake.synthesis.regions import LMIRegion
+
 __all__ = ["DEFAULT_TIME_LIMIT", "check_method", "lmi_only_options", "synthesize"]
 
 METHODS = ("auto", "riccati", "lmi")
 DEFAULT_TIME_LIMIT = 30.0
 
 
-def check_method(method, time_limit):
+def check_method(method: str, time_limit: float | None) -> None:
     one_of("method", method, METHODS)
     if time_limit is not None:
         real_scalar("time_limit", time_limit, low=0.0, low_open=True)
 
 
-def lmi_only_options(*, margin=None, **options):
+def lmi_only_options(*, margin: float | None = None, **options: Any) -> list[str]:
     """Names of the given options that only the LMI path supports: any value other than None,
     False or 0 counts (an empty vertex list does not; a bad value then gets the LMI path's
     error), and ``margin`` when it differs from the default."""
@@ -132,8 +139,11 @@ def _riccati_in_region(plant, of, region, delta, rtol, scaling, deadline, lmi_er
     return None
 
 
-def synthesize(plant, kind, lmi, *, method, time_limit, lmi_features, gamma, delta, rtol,
-               verify, scaling, regularize, region=None):
+def synthesize(plant: GeneralizedPlant, kind: str, lmi: Callable[..., SynthesisResult], *,
+               method: str, time_limit: float | None, lmi_features: Sequence[str],
+               gamma: float | None, delta: float | None, rtol: float, verify: bool,
+               scaling: bool | Sequence[ArrayLike] | None, regularize: bool | str,
+               region: LMIRegion | None = None) -> SynthesisResult:
     """Dispatch one synthesis call (see the module docstring).
 
     ``lmi(regularize=..., verify=..., deadline=...)`` runs the LMI path with the caller's other

@@ -9,6 +9,7 @@ these two.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import state_input_disturbance
 from .certificates import as_matrix, check_weight
@@ -18,7 +19,8 @@ from .problem import SynthesisResult
 __all__ = ["winf_sf_thesis_lmi", "winf_of_thesis_lmi"]
 
 
-def winf_sf_thesis_lmi(A, B, D, Gamma0, Gamma1, backend=None):
+def winf_sf_thesis_lmi(A: ArrayLike, B: ArrayLike, D: ArrayLike, Gamma0: ArrayLike, Gamma1: ArrayLike,
+                       backend: str | None = None) -> SynthesisResult:
     """(6.7) written out as in the thesis (variables S, R, gamma*), uncertified.
 
     Used to cross-check the generalized-plant formulation (same optimal gamma). Arguments as
@@ -60,7 +62,8 @@ def _thesis_result(kind, gamma, out, **fields):
                                      "not certified"], **fields)
 
 
-def winf_of_thesis_lmi(A, B, C, D, Gamma0, Gamma1, backend=None):
+def winf_of_thesis_lmi(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, Gamma0: ArrayLike,
+                       Gamma1: ArrayLike, backend: str | None = None) -> SynthesisResult:
     """(6.22) written out as in the thesis (S, W, Bs, Cs, Df, gamma*), uncertified.
 
     The thesis' (2,1) block is 0: the free Gahinet-Apkarian variable Ak has been set to

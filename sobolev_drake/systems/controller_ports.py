@@ -20,7 +20,12 @@ besides the line that constructs the controller.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import Context, InputPort, OutputPort
 
 __all__ = ["DropInPorts"]
 
@@ -49,7 +54,7 @@ class DropInPorts:
         self._ref = self.DeclareVectorInputPort("reference", 3 * n_ref)
         self._x = self.DeclareVectorInputPort("x", 2 * n)
 
-    def read_tracking_inputs(self, context):
+    def read_tracking_inputs(self, context: Context) -> tuple[np.ndarray, np.ndarray]:
         """The plant state and the stacked reference [q_r; q̇_r; q̈_r] from whichever ports are
         connected (``RuntimeError`` naming the ports for a missing or doubled connection).
 
@@ -68,7 +73,8 @@ class DropInPorts:
         x, desired, qddot_r = self.read_tracking_parts(context)
         return x, np.concatenate([desired, np.zeros(self._n_ref) if qddot_r is None else qddot_r])
 
-    def read_tracking_parts(self, context):
+    def read_tracking_parts(self, context: Context
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """:meth:`read_tracking_inputs` without stacking the reference: the per-sample read
         (one ``Eval`` per input, no copy of the reference).
 
@@ -109,7 +115,7 @@ class DropInPorts:
                 f"([q_r; q̇_r; q̈_r], size {3 * self._n_ref})")
         return x, self._des.Eval(context), (self._acc.Eval(context) if acc else None)
 
-    def get_input_port_estimated_state(self):
+    def get_input_port_estimated_state(self) -> InputPort:
         """The ``estimated_state`` input port, [q; q̇] (Drake's name).
 
         Returns
@@ -118,7 +124,7 @@ class DropInPorts:
         """
         return self._est
 
-    def get_input_port_desired_state(self):
+    def get_input_port_desired_state(self) -> InputPort:
         """The ``desired_state`` input port, [q_r; q̇_r] of the tracked DOF (Drake's name).
 
         Returns
@@ -127,7 +133,7 @@ class DropInPorts:
         """
         return self._des
 
-    def get_input_port_desired_acceleration(self):
+    def get_input_port_desired_acceleration(self) -> InputPort:
         """The ``desired_acceleration`` input port, q̈_r (zero when unconnected).
 
         Returns
@@ -136,7 +142,7 @@ class DropInPorts:
         """
         return self._acc
 
-    def get_input_port_reference(self):
+    def get_input_port_reference(self) -> InputPort:
         """The ``reference`` input port, [q_r; q̇_r; q̈_r] (alternative to the two above).
 
         Returns
@@ -145,7 +151,7 @@ class DropInPorts:
         """
         return self._ref
 
-    def get_output_port_control(self):
+    def get_output_port_control(self) -> OutputPort:
         """The ``control`` output port: the actuator command (Drake's name; aliases
         ``actuation`` and ``u``).
 
@@ -155,7 +161,7 @@ class DropInPorts:
         """
         return self.GetOutputPort("control")
 
-    def get_output_port_generalized_force(self):
+    def get_output_port_generalized_force(self) -> OutputPort:
         """The ``generalized_force`` output port: u* (B̄τ in the reduced mode).
 
         Returns
@@ -164,7 +170,7 @@ class DropInPorts:
         """
         return self.GetOutputPort("generalized_force")
 
-    def get_output_port_error_integral(self):
+    def get_output_port_error_integral(self) -> OutputPort:
         """The ``error_integral`` output port: ∫q̃c.
 
         Returns

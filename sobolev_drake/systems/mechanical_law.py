@@ -20,12 +20,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import lsq_linear
 
-from sobolev_drake.models.base import check_vector
+from sobolev_drake.models.base import MechanicalModel, check_vector
 from sobolev_drake.models.scalar_terms import ScalarTerms, quiet, scalar_type, scalar_vector
-from sobolev_drake.synthesis.mechanical import HinfMechanicalGains
 from sobolev_drake.systems import scalar_law
 from sobolev_drake.systems.bounded_ls import bounded_least_squares
 from sobolev_drake.systems.inner_laws import HinfLaw, SobolevLaw
+from sobolev_drake.systems.mechanical_hinf import hinf_force
 from sobolev_drake.systems.mechanical_sample import compiled_desired_acceleration
 from sobolev_drake.systems.partition import Partition, check_actuation
 from sobolev_drake.systems.plant_dynamics import PlantDynamics
@@ -59,8 +59,9 @@ class MechanicalLaw:
         then owns the mapping from u* to the inputs.
     """
 
-    def __init__(self, model, partition: Partition, law, *, allocation: Callable | None = None,
-                 lower=None, upper=None, operating_points=None):
+    def __init__(self, model: MechanicalModel, partition: Partition, law: SobolevLaw | HinfLaw, *,
+                 allocation: Callable | None = None, lower: ArrayLike | None = None,
+                 upper: ArrayLike | None = None, operating_points: ArrayLike | None = None) -> None:
         if not all(hasattr(model, k) for k in ("n", "M", "Cqdot", "g")):
             raise TypeError("model must be a MechanicalModel (M(q), C(q,q̇)q̇, g(q) of a plant), "
                             f"got {type(model).__name__}")
@@ -225,7 +226,8 @@ class MechanicalLaw:
         return terms
 
     # --- W laws ------------------------------------------------------------------------------
-    def desired_acceleration(self, q, qdot, e_int, reference) -> np.ndarray:
+    def desired_acceleration(self, q: ArrayLike, qdot: ArrayLike, e_int: ArrayLike,
+                             reference: ArrayLike) -> np.ndarray:
         """q̈_des (thesis order, size n; uncontrolled entries are NaN) of the Sobolev law.
 
         ``TypeError`` for the H∞ law.
@@ -268,7 +270,8 @@ class MechanicalLaw:
             acc[self.is_] = -self.law.stabilized.K @ qdot[self.is_]
         return acc
 
-    def desired_acceleration_scalar(self, q, qdot, e_int, reference) -> list:
+    def desired_acceleration_scalar(self, q: list[float], qdot: list[float], e_int: list[float],
+                                    reference: list[float]) -> list[float]:
         """:meth:`desired_acceleration` of the Sobolev law on lists of Python floats (q, q̇: n,
         ∫e: n_c, reference: 3 n_ref; validated by the caller), as a list: the tilt-rotor law's
         per-sample path, by the compiled kernel when built (the same operations in the same order,
@@ -320,7 +323,8 @@ class MechanicalLaw:
                 acc[i] = -sum([a * b for a, b in zip(Ks[k], z)])
         return acc
 
-    def reduced_model(self, q, qdot):
+    def reduced_model(self, q: ArrayLike, qdot: ArrayLike
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(M̄, B̄, h̄, Mcu Muu⁻¹) of (5.5) with h = C q̇ + g + friction: h̄ = h_c − Mcu Muu⁻¹ h_u.
 
         Cached per (q, q̇); callers must not mutate the returned arrays.
@@ -354,21 +358,9 @@ class MechanicalLaw:
         self._cache["red_key"], self._cache["red"] = key, out
         return out
 
-    # --- H∞ law ------------------------------------------------------------------------------
-    def _hinf_terms(self, q, qdot, e_int, reference):
-        """(a, σ, σ-index set) with a = q̈_r − T11⁻¹(T12 q̃̇ + T13 q̃) (0 on stabilized DOF)."""
-        g: HinfMechanicalGains = self.law.gains
-        e, ed, qddr = self._errors(q, qdot, reference)
-        nc = self.nc
-        if self.nr:
-            raise ValueError("the classic H∞ baseline has no regulated-DOF form")
-        idx = np.concatenate([self.is_, self.ic]).astype(int)
-        sigma = np.concatenate([g.T11 * qdot[self.is_], g.sigma(ed[:nc], e[:nc], e_int)])
-        a = np.concatenate([np.zeros(self.ns), qddr[:nc] - (g.T12 * ed[:nc] + g.T13 * e[:nc]) / g.T11])
-        return idx, sigma, a
-
     # --- generalized input and actuation -----------------------------------------------------
-    def generalized_input(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+    def generalized_input(self, q: ArrayLike, qdot: ArrayLike, e_int: ArrayLike, reference: ArrayLike,
+                          extra: ArrayLike | None = None) -> np.ndarray:
         """u* (generalized force, size n; reduced mode: B̄τ, size n_c), minus ``extra``.
 
         Sobolev: M q̈_des + C q̇ + g (+ friction) (5.26)/(5.84)/(7.81); reduced model:
@@ -407,31 +399,10 @@ class MechanicalLaw:
             else:
                 out = self.dynamics.inverse_dynamics(q, qdot, acc)
         else:
-            out = self._hinf_force(q, qdot, e_int, reference)
+            out = hinf_force(self, q, qdot, e_int, reference)
         if extra is not None:
             out = out - check_vector("extra", extra, out.shape[0])
         return out
-
-    def _hinf_force(self, q, qdot, e_int, reference):
-        g: HinfMechanicalGains = self.law.gains
-        idx, sigma, a = self._hinf_terms(q, qdot, e_int, reference)
-        w = np.zeros(self.n)
-        w[idx] = sigma / g.T11                      # q̇ − v = T11⁻¹σ
-        Cw = self.model.C_times(q, qdot, w)
-        M, h = self.dynamics.mass_and_bias(q, qdot)
-        acc = np.zeros(self.n)
-        acc[idx] = a
-        extra = np.zeros(self.n)
-        extra[idx] = -g.R_inv * sigma / g.T11       # T11⁻¹ u, u = −R⁻¹σ
-        if self.partition.mode == "reduced":
-            ic, iu = self.ic, self.iu
-            # only the controlled DOF carry σ; reduce M a + h − C w like (5.5)
-            Mcu, Muu = M[np.ix_(ic, iu)], M[np.ix_(iu, iu)]
-            X = np.linalg.solve(Muu, np.eye(len(iu)))
-            Mbar = M[np.ix_(ic, ic)] - Mcu @ X @ M[np.ix_(iu, ic)]
-            red = Mbar @ acc[ic] + (h - Cw)[ic] - Mcu @ X @ (h - Cw)[iu]
-            return red + extra[ic]
-        return M @ acc + h - Cw + extra
 
     def allocate(self, u_star: ArrayLike, q: ArrayLike, qdot: ArrayLike) -> np.ndarray:
         """τ from the generalized input (B⁻¹, B̄⁻¹, B† or the allocation callable; bounds).
@@ -477,7 +448,8 @@ class MechanicalLaw:
             return np.linalg.solve(Bmat, u_star)
         return np.linalg.pinv(Bmat) @ u_star
 
-    def actuation(self, q, qdot, e_int, reference, extra=None) -> np.ndarray:
+    def actuation(self, q: ArrayLike, qdot: ArrayLike, e_int: ArrayLike, reference: ArrayLike,
+                  extra: ArrayLike | None = None) -> np.ndarray:
         """Applied actuator command τ: :meth:`allocate` of :meth:`generalized_input`.
 
         Parameters

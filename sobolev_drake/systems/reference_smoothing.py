@@ -26,12 +26,14 @@ from __future__ import annotations
 import numpy as np
 
 from sobolev_drake.systems.references import Coordinate, PiecewiseTrajectory
+from sobolev_drake.systems.scalar_time import Scalar
 from sobolev_drake.validation import real_scalar
 
 __all__ = ["smootherstep", "blend_coordinates", "smooth_junctions"]
 
 
-def smootherstep(t, start, width):
+def smootherstep(t: Scalar | np.ndarray, start: float, width: float
+                 ) -> tuple[Scalar | np.ndarray, Scalar | np.ndarray, Scalar | np.ndarray]:
     """Quintic smootherstep weight w and its first two time derivatives on [start, start+width].
 
     Parameters

@@ -22,13 +22,14 @@ from bisect import bisect_left
 from typing import Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.systems.framework import BasicVector, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 from pydrake.trajectories import Trajectory
 
-from sobolev_drake.systems.scalar_time import (is_symbolic, piecewise, probe_scalar_type,
+from sobolev_drake.systems.scalar_time import (Scalar, is_symbolic, piecewise, probe_scalar_type,
                                                scalar_value, template_signature)
 from sobolev_drake.validation import real_scalar, real_vector, sequence
 
@@ -62,14 +63,13 @@ class Coordinate:
         arithmetic-only functions).
     """
 
-    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None,
-                 generic: Callable | None = None):
+    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None, generic: Callable | None = None) -> None:
         self._fn = fn
         self.description = description
         self._scalar = scalar
         self._generic = generic
 
-    def scalar(self, t: float):
+    def scalar(self, t: float) -> tuple[float, float, float]:
         """(f, ḟ, f̈) as floats at one time t.
 
         Parameters
@@ -86,7 +86,7 @@ class Coordinate:
         f, df, ddf = self(t)
         return float(f), float(df), float(ddf)
 
-    def at(self, t):
+    def at(self, t: Scalar) -> tuple[Scalar, Scalar, Scalar]:
         """(f, ḟ, f̈) at one time t of any Drake scalar type (float: :meth:`scalar`).
 
         Parameters
@@ -100,14 +100,14 @@ class Coordinate:
         """
         return self.scalar(t) if isinstance(t, float) else tuple((self._generic or self._fn)(t))
 
-    def __call__(self, t):
+    def __call__(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)
         f, df, ddf = self._fn(t)
         shape = t.shape
         return (np.broadcast_to(f, shape).astype(float), np.broadcast_to(df, shape).astype(float),
                 np.broadcast_to(ddf, shape).astype(float))
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Coordinate({self.description})"
 
 
@@ -223,7 +223,7 @@ class PiecewiseTrajectory:
     """
 
     def __init__(self, names: Sequence[str], pieces: Sequence[Sequence[Coordinate]],
-                 breakpoints: Sequence[float] = (), description: str = ""):
+                 breakpoints: Sequence[float] = (), description: str = "") -> None:
         names = sequence("names", names, "coordinate-name strings")
         if not all(isinstance(n, str) for n in names):
             raise TypeError(f"names must be a sequence of coordinate-name strings, got {names!r}")
@@ -254,7 +254,7 @@ class PiecewiseTrajectory:
         self.description = description
         self._bp = self.breakpoints.tolist()
 
-    def evaluate_scalar(self, t: float):
+    def evaluate_scalar(self, t: float) -> tuple[list[float], list[float], list[float]]:
         """(q_r, q̇_r, q̈_r) at one finite time t as three lists of floats (fast path of the
         LeafSystem; equal to :meth:`evaluate`).
 
@@ -271,7 +271,7 @@ class PiecewiseTrajectory:
         vals = [c.scalar(t) for c in piece]
         return [v[0] for v in vals], [v[1] for v in vals], [v[2] for v in vals]
 
-    def evaluate_any(self, t):
+    def evaluate_any(self, t: Scalar) -> tuple[list[Scalar], list[Scalar], list[Scalar]]:
         """(q_r, q̇_r, q̈_r) at one time t of any Drake scalar type: float as
         :meth:`evaluate_scalar`, AutoDiffXd on the piece of t's value (:meth:`Coordinate.at`),
         Expression as an ``if_then_else`` over the pieces (one piece for a constant time).
@@ -311,7 +311,7 @@ class PiecewiseTrajectory:
         except ValueError:
             raise KeyError(f"no coordinate {name!r}; coordinates are {self.names}") from None
 
-    def evaluate(self, t):
+    def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q_r, q̇_r, q̈_r) at time(s) t: each shaped (m,) for scalar t, (N, m) for a vector.
 
         Parameters
@@ -339,7 +339,7 @@ class PiecewiseTrajectory:
             return out[0, 0], out[1, 0], out[2, 0]
         return out[0], out[1], out[2]
 
-    def __call__(self, t):
+    def __call__(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.evaluate(t)
 
     def subset(self, names: Sequence[str]) -> "PiecewiseTrajectory":
@@ -475,7 +475,7 @@ def TrajectoryReference_(T):   # the class for scalar type T (float, AutoDiffXd,
 
         __signature__ = template_signature(_construct)
 
-        def evaluate(self, t):
+        def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             """Pure numpy (q_r, q̇_r, q̈_r) at t (see :meth:`PiecewiseTrajectory.evaluate`).
 
             Parameters

@@ -24,8 +24,8 @@ import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, if_then_else, logical_and
 
-#: a scalar of any of Drake's types
-_Scalar = float | AutoDiffXd | Expression
+#: a scalar of any of Drake's types (for the hints of the scalar-generic functions)
+Scalar = _Scalar = float | AutoDiffXd | Expression
 
 __all__ = ["scalar_value", "is_symbolic", "interval_indicator", "piece_index", "piecewise",
            "smooth_window", "probe_scalar_type", "template_signature"]
