@@ -260,3 +260,14 @@ def test_the_core_works_without_python_control(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=dict(os.environ),
                          check=True, capture_output=True, text=True).stdout.split()
     assert out == ["True"] * 4
+
+
+def test_no_library_code_chooses_a_matplotlib_backend():
+    """Figures are drawn on matplotlib.figure.Figure: no ``matplotlib.use`` and no pyplot import
+    anywhere in the package (the user's backend — an interactive one in a notebook — stays)."""
+    import re
+    pattern = re.compile(r"matplotlib\.use\(|import matplotlib\.pyplot|from matplotlib import pyplot")
+    offenders = [f"{p.relative_to(ROOT)}:{n}" for p in sorted((ROOT / "sobolev_drake").rglob("*.py"))
+                 for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+                 if pattern.search(line.split("#")[0])]
+    assert not offenders, offenders

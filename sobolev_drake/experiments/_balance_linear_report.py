@@ -17,12 +17,11 @@ from sobolev_drake.rigs.balance_linear import DISTURBANCE_START, SETTLE_FRACTION
 
 def plot_runs(runs: dict[str, dict[str, Any]], out_dir: str | Path) -> dict[str, Path]:
     """State/input time series (cf. Figure 6.3) and the θ settling plot (cf. Figure 6.2)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
     from sobolev_drake.plots import save_figure
     out = {}
-    fig, axes = plt.subplots(3, 2, figsize=(11, 8), sharex=True)
+    fig = Figure(figsize=(11, 8))
+    axes = fig.subplots(3, 2, sharex=True)
     for col, pair in enumerate((("H∞", "W∞"), ("H∞-O.F.", "W∞-O.F."))):
         for i, name in enumerate(pair):
             if name not in runs:
@@ -38,7 +37,8 @@ def plot_runs(runs: dict[str, dict[str, Any]], out_dir: str | Path) -> dict[str,
         axes[2, col].set_xlabel("t [s]")
     fig.suptitle("balance-linear: nonlinear two-wheeled vehicle (cf. Figure 6.3)")
     out["time_series"] = save_figure(fig, Path(out_dir) / "balance-linear_states.png", tight=True)
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig = Figure(figsize=(7, 3.5))
+    ax = fig.subplots()
     for i, name in enumerate(DESIGNS):
         if name in runs:
             d = runs[name]

@@ -139,9 +139,10 @@ def run(out_dir: str | Path, *, duration: float | None = None, record: bool = Fa
     outputs["states_png"] = plots.plot_time_series(t, series, out_dir / "balance_sgaa_states.png",
                                                  labels=labels, vlines=(7, 14, 22, 32),
                                                  title="Two-wheeled vehicle (Figs. 4.4, 4.5)")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
 
-    fig, ax = plt.subplots(figsize=(6, 3.2))
+    fig = Figure(figsize=(6, 3.2))
+    ax = fig.subplots()
     for c in CONTROLLERS:
         sel = sims[c]["t"] <= 4.0
         ax.plot(sims[c]["t"][sel], sims[c]["x"][sel, 1], label=f"{c} (t_s = {idx[c]['settling θ (5 %)']:.2f} s)")

@@ -101,11 +101,10 @@ def run(out_dir: str | Path, *, duration: float | None = None, record: bool = Fa
     outputs.update({"decomposition_md": dmd, "decomposition_json": djs})
     md = md + "\n" + dtext
     try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from matplotlib.figure import Figure   # no pyplot: the user's backend is left alone
         from sobolev_drake.plots import save_figure
-        fig, ax = plt.subplots(3, 1, sharex=True, figsize=(8, 7))
+        fig = Figure(figsize=(8, 7))
+        ax = fig.subplots(3, 1, sharex=True)
         for name, s in sims.items():
             ax[0].plot(s["t"], s["x"][:, 0], label=name)
             ax[1].plot(s["t"], s["x"][:, 1], label=name)
