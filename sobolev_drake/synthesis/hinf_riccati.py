@@ -96,6 +96,7 @@ class _Problem:
     def __init__(self, plant, output_feedback, scaling):
         self.plant = plant
         self.of = output_feedback
+        self._variants = {}
         if output_feedback:
             self.T, self.Su, self.Sy = resolve_scaling(scaling, [plant], outputs=True)
             self.scaled = scale_plant(plant, self.T, self.Su, self.Sy)
@@ -111,7 +112,14 @@ class _Problem:
         self.y_scale = np.linalg.norm(np.vstack([s.B1, s.D11, s.D21]), 2)
 
     def variant(self, eps):
-        """(scaled plant, level test) for the perturbation ``eps`` (0: the plant itself)."""
+        """(scaled plant, level test, normalization) for the perturbation ``eps`` (0: the
+        plant itself); built once per eps (the normalization's matrix powers were rebuilt for
+        the bisection and again for every controller level)."""
+        if eps not in self._variants:
+            self._variants[eps] = self._variant(eps)
+        return self._variants[eps]
+
+    def _variant(self, eps):
         s = self.scaled
         if eps > 0:
             need_u = "D12" in self.deficiency
