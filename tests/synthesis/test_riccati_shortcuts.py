@@ -102,3 +102,31 @@ def test_output_feedback_optimum_matches_an_independent_care_bisection(case):
         mid = np.sqrt(lo * hi)
         lo, hi = (lo, mid) if _care_level(p, mid) else (mid, hi)
     assert res.gamma_opt == pytest.approx(hi, rel=2e-6)
+
+
+def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
+    """A lightly damped plant whose P from the separation structure has a bounded-real
+    residual between 1e-9 and BRL_TOL = 1e-7: accepted without the 2n-state CARE that used to
+    polish it.  It is still the stabilizing solution of the closed loop's bounded-real Riccati
+    equation at the design level: backward error within 2n eps cond(V) (the bound of
+    test_certificate_floor.py: rounding amplified by the eigenvector conditioning) and a
+    Hurwitz feedback."""
+    from sobolev_drake.synthesis.certificates import brl_residual
+    case = plant_family(8, (6, 40), seed=36, families=FAMILIES)[7]
+    assert (case.family, case.plant.n) == ("lightly_damped", 20)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = output_feedback(case.plant)
+    Acl, Bcl, Ccl, Dcl = res.closed_loop(case.plant)
+    P = res.P
+    assert 1e-9 < brl_residual(Acl, Bcl, Ccl, Dcl, P, res.gamma) <= 1e-7
+    level = res.gamma / (1 + 1e-6)
+    F = -np.linalg.solve(Dcl.T @ Dcl - level ** 2 * np.eye(Bcl.shape[1]),
+                         Bcl.T @ P + Dcl.T @ Ccl)
+    resid = Acl.T @ P + P @ Acl + Ccl.T @ Ccl + (P @ Bcl + Ccl.T @ Dcl) @ F
+    a = np.abs
+    terms = a(Acl).T @ a(P) + a(P) @ a(Acl) + a(Ccl).T @ a(Ccl) \
+        + (a(P) @ a(Bcl) + a(Ccl).T @ a(Dcl)) @ a(F)
+    tol = Acl.shape[0] * np.finfo(float).eps * np.linalg.cond(np.linalg.eig(Acl)[1])
+    assert a(resid).max() / terms.max() <= tol
+    assert np.linalg.eigvals(Acl + Bcl @ F).real.max() < 0
