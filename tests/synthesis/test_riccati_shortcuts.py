@@ -11,10 +11,10 @@ import pytest
 import scipy.linalg as sla
 
 from sobolev_drake.synthesis import riccati
-from sobolev_drake.synthesis.certificates import hinf_norm
+from sobolev_drake.synthesis.certificates import brl_residual, hinf_norm
 from sobolev_drake.synthesis.hinf_riccati import riccati_synthesis
 from sobolev_drake.synthesis.output_feedback import output_feedback
-from sobolev_drake.synthesis.random_plants import plant_family
+from sobolev_drake.synthesis.random_plants import plant_family, random_plant
 
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough")
 
@@ -104,23 +104,11 @@ def test_output_feedback_optimum_matches_an_independent_care_bisection(case):
     assert res.gamma_opt == pytest.approx(hi, rel=2e-6)
 
 
-def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
-    """A lightly damped plant whose P from the separation structure has a bounded-real
-    residual between 1e-9 and BRL_TOL = 1e-7: accepted without the 2n-state CARE that used to
-    polish it.  It is still the stabilizing solution of the closed loop's bounded-real Riccati
-    equation at the design level: backward error within 2n eps cond(V) (the bound of
-    test_certificate_floor.py: rounding amplified by the eigenvector conditioning) and a
-    Hurwitz feedback."""
-    from sobolev_drake.synthesis.certificates import brl_residual
-    case = plant_family(8, (6, 40), seed=36, families=FAMILIES)[7]
-    assert (case.family, case.plant.n) == ("lightly_damped", 20)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = output_feedback(case.plant)
-    Acl, Bcl, Ccl, Dcl = res.closed_loop(case.plant)
-    P = res.P
-    assert 1e-9 < brl_residual(Acl, Bcl, Ccl, Dcl, P, res.gamma) <= 1e-7
-    level = res.gamma / (1 + 1e-6)
+def _stabilizing_brl_solution(cl, P, level):
+    """(backward error, its bound, spectral abscissa of the feedback) of P for the closed
+    loop's bounded-real Riccati equation at ``level``.  Bound: 2n eps cond(V), the rounding of
+    2n-state data amplified by the eigenvector conditioning (test_certificate_floor.py)."""
+    Acl, Bcl, Ccl, Dcl = cl
     F = -np.linalg.solve(Dcl.T @ Dcl - level ** 2 * np.eye(Bcl.shape[1]),
                          Bcl.T @ P + Dcl.T @ Ccl)
     resid = Acl.T @ P + P @ Acl + Ccl.T @ Ccl + (P @ Bcl + Ccl.T @ Dcl) @ F
@@ -128,5 +116,49 @@ def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
     terms = a(Acl).T @ a(P) + a(P) @ a(Acl) + a(Ccl).T @ a(Ccl) \
         + (a(P) @ a(Bcl) + a(Ccl).T @ a(Dcl)) @ a(F)
     tol = Acl.shape[0] * np.finfo(float).eps * np.linalg.cond(np.linalg.eig(Acl)[1])
-    assert a(resid).max() / terms.max() <= tol
-    assert np.linalg.eigvals(Acl + Bcl @ F).real.max() < 0
+    return a(resid).max() / terms.max(), tol, np.linalg.eigvals(Acl + Bcl @ F).real.max()
+
+
+def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
+    """A lightly damped plant whose P from the separation structure has a bounded-real
+    residual between 1e-9 and BRL_TOL = 1e-7: accepted without the 2n-state CARE that used to
+    polish it.  It is still the stabilizing solution of the closed loop's bounded-real Riccati
+    equation at the design level: backward error within its bound and a Hurwitz feedback."""
+    case = plant_family(8, (6, 40), seed=36, families=FAMILIES)[7]
+    assert (case.family, case.plant.n) == ("lightly_damped", 20)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = output_feedback(case.plant)
+    cl = res.closed_loop(case.plant)
+    assert 1e-9 < brl_residual(*cl, res.P, res.gamma) <= 1e-7
+    err, tol, abscissa = _stabilizing_brl_solution(cl, res.P, res.gamma / (1 + 1e-6))
+    assert err <= tol and abscissa < 0
+
+
+def test_p_between_design_level_and_gamma_when_the_candidate_fails():
+    """The 10-state unstable plant of benchmarks/synthesis_floor.py: the central controller's
+    norm is within 1e-10 of its design level, the separation-structure candidate fails there
+    (and so did the 2n-state solves at the design level: no P was reported before).  P is now
+    the stabilizing solution at sqrt(level gamma): positive semidefinite, the bounded-real
+    inequality at the published gamma within BRL_TOL, and its Riccati backward error within
+    its bound with a Hurwitz feedback."""
+    plant = random_plant(np.random.default_rng([36, 10, 1]), 10, "unstable", seed=1).plant
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = output_feedback(plant)
+    assert res.certificate.ok and res.P is not None
+    cl = res.closed_loop(plant)
+    level = res.gamma / (1 + 1e-6)
+    assert np.linalg.eigvalsh(res.P).min() >= -1e-12 * np.abs(res.P).max()
+    assert brl_residual(*cl, res.P, res.gamma) <= 1e-7
+    err, tol, abscissa = _stabilizing_brl_solution(cl, res.P, np.sqrt(level * res.gamma))
+    assert err <= tol and abscissa < 0
+    Acl, Bcl, Ccl, Dcl = cl
+    for balanced in (True, False):  # at the design level scipy's CARE finds no acceptable P
+        try:
+            Q = sla.solve_continuous_are(Acl, Bcl, Ccl.T @ Ccl,
+                                         Dcl.T @ Dcl - level ** 2 * np.eye(Bcl.shape[1]),
+                                         s=Ccl.T @ Dcl, balanced=balanced)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        assert brl_residual(*cl, 0.5 * (Q + Q.T), res.gamma) > 1e-7
