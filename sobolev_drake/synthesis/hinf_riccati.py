@@ -20,7 +20,8 @@ one warning line says which level, perturbation and pole ratio were taken.
 
 Every controller is certified on the original plant (``hinf_common.certify_result``) before it
 is returned; the Lyapunov matrix P reported is the stabilizing solution of the closed loop's
-bounded-real Riccati equation at the certified gamma.
+bounded-real Riccati equation at the design level, or between it and the certified gamma
+(:func:`_closed_loop_lyapunov`).
 """
 
 from __future__ import annotations
