@@ -139,7 +139,9 @@ def test_import_leaves_the_matplotlib_backend_alone(tmp_path):
 
 
 #: modules whose public functions and methods carry complete type hints (PEP 561: py.typed)
-TYPED_MODULES = ("sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
+TYPED_MODULES = ("sobolev_drake.errors", "sobolev_drake.native", "sobolev_drake.native.forces",
+                 "sobolev_drake.native.rnea",
+                 "sobolev_drake.campaign.case", "sobolev_drake.campaign.errors",
                  "sobolev_drake.campaign.executors", "sobolev_drake.campaign.registry",
                  "sobolev_drake.campaign.runner", "sobolev_drake.campaign.stats",
                  "sobolev_drake.campaign.store", "sobolev_drake.datafile", "sobolev_drake.cli",
@@ -271,3 +273,23 @@ def test_no_library_code_chooses_a_matplotlib_backend():
                  for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
                  if pattern.search(line.split("#")[0])]
     assert not offenders, offenders
+
+
+def test_every_public_module_with_functions_is_in_the_typed_list():
+    """A new module joins TYPED_MODULES (and so gets complete hints) as soon as it defines a
+    public function or class method; private modules (``_x``) and ``__main__`` are exempt."""
+    import importlib
+    import inspect
+    import pkgutil
+    import sobolev_drake
+    unlisted = []
+    for info in pkgutil.walk_packages(sobolev_drake.__path__, "sobolev_drake."):
+        name = info.name
+        if name in TYPED_MODULES or any(part.startswith("_") for part in name.split(".")):
+            continue
+        module = importlib.import_module(name)
+        own = [v for k, v in vars(module).items() if not k.startswith("_")
+               and (inspect.isfunction(v) or inspect.isclass(v)) and v.__module__ == name]
+        if own:
+            unlisted.append(name)
+    assert not unlisted, unlisted

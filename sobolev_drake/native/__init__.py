@@ -18,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
+from types import ModuleType
+from typing import Iterator
 
 __all__ = ["kernel", "enabled", "set_enabled", "disabled"]
 
@@ -39,7 +41,7 @@ def set_enabled(flag: bool) -> bool:
 
 
 @contextlib.contextmanager
-def disabled():
+def disabled() -> Iterator[None]:
     """Context manager: the pure-Python paths inside the block."""
     previous = set_enabled(False)
     try:
@@ -48,7 +50,7 @@ def disabled():
         set_enabled(previous)
 
 
-def kernel(name: str):
+def kernel(name: str) -> ModuleType | None:
     """The compiled module ``sobolev_drake.native._<name>``, or None if it is not built or the
     kernels are switched off (cheap: called per controller sample)."""
     if not _ENABLED:

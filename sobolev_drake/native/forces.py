@@ -10,12 +10,20 @@ force systems (``TiltrotorForces_[float]``); their AutoDiffXd and Expression ins
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Sequence
+
 from sobolev_drake.native import kernel
+
+if TYPE_CHECKING:   # the tilt-rotor models (not imported at run time: no cycle)
+    from sobolev_drake.tiltrotor.aerodynamics import AeroModel
+    from sobolev_drake.tiltrotor.propulsion import PropulsionModel
 
 __all__ = ["force_model"]
 
 
-def force_model(prop, aero, *, perm16=None, perm8_inv=None, cos_beta_servo=None):
+def force_model(prop: PropulsionModel, aero: AeroModel, *, perm16: Sequence[int] | None = None,
+                perm8_inv: Sequence[int] | None = None,
+                cos_beta_servo: float | None = None) -> Any:
     """Kernel model capsule for ``prop`` (PropulsionModel) and ``aero`` (AeroModel) of the same
     parameters, or None if the ``forces`` kernel is not built or disabled.
 

@@ -20,11 +20,20 @@ parameters (masses, frame poses, damping, ...) is not seen by it.
 
 from __future__ import annotations
 
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Sequence
+
 import numpy as np
 
 import sobolev_drake.native as _native
 from sobolev_drake.native import kernel
 from sobolev_drake.errors import ModelError
+
+if TYPE_CHECKING:
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.systems.framework import Context
+
+    from sobolev_drake.models.base import MechanicalModel
 
 __all__ = ["tree_model", "cached_tree_kernel", "tree_constants", "unsupported_reason"]
 
@@ -35,7 +44,8 @@ class Unsupported(ModelError, ValueError):
     """The plant has a feature the kernel does not model."""
 
 
-def tree_model(plant, context=None, *, coordinates=None):
+def tree_model(plant: MultibodyPlant, context: Context | None = None, *,
+               coordinates: Sequence[int] | None = None) -> Any:
     """Kernel model capsule of ``plant`` or None when the ``rnea`` kernel is not built or
     disabled, or the plant is outside what the kernel covers (see the module docstring).
 
@@ -55,7 +65,8 @@ def tree_model(plant, context=None, *, coordinates=None):
     return k.make_model(constants)
 
 
-def cached_tree_kernel(cache: dict, model, coordinates):
+def cached_tree_kernel(cache: dict, model: MechanicalModel,
+                       coordinates: Sequence[int] | None) -> tuple[ModuleType, Any] | None:
     """(kernel module, capsule) for the plant and context of ``model`` (a MechanicalModel) in
     the caller's ``coordinates`` (see :func:`tree_model`), or None: built once into
     ``cache["rnea"]`` (None cached too: not built, or a plant the kernel does not cover);
@@ -71,7 +82,7 @@ def cached_tree_kernel(cache: dict, model, coordinates):
         return entry
 
 
-def unsupported_reason(plant, context=None) -> str | None:
+def unsupported_reason(plant: MultibodyPlant, context: Context | None = None) -> str | None:
     """Why :func:`tree_model` refuses ``plant`` (None if it is covered)."""
     try:
         tree_constants(plant, context)
@@ -80,7 +91,8 @@ def unsupported_reason(plant, context=None) -> str | None:
     return None
 
 
-def tree_constants(plant, context=None, *, coordinates=None) -> dict:
+def tree_constants(plant: MultibodyPlant, context: Context | None = None, *,
+                   coordinates: Sequence[int] | None = None) -> dict:
     """The ``make_model`` dictionary of ``plant`` (bodies in topological order); raises
     :class:`Unsupported` naming the first feature the kernel does not cover."""
     from pydrake.multibody.tree import (BodyIndex, ForceElementIndex, PrismaticJoint,
