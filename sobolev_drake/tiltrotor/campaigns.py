@@ -199,7 +199,7 @@ def hover_design(label: str) -> dict[str, Any]:
         the exception, without the solve's wall time, so every record of the design is the same.
     """
     from sobolev_drake.campaign import DesignFailed
-    from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS, design
+    from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS, design, measurement_matrix
 
     if label not in DESIGN_SPECS:
         raise ValueError(f"label must be a Table 7.2 design {tuple(DESIGN_SPECS)}, got {label!r}")
@@ -209,7 +209,22 @@ def hover_design(label: str) -> dict[str, Any]:
     except Exception as exc:  # noqa: BLE001 - the experiment reports it as a table row too
         why = re.sub(r"\s*\[LMI path: [^\]]*\]", "", str(exc).splitlines()[0] if str(exc) else "")
         raise DesignFailed(f"{type(exc).__name__}: {why[:300]}") from exc
-    return {k: full[k] for k in _FLOWN_KEYS if k in full}
+    if full.K is not None:
+        return {"kind": "sf", "K": np.asarray(full.K), "gamma": float(full.gamma)}
+    c = full.controller
+    return {"kind": "dyn", "AK": c.AK, "BK": c.BK, "CK": c.CK, "DK": c.DK,
+            "C": measurement_matrix(full), "order": int(c.nk), "gamma": float(full.gamma)}
+
+
+def _flown(ctrl):
+    """The pinned dict of :func:`hover_design` as the result :func:`simulate_design` flies."""
+    from sobolev_drake.synthesis.controller import DynamicController
+    from sobolev_drake.synthesis.problem import SynthesisResult
+
+    if ctrl["kind"] == "sf":
+        return SynthesisResult("state_feedback", ctrl["gamma"], K=ctrl["K"])
+    return SynthesisResult("output_feedback", ctrl["gamma"],
+                           controller=DynamicController(*(ctrl[k] for k in ("AK", "BK", "CK", "DK"))))
 
 
 def hover_turbulence(case: Case) -> tuple[int, VonKarmanParameters]:
@@ -261,7 +276,7 @@ def hover_linear_case(case: Case, ctrl: dict[str, Any]) -> dict[str, Any]:
     trim = _hover_setup()[0]
     seed, turbulence = hover_turbulence(case)
     duration = case.duration or (HOVER_SMOKE_DURATION if case.smoke else HOVER_DURATION)
-    d = simulate_design(ctrl, trim, duration, seed=seed, turbulence=turbulence,
+    d = simulate_design(_flown(ctrl), trim, duration, seed=seed, turbulence=turbulence,
                         plant_params=plant_params(case))
     idx = flight_indices(d, trim)
     failure = d["stopped"] or ("" if idx["finite"] else "state not finite")
