@@ -102,7 +102,7 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
             self.path_velocity = check_velocity_reference(velocity_reference) == "path"
             if isinstance(ctrl, DynamicController):
                 ctrl = SynthesisResult("output_feedback", np.nan, controller=ctrl)
-            C = measurement_matrix(ctrl)     # refuses what is not a 4-output hover controller
+            C = measurement_matrix(ctrl)     # refuses a controller reading neither Δx nor y
             if ctrl.controller.nu != 4 or ctrl.controller.dt != 0:
                 raise ValueError(f"ctrl must be a continuous-time controller with 4 outputs (Δu), "
                                  f"got {ctrl.controller.nu} outputs and dt = {ctrl.controller.dt}")
