@@ -64,7 +64,7 @@ LOG_PERIOD = 0.01
 
 def design(trim):
     """Drake's LQR on the trim diagram and the library's W∞ design; returns
-    (lqr AffineSystem, {"K", "eigenvalues"}, W∞ design dict)."""
+    (lqr AffineSystem, {"K", "eigenvalues"}, W∞ design: a SynthesisResult)."""
     diagram, context, h = trim_diagram(trim)
     T16 = np.kron(np.eye(2), h.model.T)                  # x_drake = T16 x_thesis
     Q = T16 @ np.diag(STATE_SCALE ** -2.0) @ T16.T
@@ -77,11 +77,11 @@ def design(trim):
 
 def closed_loop(trim, controller, duration, meshcat=None):
     """The nonlinear tilt-rotor from trim + OFFSET under ``controller`` (Drake's LQR as an
-    AffineSystem, or a W∞ design dict); returns (t, x thesis-ordered (16, N), u (4, N),
+    AffineSystem, or a W∞ design's SynthesisResult); returns (t, x thesis-ordered (16, N), u (4, N),
     recorder)."""
     b = DiagramBuilder()
     h = add_tiltrotor(b, trim.info["model"].params)
-    if isinstance(controller, dict):
+    if isinstance(controller, sd.SynthesisResult):
         c = b.AddSystem(LinearHoverController(controller, trim))
         ref = b.AddSystem(ConstantVectorSource(np.zeros(12)))      # hold the hover point
         b.Connect(h.x, c.GetInputPort("x"))
@@ -153,7 +153,7 @@ if __name__ == "__main__":
                  sys.argv[2] if len(sys.argv) > 2 else "out/diagrams")
     eig = result["lqr"]["eigenvalues"]
     print(f"Drake LQR: closed-loop eigenvalues of the linearized plant, max real part "
-          f"{eig.real.max():.4g}; W∞: certified gamma {result['winf']['gamma']:.5g}")
+          f"{eig.real.max():.4g}; W∞: certified gamma {result['winf'].gamma:.5g}")
     keys = list(next(iter(result["rows"].values())))
     print("| controller | " + " | ".join(keys) + " |\n" + "|---" * (len(keys) + 1) + "|")
     for name, row in result["rows"].items():

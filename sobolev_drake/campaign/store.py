@@ -17,8 +17,13 @@ Files of a folder ``DIR`` (docs/reliability.md states what survives what):
 ``designs.json``
     The pinned designs of a campaign that declares ``synthesize``: JSON with typed arrays
     (:mod:`sobolev_drake.datafile`), never pickle, with a schema version, the campaign's name,
-    a fingerprint of each design's specification and a checksum of the content.  Written
-    atomically (temporary file, fsync, rename, folder fsync).
+    a fingerprint of each design's specification and a checksum of the content.  A design that
+    is a :class:`~sobolev_drake.synthesis.problem.SynthesisResult` is stored in the design-file
+    encoding (:func:`~sobolev_drake.synthesis.design_file.encode_result`, with its own result
+    schema) under ``"result"``, any other design as data under ``"design"``.  Written
+    atomically (temporary file, fsync, rename, folder fsync).  Schema 1 (before results were
+    stored as results) is refused with the way out: its designs cannot be flown as this
+    version's designs.
 ``runs.jsonl``
     One line per run: start time, wall time, cases run, executor (the summary holds none of it,
     so that it depends on the records alone).
@@ -56,7 +61,9 @@ REJECTED = "records.rejected.jsonl"
 RUNS = "runs.jsonl"
 
 DESIGNS_FORMAT = "sobolev_drake campaign designs"
-DESIGNS_SCHEMA = 1
+DESIGNS_SCHEMA = 2
+#: why an older designs schema is refused: its designs are not what this version flies
+OLD_DESIGNS = {1: "pinned before synthesis results were stored as results"}
 #: what defines a campaign's cases: a resume must match them
 DEFINING_KEYS = ("campaign", "designs", "perturb", "duration", "smoke")
 _REPAIR = "sobolev-drake campaign-repair {dir}"
@@ -432,7 +439,9 @@ class CampaignStore:
         if not isinstance(doc, dict) or doc.get("format") != DESIGNS_FORMAT:
             raise refuse(f"not a campaign's designs file (no format {DESIGNS_FORMAT!r})")
         if doc.get("schema") != DESIGNS_SCHEMA:
-            raise refuse(f"schema {doc.get('schema')!r}, this version reads schema {DESIGNS_SCHEMA}")
+            old = OLD_DESIGNS.get(doc.get("schema")) if type(doc.get("schema")) is int else None
+            raise refuse(f"schema {doc.get('schema')!r}, this version reads schema {DESIGNS_SCHEMA}"
+                         + (f" ({old})" if old else ""))
         if doc.get("campaign") != campaign:
             raise refuse(f"pins the designs of campaign {doc.get('campaign')!r}, not {campaign!r}")
         designs = doc.get("designs")
@@ -444,7 +453,8 @@ class CampaignStore:
             if label not in specs:
                 raise refuse(f"pins design {label!r}, which campaign {campaign!r} does not have")
             if not (isinstance(entry, dict) and "spec" in entry and len(entry) == 2
-                    and ("design" in entry or isinstance(entry.get("failure"), str))):
+                    and ("design" in entry or "result" in entry
+                         or isinstance(entry.get("failure"), str))):
                 raise refuse(f"design {label!r} is neither a design nor a failure")
             if entry["spec"] != specs[label]:
                 raise refuse(f"the specification of design {label!r} has changed since it was "
@@ -453,12 +463,13 @@ class CampaignStore:
             if "failure" in entry:
                 pinned[label] = {"failure": entry["failure"]}
                 continue
+            design = entry["design"] if "design" in entry else _decode_result(entry["result"], label, refuse)
             if check is not None:
                 try:
-                    check(label, entry["design"])
+                    check(label, design)
                 except (TypeError, ValueError) as exc:
                     raise refuse(f"design {label!r} is not what the synthesis produces ({exc})") from None
-            pinned[label] = {"design": entry["design"]}
+            pinned[label] = {"design": design}
         return pinned
 
     def save_designs(self, campaign: str, pinned: dict, specs: dict) -> None:
@@ -468,18 +479,41 @@ class CampaignStore:
         ----------
         campaign : str
         pinned : dict
-            {label: {"design": value} or {"failure": str}}; each design must be storable as
-            data (:func:`sobolev_drake.datafile.to_tree`: numbers, strings, lists, dicts,
-            arrays).
+            {label: {"design": value} or {"failure": str}}; each design is a
+            ``SynthesisResult`` (stored in the design-file encoding) or storable as data
+            (:func:`sobolev_drake.datafile.to_tree`: numbers, strings, lists, dicts, arrays).
         specs : dict
             {label: specification fingerprint}.
         """
         self._require_lock("save_designs")
         designs = {label: {"spec": specs[label], **({"failure": str(entry["failure"])}
-                                                    if "failure" in entry else {"design": entry["design"]})}
+                                                    if "failure" in entry else _encode(entry["design"]))}
                    for label, entry in pinned.items()}
         # the checksum is taken on exactly what a reader will decode
         designs = from_tree(json.loads(json.dumps(to_tree(designs), allow_nan=True)))
         write_json_atomic(self.designs_path, {
             "format": DESIGNS_FORMAT, "schema": DESIGNS_SCHEMA, "campaign": campaign,
             "designs": designs, "checksum": fingerprint(designs)})
+
+
+def _encode(design) -> dict:
+    """The entry of one pinned design: a synthesis result in the design-file encoding (with
+    its result schema), anything else as data."""
+    from sobolev_drake.synthesis.design_file import RESULT_SCHEMA, encode_result
+    from sobolev_drake.synthesis.problem import SynthesisResult
+
+    if isinstance(design, SynthesisResult):
+        return {"result": {"schema": RESULT_SCHEMA, "fields": encode_result(design)}}
+    return {"design": design}
+
+
+def _decode_result(entry, label, refuse):
+    """The SynthesisResult of a ``"result"`` entry, or ``refuse``'s error naming the design."""
+    from sobolev_drake.synthesis.design_file import decode_result
+
+    if not (isinstance(entry, dict) and set(entry) == {"schema", "fields"}):
+        raise refuse(f"design {label!r} is not a pinned synthesis result (schema and fields)")
+    try:
+        return decode_result(entry["fields"], f"design {label!r}", entry["schema"])
+    except DataFileError as exc:
+        raise refuse(str(exc)) from None

@@ -46,7 +46,7 @@ def _decomposition(ctrls, duration, metrics, extra=None):
                                            "regularized": res.regularized,
                                            "achieved": res.certificate.achieved})
         m_name["max_abs_controller_entry"] = float(max(np.abs(np.asarray(M)).max()
-                                                       for M in (data if d.feedback != "sf" else [data])))
+                                                       for M in (data if d.feedback != "state_feedback" else [data])))
         variants = [("0", None)]
         if d.disturbance_model:  # P on [x; d; x_K]: the controller can start consistently
             variants.append(("argmin V", consistent_controller_state(SIMPLE, res, X0)))

@@ -25,7 +25,7 @@ from sobolev_drake.experiments import Claim, ExperimentResult, register
 from sobolev_drake.harness import quiet
 from sobolev_drake.models.quadrotor_linear import SPREAD, UNCERTAIN, hinf_input_weight, input_scale, vertices
 from sobolev_drake.rigs.quadrotor_hover import (CAMPAIGN_INDICES, QuadrotorHoverRig, campaign_flight,
-                                                 check_campaign_gain, flight_indices)
+                                                 check_campaign_design, flight_indices)
 from sobolev_drake.rigs.quadrotor_hover_plots import plot_flights
 from sobolev_drake.synthesis.designs import LinearDesign
 from sobolev_drake.synthesis.problem import SynthesisResult
@@ -177,21 +177,22 @@ CAMPAIGN_DESIGNS = {WINF.label: {"spec": WINF}, HINF.label: {"spec": HINF, "rho"
 CAMPAIGN_SMOKE_DURATION = 2.0  # s
 
 
-def campaign_gain(label: str) -> np.ndarray:
-    """K of a campaign design on the 16-vertex polytope (the campaign pins it once per run)."""
-    return np.asarray(design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0].K)
+def campaign_design(label: str) -> SynthesisResult:
+    """The SynthesisResult of a campaign design on the 16-vertex polytope (the campaign pins it
+    once per run, in the design-file encoding)."""
+    return design(verts=[v for _, v in vertices(UNCERTAIN)], **CAMPAIGN_DESIGNS[label])[0]
 
 
-def campaign_case(case: Case, K: ArrayLike) -> dict[str, Any]:
-    """A design of :data:`CAMPAIGN_DESIGNS` (its gain ``K``) flown on the truth, q(0) and
+def campaign_case(case: Case, result: SynthesisResult) -> dict[str, Any]:
+    """A design of :data:`CAMPAIGN_DESIGNS` (its result's gain K) flown on the truth, q(0) and
     disturbances its seed draws; returns "indices", "success" (no divergence) and "failure"."""
     duration = case.duration or (CAMPAIGN_SMOKE_DURATION if case.smoke else 40.0)
-    return campaign_flight(K, duration, case)
+    return campaign_flight(result.K, duration, case)
 
 
 register_campaign("quadrotor-polytopic", CampaignDefinition(
     designs=tuple(CAMPAIGN_DESIGNS), indices=tuple(CAMPAIGN_INDICES), run=campaign_case,
-    synthesize=campaign_gain, check_design=check_campaign_gain,
+    synthesize=campaign_design, check_design=check_campaign_design,
     design_spec=lambda label: {**CAMPAIGN_DESIGNS[label], "polytope": [list(UNCERTAIN), SPREAD]},
     randomizes="the truth's m, Ixx, Iyy, Izz (inside the designs' ±10 % polytope), q(0) and the disturbances",
     parameters={n: f"quadrotor parameter {n} of the simulated truth" for n in (*UNCERTAIN, "l", "b", "d")},

@@ -25,16 +25,12 @@ from sobolev_drake.tiltrotor import campaigns, tables
 from sobolev_drake.tiltrotor.hover_flight import (flight_indices, hover_reference, initial_error,
                                                   literal_noise_flight, simulate_design)
 from sobolev_drake.tiltrotor.linear_controller import check_velocity_reference
-from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS, DESIGNS, design
+from sobolev_drake.tiltrotor.linear_design import DESIGN_SPECS, DESIGNS, design, design_metrics, measurement_matrix
 from sobolev_drake.tiltrotor.plots import plot_hover_flights
 
 #: smoke mode: the cheapest certified design only (state feedback, ~10 s synthesis)
 SMOKE_DESIGNS = ("W∞",)
 SMOKE_DURATION = 10.0
-#: design-dict entries kept in the metrics
-METRIC_KEYS = ("gamma", "gamma_opt", "feedthrough_bound", "transient_bound", "certified", "achieved",
-               "gamma_wind", "gamma_common", "certificate_failures", "solver", "status", "solve_s",
-               "notes", "max_real", "max_abs", "kind", "order", "delay_margin_s", "gain_margins")
 #: (plain design, its disturbance-model counterpart) pairs of the Table 7.2 claims
 DM_PAIRS = (("W∞", "W∞-D"), ("W∞", "W∞-D (thesis LMI)"), ("W∞-O.F.", "W∞-O.F.D"),
             ("W∞-O.F.", "W∞-O.F.D (thesis LMI)"))
@@ -105,11 +101,11 @@ def run(out_dir: str | Path, *, duration: float | None = None, record: bool = Fa
             metrics[name] = {"error": f"{type(exc).__name__}: {exc}"}
             rows.append(tables.synthesis_failed_row(spec, str(exc)))
             continue
-        m = {k: ctrl[k] for k in METRIC_KEYS if k in ctrl}
+        m = design_metrics(lin, ctrl)   # the metrics start with the design's scores
         i = sum(k.endswith("_name") for k in gains)
-        gains.update({f"d{i}_name": np.array(name), f"d{i}_kind": np.array(ctrl["kind"]),
-                      **{f"d{i}_{k}": np.asarray(ctrl[k]) for k in ("K", "AK", "BK", "CK", "DK", "C")
-                         if k in ctrl}})
+        mats = {"K": ctrl.K} if ctrl.K is not None else dict(zip(("AK", "BK", "CK", "DK"), ctrl.controller))
+        gains.update({f"d{i}_name": np.array(name), f"d{i}_kind": np.array(ctrl.kind), f"d{i}_C": measurement_matrix(ctrl),
+                      **{f"d{i}_{k}": np.asarray(v) for k, v in mats.items()}})
         if recorded:
             meshcat = viz.start_meshcat()
         try:
@@ -118,13 +114,13 @@ def run(out_dir: str | Path, *, duration: float | None = None, record: bool = Fa
         except Exception as exc:  # e.g. the integrator gives up on a diverging closed loop
             m["sim_error"] = f"{type(exc).__name__}: {exc}"
             metrics[name] = m
-            rows.append(tables.sim_failed_row(spec, ctrl, m["sim_error"]))
+            rows.append(tables.sim_failed_row(spec, m, m["sim_error"]))
             continue
         idx = flight_indices(d, trim)
         all_data[name] = d
         m.update(idx, sim_wall_s=d["wall_s"], stopped=d["stopped"], sim_end_s=float(d["t"][-1]))
         metrics[name] = m
-        rows.append(tables.flight_row(spec, ctrl, idx, d["stopped"]))
+        rows.append(tables.flight_row(spec, m, idx, d["stopped"]))
         if sensitivity:
             m["literal_noise"] = literal_noise_flight(ctrl, trim, duration, velocity_reference)
             srows.append(tables.literal_noise_row(name, m["literal_noise"]))

@@ -46,10 +46,10 @@ WELL_POSED_DISK = 1000.0
 #: designs, so no time budget
 THESIS_SYNTHESIS = {"method": "lmi", "time_limit": None}
 
-WINF = LoopDesign("W∞", "sf")
-WINF_D = LoopDesign("W∞-D", "of_x", disturbance_model=True)
-WINF_OF = LoopDesign("W∞-O.F.", "of_y")
-WINF_OFD = LoopDesign("W∞-O.F.D", "of_y", disturbance_model=True)
+WINF = LoopDesign("W∞", "state_feedback")
+WINF_D = LoopDesign("W∞-D", "output_feedback", disturbance_model=True, measured="state")
+WINF_OF = LoopDesign("W∞-O.F.", "output_feedback")
+WINF_OFD = LoopDesign("W∞-O.F.D", "output_feedback", disturbance_model=True)
 #: the rows of Table 6.1, in its order
 DESIGNS = (WINF, WINF_D, WINF_OF, WINF_OFD)
 
@@ -85,16 +85,16 @@ def synthesize(design: LoopDesign, **options: Any) -> SynthesisResult:
     -------
     SynthesisResult
     """
-    Cm = C if design.feedback == "of_y" else None
+    Cm = C if design.measured == "output" else None
     if design.disturbance_model:
         return winf_disturbance_augmented(A, B, D, AD, BD, CD, GAMMA0, GAMMA1, C=Cm, **options)
-    if design.feedback == "sf":
+    if design.feedback == "state_feedback":
         return winf_state_feedback(A, B, D, GAMMA0, GAMMA1, **options)
     return winf_output_feedback(A, B, C, D, GAMMA0, GAMMA1, **options)
 
 
 def _controller(design, r):
-    return DesignedController(design, r.K if design.feedback == "sf" else r.controller, r)
+    return DesignedController(design, r.K if design.feedback == "state_feedback" else r.controller, r)
 
 
 def design() -> tuple[dict[str, DesignedController], list[str]]:

@@ -70,12 +70,12 @@ def simulate(design: LoopDesign, data: np.ndarray | DynamicController | tuple[np
     mux = b.AddSystem(Multiplexer([1, 1]))
     b.Connect(mux.get_output_port(), plant.get_input_port())
     b.Connect(dist.get_output_port(), mux.get_input_port(1))
-    if design.feedback == "sf":
+    if design.feedback == "state_feedback":
         ctrl = b.AddSystem(LinearStateFeedback(data))
         b.Connect(plant.get_output_port(), ctrl.GetInputPort("x"))
     else:
         ctrl = b.AddSystem(LinearDynamicOutputFeedback.from_controller(data))
-        if design.feedback == "of_x":
+        if design.measured == "state":
             b.Connect(plant.get_output_port(), ctrl.GetInputPort("y"))
         else:
             meas = b.AddSystem(MatrixGain(p.C))

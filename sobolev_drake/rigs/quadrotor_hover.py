@@ -28,7 +28,7 @@ from sobolev_drake.systems.disturbances import TimeProfiledForce
 from sobolev_drake.systems.linear_controllers import LinearStateFeedback
 from sobolev_drake.systems.reference_catalogue import table_6_3
 
-__all__ = ["check_campaign_gain", "Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "disturbance_pulses", "drawn_scenario",
+__all__ = ["check_campaign_design", "Q0", "U_MAX_FACTOR", "DIVERGED_TILT", "QuadrotorHoverRig", "disturbance_pulses", "drawn_scenario",
            "flight_indices", "CAMPAIGN_INDICES", "campaign_flight"]
 
 #: initial configuration [ϕ θ ψ x y z] of every flight
@@ -210,20 +210,24 @@ CAMPAIGN_INDICES = {"ISE": "ise", "IADU": "iadu", "saturated [s]": "saturation_s
                     "final position error [m]": "final_position_error_m", "max tilt [deg]": "max_tilt_deg"}
 
 
-def check_campaign_gain(label: str, K: object) -> None:
-    """Raise ``ValueError`` unless ``K`` is a finite 4 × 12 float gain, what a campaign's
-    synthesis pins and :func:`campaign_flight` flies.
+def check_campaign_design(label: str, result: object) -> None:
+    """Raise ``ValueError`` unless ``result`` is what a campaign's synthesis pins: a
+    state-feedback :class:`~sobolev_drake.synthesis.problem.SynthesisResult` whose ``K`` is a
+    finite 4 × 12 float gain (what :func:`campaign_flight` flies).
 
     Parameters
     ----------
     label : str
         The design (for the message).
-    K : object
+    result : object
     """
+    from sobolev_drake.synthesis.problem import SynthesisResult
+
+    K = result.K if isinstance(result, SynthesisResult) else None
     if not (isinstance(K, np.ndarray) and K.shape == (4, 12) and K.dtype.kind == "f"
             and np.all(np.isfinite(K))):
-        raise ValueError(f"design {label!r} must be a finite 4 × 12 gain, got {type(K).__name__} "
-                         f"{getattr(K, 'shape', '')}")
+        raise ValueError(f"design {label!r} must be a state-feedback SynthesisResult with a finite "
+                         f"4 × 12 gain, got {type(result).__name__} with K {getattr(K, 'shape', K)}")
 
 
 def campaign_flight(K: ArrayLike, duration: float, case: Case) -> dict[str, Any]:

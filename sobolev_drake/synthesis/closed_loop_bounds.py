@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 import scipy.linalg as sla
 
+from .designs import feedback_kind
 from .sobolev import augmented_disturbance_plant, winf_plant
 
 if TYPE_CHECKING:
@@ -30,7 +31,10 @@ __all__ = ["FilteredDisturbancePlant", "LoopDesign", "closed_loop_matrices", "in
            "initial_condition_energy", "brl_scale", "lyapunov_bound",
            "consistent_controller_state"]
 
-FEEDBACKS = ("sf", "of_x", "of_y")
+#: measurements a loop may read: the whole state x or the output y = C x
+MEASUREMENTS = ("state", "output")
+#: older spellings of (feedback, measured), accepted on construction
+LOOP_ALIASES = {"of_x": ("output_feedback", "state"), "of_y": ("output_feedback", "output")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,20 +73,36 @@ class LoopDesign:
     ----------
     label : str
         Row label in tables, legends and metrics keys.
-    feedback : {"sf", "of_x", "of_y"}
-        Static state feedback u = K x, or a dynamic controller (AK, BK, CK, DK) measuring
-        y = x or y = C x.
+    feedback : {"state_feedback", "output_feedback"}
+        Static state feedback u = K x, or a dynamic controller (AK, BK, CK, DK).  Older
+        spellings are mapped on construction: ``"sf"`` (and the others of
+        :func:`~sobolev_drake.synthesis.designs.feedback_kind`), and ``"of_x"`` / ``"of_y"``,
+        which also set ``measured`` to ``"state"`` / ``"output"``.
     disturbance_model : bool
         Designed on the plant augmented with the disturbance filter (its P lives on [x; d; x_K]).
+    measured : {"state", "output"}, optional
+        What the controller reads: y = x or y = C x.  Default: ``"state"`` for state
+        feedback, ``"output"`` for output feedback; a state feedback reads the state.
     """
 
     label: str
     feedback: str
     disturbance_model: bool = False
+    measured: str | None = None
 
     def __post_init__(self) -> None:
-        if self.feedback not in FEEDBACKS:
-            raise ValueError(f"feedback must be one of {FEEDBACKS}, got {self.feedback!r}")
+        feedback, measured = LOOP_ALIASES.get(self.feedback, (self.feedback, self.measured))
+        if self.feedback in LOOP_ALIASES and self.measured not in (None, measured):
+            raise ValueError(f"feedback {self.feedback!r} measures the {measured}, got "
+                             f"measured={self.measured!r}")
+        feedback = feedback_kind(feedback)
+        if measured is None:
+            measured = "state" if feedback == "state_feedback" else "output"
+        if measured not in MEASUREMENTS or (feedback == "state_feedback" and measured != "state"):
+            raise ValueError(f"measured must be one of {MEASUREMENTS} ('state' for a state "
+                             f"feedback), got {measured!r} for {feedback!r}")
+        object.__setattr__(self, "feedback", feedback)
+        object.__setattr__(self, "measured", measured)
 
 
 def _vector(name, v, n):
@@ -101,20 +121,20 @@ def closed_loop_matrices(plant: FilteredDisturbancePlant, design: LoopDesign, da
     plant : FilteredDisturbancePlant
     design : LoopDesign
     data : ndarray or tuple
-        The gain K (``design.feedback == "sf"``) or the controller (AK, BK, CK, DK).
+        The gain K (``design.feedback == "state_feedback"``) or the controller (AK, BK, CK, DK).
 
     Returns
     -------
     (Acl, Bcl, Cx, Cu, Cw) : tuple of ndarray
     """
     n, nd = plant.A.shape[0], plant.AD.shape[0]
-    if design.feedback == "sf":
+    if design.feedback == "state_feedback":
         AK, BK, CK, DK = (np.zeros((0, 0)), np.zeros((0, n)), np.zeros((plant.B.shape[1], 0)),
                           np.asarray(data))
         Cy = np.eye(n)
     else:
         AK, BK, CK, DK = data
-        Cy = np.eye(n) if design.feedback == "of_x" else plant.C
+        Cy = np.eye(n) if design.measured == "state" else plant.C
     nk = AK.shape[0]
     # u = CK xK + DK Cy x
     Ux = DK @ Cy
@@ -148,7 +168,7 @@ def initial_state(plant: FilteredDisturbancePlant, design: LoopDesign, data: Loo
     ndarray
     """
     n, nd = plant.A.shape[0], plant.AD.shape[0]
-    nk = 0 if design.feedback == "sf" else np.asarray(tuple(data)[0]).shape[0]
+    nk = 0 if design.feedback == "state_feedback" else np.asarray(tuple(data)[0]).shape[0]
     xi = np.zeros(n + nd + nk)
     xi[:n] = _vector("x0", x0, n)
     if xk0 is not None:
@@ -186,7 +206,7 @@ def initial_condition_energy(plant: FilteredDisturbancePlant, design: LoopDesign
 
 def _performance_plant(plant, design, res, nk):
     """The generalized plant a result was designed on (P's size tells a disturbance-model design)."""
-    Cm = plant.C if design.feedback == "of_y" else None
+    Cm = plant.C if design.measured == "output" else None
     n, nd = plant.A.shape[0], plant.AD.shape[0]
     if np.asarray(res.P).shape[0] == n + nd + nk:
         return augmented_disturbance_plant(plant.A, plant.B, plant.D, plant.AD, plant.BD, plant.CD,

@@ -38,7 +38,8 @@ from .controller import DynamicController
 from .problem import DiscreteDesign, SynthesisResult
 from .regions import LMIRegion
 
-__all__ = ["RESULT_FORMAT", "RESULT_SCHEMA", "save_result", "load_result"]
+__all__ = ["RESULT_FORMAT", "RESULT_SCHEMA", "save_result", "load_result", "encode_result",
+           "decode_result"]
 
 RESULT_FORMAT = "sobolev_drake synthesis result"
 RESULT_SCHEMA = 2
@@ -48,8 +49,36 @@ _SUFFIXES = (".json", ".npz")
 _NPZ = "__npz__"
 
 
-def _result_tree(res):
-    """The result as a dict of plain values and arrays (``to_tree``-able)."""
+def encode_result(result: SynthesisResult) -> dict:
+    """The design-file encoding of ``result``: a dict of plain values and arrays, one entry per
+    field (what :func:`save_result` writes, before ``datafile.to_tree`` types the arrays).
+
+    For containers that carry results inside their own envelope (a campaign's pinned designs);
+    :func:`decode_result` inverts it.
+
+    Parameters
+    ----------
+    result : SynthesisResult
+
+    Returns
+    -------
+    dict
+        {field name: value}; nested records (controller, certificates, region, discrete
+        design) as dicts.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sobolev_drake import SynthesisResult
+    >>> from sobolev_drake.datafile import from_tree, to_tree
+    >>> from sobolev_drake.synthesis.design_file import RESULT_SCHEMA, decode_result, encode_result
+    >>> res = SynthesisResult("state_feedback", 2.0, K=np.array([[-1.0, -2.0]]))
+    >>> tree = to_tree(encode_result(res))                  # JSON-ready, arrays typed
+    >>> back = decode_result(from_tree(tree), "example", RESULT_SCHEMA)
+    >>> back.kind, back.gamma, back.K.tolist(), back.controller.nk
+    ('state_feedback', 2.0, [[-1.0, -2.0]], 0)
+    """
+    res = result
     out = {}
     for f in dataclasses.fields(SynthesisResult):
         v = getattr(res, f.name)
@@ -57,7 +86,7 @@ def _result_tree(res):
             v = {"AK": v.AK, "BK": v.BK, "CK": v.CK, "DK": v.DK, "dt": v.dt}
         elif isinstance(v, DiscreteDesign):
             v = {**{g.name: getattr(v, g.name) for g in dataclasses.fields(DiscreteDesign)},
-                 "closed_loop": list(v.closed_loop), "continuous": _result_tree(v.continuous)}
+                 "closed_loop": list(v.closed_loop), "continuous": encode_result(v.continuous)}
         elif isinstance(v, Certificate):
             v = dataclasses.asdict(v)
         elif isinstance(v, LMIRegion):
@@ -68,8 +97,35 @@ def _result_tree(res):
     return out
 
 
-def _result_from(fields, where):
-    """SynthesisResult from the decoded ``fields`` dict, or DataFileError naming ``where``."""
+def decode_result(fields: dict, where: str, schema: int = RESULT_SCHEMA) -> SynthesisResult:
+    """The :class:`SynthesisResult` of :func:`encode_result`'s ``fields`` (arrays decoded).
+
+    Parameters
+    ----------
+    fields : dict
+        {field name: value} as :func:`encode_result` gave it (after ``datafile.from_tree``).
+    where : str
+        Where the fields come from, for the error message (a file, a campaign's design).
+    schema : int, default RESULT_SCHEMA
+        The design-file schema the fields were written with; an older readable schema gets
+        the fields it did not have (schema 1: continuous time).
+
+    Returns
+    -------
+    SynthesisResult
+        As encoded (not re-certified).
+
+    Raises
+    ------
+    DataFileError
+        ``schema`` is not readable, or the fields are not a result's; the message names
+        ``where``.
+    """
+    if isinstance(schema, bool) or schema not in _READABLE:
+        raise DataFileError(f"{where}: result schema {schema!r}, this version reads schemas "
+                            f"{sorted(_READABLE)}")
+    if isinstance(fields, dict) and _READABLE[schema]:
+        fields = {**_READABLE[schema], **fields}    # the fields an older schema had not
     names = {f.name for f in dataclasses.fields(SynthesisResult)}
     if not isinstance(fields, dict) or set(fields) != names:
         got = sorted(fields) if isinstance(fields, dict) else type(fields).__name__
@@ -86,7 +142,7 @@ def _result_from(fields, where):
         if f["discrete"] is not None:
             d = dict(f["discrete"])
             d["closed_loop"] = tuple(d["closed_loop"])
-            d["continuous"] = _result_from(d["continuous"], f"{where} (its continuous design)")
+            d["continuous"] = decode_result(d["continuous"], f"{where} (its continuous design)", schema)
             f["discrete"] = DiscreteDesign(**d)
         if f["kind"] not in ("state_feedback", "output_feedback"):
             raise ValueError(f"kind {f['kind']!r} is not 'state_feedback' or 'output_feedback'")
@@ -146,10 +202,10 @@ def save_result(result: SynthesisResult, path: str | os.PathLike[str]) -> Path:
     if not isinstance(result, SynthesisResult):
         raise TypeError(f"result must be a SynthesisResult, got {type(result).__name__}")
     path, suffix = _suffix(path)
-    tree = to_tree(_result_tree(result))
+    tree = to_tree(encode_result(result))
     doc = {"format": RESULT_FORMAT, "schema": RESULT_SCHEMA, "checksum": fingerprint(tree)}
     if suffix == ".json":
-        return write_json_atomic(path, {**doc, "result": _result_tree(result)})
+        return write_json_atomic(path, {**doc, "result": encode_result(result)})
     arrays = {}
 
     def extract(node):  # array nodes -> references to the archive's entries
@@ -206,10 +262,7 @@ def load_result(path: str | os.PathLike[str]) -> SynthesisResult:
     if doc.get("checksum") != fingerprint(tree):
         raise DataFileError(f"{path}: its content does not match its checksum (edited or "
                             "damaged after it was written)")
-    fields = from_tree(tree, str(path))
-    if isinstance(fields, dict) and _READABLE[schema]:
-        fields = {**_READABLE[schema], **fields}    # the fields an older schema had not
-    return _result_from(fields, str(path))
+    return decode_result(from_tree(tree, str(path)), str(path), schema)
 
 
 def _read_npz(path):

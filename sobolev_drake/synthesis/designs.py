@@ -21,7 +21,7 @@ NORMS = ("winf", "hinf")
 #: ``*_output_feedback`` function names)
 FEEDBACKS = ("state_feedback", "output_feedback")
 #: older spellings, accepted wherever a feedback kind is given and mapped by
-#: :func:`feedback_kind` (the tilt-rotor design dicts stored in campaign data keep "sf"/"dyn")
+#: :func:`feedback_kind` (older code and the dicts of earlier tilt-rotor designs say "sf"/"dyn")
 FEEDBACK_ALIASES = {"state": "state_feedback", "sf": "state_feedback",
                     "output": "output_feedback", "of": "output_feedback",
                     "dyn": "output_feedback"}

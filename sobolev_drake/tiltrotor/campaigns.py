@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from sobolev_drake.campaign.case import Case
+    from sobolev_drake.synthesis.problem import SynthesisResult
     from sobolev_drake.systems.wind import VonKarmanParameters
     from sobolev_drake.tiltrotor.linear_design import HoverDesign
     from sobolev_drake.tiltrotor.params import TiltrotorParams
@@ -116,10 +117,6 @@ def _hover_setup():
     return trim, linearize(trim), initial_error(trim, "zero")
 
 
-#: what a flight needs of a design dict (:class:`~.linear_controller.LinearController`)
-_FLOWN_KEYS = ("kind", "K", "AK", "BK", "CK", "DK", "C", "order", "gamma")
-
-
 def hover_design_spec(label: str) -> HoverDesign:
     """What defines Table 7.2 design ``label`` (its :class:`~.linear_design.HoverDesign`); the
     campaign pins its fingerprint with the design.
@@ -137,43 +134,39 @@ def hover_design_spec(label: str) -> HoverDesign:
     return DESIGN_SPECS[label]
 
 
-def check_hover_design(label: str, ctrl: dict[str, Any]) -> None:
-    """Raise ``ValueError`` unless ``ctrl`` is a controller :func:`hover_design` can return: a
-    dict with ``kind`` "sf" and a finite 4 × 20 ``K``, or ``kind`` "dyn" with finite ``AK``
-    (k × k), ``BK`` (k × p), ``CK`` (4 × k), ``DK`` (4 × p) and ``C`` (p × 20).
+def check_hover_design(label: str, result: SynthesisResult) -> None:
+    """Raise ``ValueError`` unless ``result`` is a controller :func:`hover_design` can return:
+    a continuous-time :class:`~sobolev_drake.synthesis.problem.SynthesisResult` whose finite
+    controller maps y = C Δx (20 or 18 measurements,
+    :func:`~sobolev_drake.tiltrotor.linear_design.measurement_matrix`) to the 4 inputs, a
+    state feedback with its 4 × 20 gain.
 
     Parameters
     ----------
     label : str
         The design (for messages).
-    ctrl : dict
+    result : SynthesisResult
     """
-    if not isinstance(ctrl, dict) or ctrl.get("kind") not in ("sf", "dyn"):
-        raise ValueError(f"design {label!r} must be a dict with kind 'sf' or 'dyn', got "
-                         f"{type(ctrl).__name__} {ctrl.get('kind') if isinstance(ctrl, dict) else ''!r}")
-    unknown = set(ctrl) - set(_FLOWN_KEYS)
-    if unknown:
-        raise ValueError(f"design {label!r} has unknown entries {sorted(unknown)}")
-    names = ("K",) if ctrl["kind"] == "sf" else ("AK", "BK", "CK", "DK", "C")
-    mats = {}
-    for name in names:
-        m = ctrl.get(name)
-        if not (isinstance(m, np.ndarray) and m.ndim == 2 and m.dtype.kind == "f"
-                and np.all(np.isfinite(m))):
-            raise ValueError(f"design {label!r}: {name} must be a finite float matrix, got "
-                             f"{type(m).__name__} {getattr(m, 'shape', '')}")
-        mats[name] = m.shape
-    if ctrl["kind"] == "sf":
-        expected = {"K": (4, 20)}
-    else:
-        k, p = mats["AK"][0], mats["C"][0]
-        expected = {"AK": (k, k), "BK": (k, p), "CK": (4, k), "DK": (4, p), "C": (p, 20)}
-    wrong = {n: s for n, s in mats.items() if s != expected[n]}
-    if wrong:
-        raise ValueError(f"design {label!r}: shapes {wrong}, expected {expected}")
+    from sobolev_drake.synthesis.problem import SynthesisResult
+    from sobolev_drake.tiltrotor.linear_design import measurement_matrix
+
+    if not isinstance(result, SynthesisResult) or result.controller is None:
+        raise ValueError(f"design {label!r} must be a SynthesisResult with a controller, got "
+                         f"{type(result).__name__}")
+    c = result.controller
+    try:
+        measurement_matrix(result)
+    except ValueError as exc:
+        raise ValueError(f"design {label!r}: {exc}") from None
+    if c.nu != 4 or c.dt != 0 or not all(np.all(np.isfinite(m)) for m in c):
+        raise ValueError(f"design {label!r} must have a finite continuous-time controller with 4 "
+                         f"outputs, got {c.nu} outputs, dt = {c.dt}")
+    if result.kind == "state_feedback" and np.shape(result.K) != (4, 20):
+        raise ValueError(f"design {label!r}: a state feedback needs K of shape (4, 20), got "
+                         f"{np.shape(result.K)}")
 
 
-def hover_design(label: str) -> dict[str, Any]:
+def hover_design(label: str) -> SynthesisResult:
     """A Table 7.2 design, synthesized as the experiment's default run does (transient
     regularization, default backends): seconds to minutes.
 
@@ -188,9 +181,9 @@ def hover_design(label: str) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        The controller's matrices ("kind", "K" or "AK", "BK", "CK", "DK", "C") and "gamma":
-        picklable, what :func:`hover_linear_case` flies.
+    SynthesisResult
+        What :func:`~sobolev_drake.tiltrotor.linear_design.design` returns: what
+        :func:`hover_linear_case` flies, pinned in the design-file encoding.
 
     Raises
     ------
@@ -209,7 +202,7 @@ def hover_design(label: str) -> dict[str, Any]:
     except Exception as exc:  # noqa: BLE001 - the experiment reports it as a table row too
         why = re.sub(r"\s*\[LMI path: [^\]]*\]", "", str(exc).splitlines()[0] if str(exc) else "")
         raise DesignFailed(f"{type(exc).__name__}: {why[:300]}") from exc
-    return {k: full[k] for k in _FLOWN_KEYS if k in full}
+    return full
 
 
 def hover_turbulence(case: Case) -> tuple[int, VonKarmanParameters]:
@@ -239,7 +232,7 @@ def hover_turbulence(case: Case) -> tuple[int, VonKarmanParameters]:
     return seed, p
 
 
-def hover_linear_case(case: Case, ctrl: dict[str, Any]) -> dict[str, Any]:
+def hover_linear_case(case: Case, result: SynthesisResult) -> dict[str, Any]:
     """Fly one Table 7.2 design of ``case`` on the (perturbed) nonlinear plant in its
     turbulence; success is the experiment's "tracks the path" claim (finite, not stopped,
     |φ|, |θ| < 60°).
@@ -248,7 +241,7 @@ def hover_linear_case(case: Case, ctrl: dict[str, Any]) -> dict[str, Any]:
     ----------
     case : Case
         A ``tiltrotor-hover-linear`` case (design: a Table 7.2 label).
-    ctrl : dict
+    result : SynthesisResult
         Its design, from :func:`hover_design`.
 
     Returns
@@ -261,7 +254,7 @@ def hover_linear_case(case: Case, ctrl: dict[str, Any]) -> dict[str, Any]:
     trim = _hover_setup()[0]
     seed, turbulence = hover_turbulence(case)
     duration = case.duration or (HOVER_SMOKE_DURATION if case.smoke else HOVER_DURATION)
-    d = simulate_design(ctrl, trim, duration, seed=seed, turbulence=turbulence,
+    d = simulate_design(result, trim, duration, seed=seed, turbulence=turbulence,
                         plant_params=plant_params(case))
     idx = flight_indices(d, trim)
     failure = d["stopped"] or ("" if idx["finite"] else "state not finite")

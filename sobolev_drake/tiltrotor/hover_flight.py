@@ -24,6 +24,8 @@ from sobolev_drake.tiltrotor.linear_controller import LinearHoverController, che
 if TYPE_CHECKING:
     from pydrake.geometry import Meshcat
 
+    from sobolev_drake.synthesis.controller import DynamicController
+    from sobolev_drake.synthesis.problem import SynthesisResult
     from sobolev_drake.systems.references import TrajectoryReference
     from sobolev_drake.systems.wind import VonKarmanParameters
     from sobolev_drake.tiltrotor.params import TiltrotorParams
@@ -91,7 +93,7 @@ def literal_noise_turbulence() -> VonKarmanParameters:
     return replace(p, sigma=tuple(float(k * v) for v in p.sigma))
 
 
-def simulate_design(ctrl: dict[str, Any], trim: Trim, duration: float, *, seed: int = 7,
+def simulate_design(ctrl: SynthesisResult | DynamicController, trim: Trim, duration: float, *, seed: int = 7,
                     log_period: float = 0.01, meshcat: Meshcat | None = None,
                     turbulence: VonKarmanParameters | None = None, max_wall_s: float = 600.0,
                     controller_state0: ArrayLike | None = None, velocity_reference: str = "zero",
@@ -106,8 +108,9 @@ def simulate_design(ctrl: dict[str, Any], trim: Trim, duration: float, *, seed: 
 
     Parameters
     ----------
-    ctrl : dict
-        A design dict (:class:`~sobolev_drake.tiltrotor.linear_controller.LinearHoverController`).
+    ctrl : SynthesisResult or DynamicController
+        A hover design (:func:`~sobolev_drake.tiltrotor.linear_design.design`) or its
+        controller (:class:`~sobolev_drake.tiltrotor.linear_controller.LinearHoverController`).
     trim : Trim
         The hover trim the design linearized at (``trim.info["model"]`` gives the plant).
     duration : float
@@ -251,14 +254,14 @@ def flight_indices(data: dict[str, Any], trim: Trim) -> dict[str, Any]:
             "finite": bool(np.all(np.isfinite(x)))}
 
 
-def literal_noise_flight(ctrl: dict[str, Any], trim: Trim, duration: float,
+def literal_noise_flight(ctrl: SynthesisResult | DynamicController, trim: Trim, duration: float,
                          velocity_reference: str) -> dict[str, Any]:
     """Indices of one flight in :func:`literal_noise_turbulence` (a failed run is reported).
 
     Parameters
     ----------
-    ctrl : dict
-        A design dict.
+    ctrl : SynthesisResult or DynamicController
+        A hover design (:func:`simulate_design`).
     trim : Trim
         The hover trim.
     duration : float

@@ -20,6 +20,9 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
+from sobolev_drake.synthesis.controller import DynamicController
+from sobolev_drake.synthesis.problem import SynthesisResult
+from sobolev_drake.tiltrotor.linear_design import measurement_matrix
 from sobolev_drake.tiltrotor.scalars import default_instantiation, scalar_math
 
 if TYPE_CHECKING:
@@ -82,9 +85,11 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
 
         Parameters
         ----------
-        ctrl : dict
-            ``kind`` "sf" with ``K`` (4 × 20), or "dyn" with ``AK, BK, CK, DK`` and ``C``
-            (:func:`sobolev_drake.tiltrotor.linear_design.design`).
+        ctrl : SynthesisResult or DynamicController
+            A hover design (:func:`sobolev_drake.tiltrotor.linear_design.design`) or its
+            controller: a state feedback's gain K (4 × 20) or a controller on y = C Δx, C =
+            :func:`~sobolev_drake.tiltrotor.linear_design.measurement_matrix` (20 or 18
+            inputs).
         trim : Trim
             The hover trim (``q``, ``n``, ``tau_s``).
         velocity_reference : str, default "zero"
@@ -95,15 +100,23 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
             LeafSystem_[T].__init__(self, converter=converter)
             self._args = (ctrl, trim, velocity_reference)
             self.path_velocity = check_velocity_reference(velocity_reference) == "path"
-            self.kind = ctrl["kind"]
+            if isinstance(ctrl, DynamicController):
+                ctrl = SynthesisResult("output_feedback", np.nan, controller=ctrl)
+            C = measurement_matrix(ctrl)     # refuses a controller reading neither Δx nor y
+            if ctrl.controller.nu != 4 or ctrl.controller.dt != 0:
+                raise ValueError(f"ctrl must be a continuous-time controller with 4 outputs (Δu), "
+                                 f"got {ctrl.controller.nu} outputs and dt = {ctrl.controller.dt}")
+            # a gain is applied as K Δx with the synthesis' array as is (same BLAS kernel, same
+            # bits as the published flights; see the module docstring)
+            self.static = ctrl.K is not None
             self.q_trim = np.asarray(trim.q, float).copy()
             self.u_trim = np.r_[trim.n, trim.tau_s]
-            if self.kind == "sf":
-                self.K = np.asarray(ctrl["K"])
+            if self.static:
+                self.K = np.asarray(ctrl.K)
                 nk = 0
             else:
-                self.AK, self.BK, self.CK, self.DK = (np.asarray(ctrl[k]) for k in ("AK", "BK", "CK", "DK"))
-                self.C = np.asarray(ctrl["C"])
+                self.AK, self.BK, self.CK, self.DK = ctrl.controller
+                self.C = C
                 nk = self.AK.shape[0]
             self.nk = nk
             self.x_port = self.DeclareVectorInputPort("x", 16)
@@ -146,7 +159,7 @@ def LinearHoverController_(T):                   # noqa: D103 - the template of 
 
         def _du(self, context):
             dx, xk = self.delta_x(context)
-            if self.kind == "sf":
+            if self.static:
                 return self.K @ dx
             return self.CK @ xk + self.DK @ (self.C @ dx)
 

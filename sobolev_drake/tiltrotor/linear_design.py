@@ -8,7 +8,12 @@ filter states in the plant, v the filters' white-noise input), so the state- and
 disturbance-model designs can be compared on the same number.
 
 A design is a value (:class:`HoverDesign`) and the synthesis dispatches on its fields; its
-``label`` is only the row name of the tables and the key of the metrics.
+``label`` is only the row name of the tables and the key of the metrics.  :func:`design`
+returns the library's one result type, a
+:class:`~sobolev_drake.synthesis.problem.SynthesisResult`, whose controller acts on
+y = C Δx with C = :func:`measurement_matrix` (the identity for the state feedbacks and the
+well-posed W∞-D, :func:`output_matrix` for the output-feedback designs);
+:func:`design_metrics` scores it (channel norms, poles, margins) for the tables.
 
 See docs/experiments/tiltrotor-hover-linear.md.
 """
@@ -24,13 +29,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sobolev_drake.synthesis.designs import feedback_kind
+from sobolev_drake.synthesis.problem import SynthesisResult
 
 if TYPE_CHECKING:
     from sobolev_drake.tiltrotor.linearization import Linearization
 
 __all__ = ["GAMMA0", "GAMMA1", "UPSILON0", "UPSILON1_SF", "UPSILON1_OF", "DISK_RADIUS",
-           "HoverDesign", "DESIGN_SPECS", "DESIGNS", "OF_MEASURED", "output_matrix", "design",
-           "common_channel_norm", "wind_channel_norm", "loop_margins"]
+           "HoverDesign", "DESIGN_SPECS", "DESIGNS", "OF_MEASURED", "output_matrix",
+           "measurement_matrix", "design", "design_metrics", "common_channel_norm", "wind_channel_norm", "loop_margins"]
 
 GAMMA0 = np.diag([4.77, 4.77, 0.47, 3.82, 1.27, 5, 10, 10, 7.32, 7.32, 1.91, 6.36, 2.54, 1.66,
                   1.66, 1.66, 100, 100, 100, 100])
@@ -52,7 +58,7 @@ class HoverDesign:
         Row label of the tables and key of the metrics.
     feedback : str
         ``"state_feedback"`` on Δx or ``"output_feedback"`` on y = C Δx
-        (:func:`output_matrix`); older spellings ("sf", "of") are mapped on construction
+        (:func:`output_matrix`); older spellings ("sf", "of", "dyn") are mapped on construction
         (:func:`~sobolev_drake.synthesis.designs.feedback_kind`).
     disturbance : str
         ``"none"``: the W∞ channel (6.1) (state feedback (6.7), output feedback (6.22));
@@ -79,13 +85,13 @@ class HoverDesign:
 #: The well-posed W∞-D is an output-feedback synthesis (filter states unmeasured) and gets the
 #: disk like the O.F. designs; the (6.36) design is the slowest (singular weight, margin 0).
 DESIGN_SPECS = {d.label: d for d in (
-    HoverDesign("W∞", "sf", column="W∞"),
-    HoverDesign("W∞ (disk r=250)", "sf", disk=True),  # what the region costs the state feedback
-    HoverDesign("W∞-D (thesis LMI)", "sf", "thesis", column="W∞-D"),
-    HoverDesign("W∞-O.F.", "of", disk=True, column="W∞-O.F."),
-    HoverDesign("W∞-D", "sf", "augmented", disk=True, column="W∞-D"),
-    HoverDesign("W∞-O.F.D", "of", "augmented", disk=True, column="W∞-O.F.D"),
-    HoverDesign("W∞-O.F.D (thesis LMI)", "of", "thesis", disk=True, column="W∞-O.F.D"),
+    HoverDesign("W∞", "state_feedback", column="W∞"),
+    HoverDesign("W∞ (disk r=250)", "state_feedback", disk=True),  # what the region costs the state feedback
+    HoverDesign("W∞-D (thesis LMI)", "state_feedback", "thesis", column="W∞-D"),
+    HoverDesign("W∞-O.F.", "output_feedback", disk=True, column="W∞-O.F."),
+    HoverDesign("W∞-D", "state_feedback", "augmented", disk=True, column="W∞-D"),
+    HoverDesign("W∞-O.F.D", "output_feedback", "augmented", disk=True, column="W∞-O.F.D"),
+    HoverDesign("W∞-O.F.D (thesis LMI)", "output_feedback", "thesis", disk=True, column="W∞-O.F.D"),
 )}
 DESIGNS = tuple(DESIGN_SPECS)
 #: measured outputs of the output-feedback designs: all of Δx except Δẋ, Δẏ (indices 13, 14)
@@ -102,47 +108,75 @@ def output_matrix() -> NDArray[np.float64]:
     return np.eye(20)[OF_MEASURED]
 
 
+def measurement_matrix(result: SynthesisResult) -> NDArray[np.float64]:
+    """C of y = C Δx, the measurement the controller of a hover design ``result`` acts on.
+
+    Every controller of :func:`design` reads either the whole Δx (state feedbacks, whose static
+    controller has DK = K, and the well-posed W∞-D) or y = :func:`output_matrix` Δx (the
+    output-feedback designs); its number of inputs tells which.
+
+    Parameters
+    ----------
+    result : SynthesisResult
+        A result of :func:`design` (or any result whose controller reads 20 or 18 inputs).
+
+    Returns
+    -------
+    ndarray, shape (20, 20) or (18, 20)
+
+    Raises
+    ------
+    ValueError
+        The result has no controller or its controller reads neither 20 nor 18 inputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sobolev_drake import SynthesisResult
+    >>> from sobolev_drake.tiltrotor.linear_design import measurement_matrix
+    >>> measurement_matrix(SynthesisResult("state_feedback", 1.0, K=np.zeros((4, 20)))).shape
+    (20, 20)
+    """
+    ctrl = result.controller if isinstance(result, SynthesisResult) else None
+    ny = None if ctrl is None else ctrl.ny
+    if ny == 20:
+        return np.eye(20)
+    if ny == len(OF_MEASURED):
+        return output_matrix()
+    raise ValueError(f"result must be a hover design whose controller reads Δx (20) or "
+                     f"y = output_matrix() Δx ({len(OF_MEASURED)}), got "
+                     f"{type(result).__name__} with {ny} controller inputs")
+
+
 def _disturbance_model():
     from sobolev_drake.systems.wind import von_karman_state_space
     Ad, Bd, Cd, _ = von_karman_state_space()
     return Ad, Bd, Cd
 
 
-def _dynamic_controller(ctrl):
-    """The :class:`DynamicController` of a ``kind == "dyn"`` design dict."""
-    from sobolev_drake.synthesis.hinf import DynamicController
-    return DynamicController(ctrl["AK"], ctrl["BK"], ctrl["CK"], ctrl["DK"])
-
-
-def _closed_loop_norm(plant, ctrl, extra_states=0):
-    """‖T‖∞ of ``plant`` closed by ``ctrl`` (inf if unstable); a state feedback K ignores the
-    last ``extra_states`` states (the disturbance filters it does not measure)."""
+def _closed_loop_norm(plant, result):
+    """‖T‖∞ of ``plant`` closed by ``result``'s controller (inf if unstable)."""
     from sobolev_drake.synthesis.certificates import hinf_norm
 
-    if ctrl["kind"] == "sf":
-        K = np.asarray(ctrl["K"])
-        cl = plant.closed_loop(K=np.hstack([K, np.zeros((K.shape[0], extra_states))]))
-    else:
-        cl = plant.closed_loop(controller=_dynamic_controller(ctrl))
+    cl = plant.closed_loop(controller=result.controller)
     if np.linalg.eigvals(cl[0]).real.max() >= 0:
         return np.inf
     return float(hinf_norm(*cl)[0])
 
 
-def common_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
-    """‖T_vz‖∞ of the augmented (x, d) plant closed with ``ctrl`` (acting on x or y = C x).
+def common_channel_norm(lin: Linearization, result: SynthesisResult) -> float:
+    """‖T_vz‖∞ of the augmented (x, d) plant closed with ``result`` (acting on y = C Δx).
 
     v → d → ζ = Cd d is the von Kármán model (7.58)–(7.60); z = [Γ0^½ Δx; Γ1^½ Δẋ].  Same
     yardstick for every design (the well-posed disturbance-model designs minimize exactly
-    this).
+    this); the filter states d are never measured.
 
     Parameters
     ----------
     lin : Linearization
         The hover linearization (7.57) (fields A, B, D).
-    ctrl : dict
-        A design dict of :func:`design` (``kind`` "sf" with ``K`` or "dyn" with ``AK`` …
-        ``DK`` and ``C``).
+    result : SynthesisResult
+        A design of :func:`design`; C = :func:`measurement_matrix` of it.
 
     Returns
     -------
@@ -152,20 +186,20 @@ def common_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
     from sobolev_drake.synthesis import sobolev as sb
 
     Ad, Bd, Cd = _disturbance_model()
-    C = None if ctrl["kind"] == "sf" else ctrl["C"]
-    p = sb.augmented_disturbance_plant(lin.A, lin.B, lin.D, Ad, Bd, Cd, GAMMA0, GAMMA1, C=C)
-    return _closed_loop_norm(p, ctrl, extra_states=Ad.shape[0])
+    p = sb.augmented_disturbance_plant(lin.A, lin.B, lin.D, Ad, Bd, Cd, GAMMA0, GAMMA1,
+                                       C=measurement_matrix(result))
+    return _closed_loop_norm(p, result)
 
 
-def wind_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
+def wind_channel_norm(lin: Linearization, result: SynthesisResult) -> float:
     """‖T_ζz‖∞ of the W∞ channel (6.1): wind ζ → z = [Γ0^½ Δx; Γ1^½ Δẋ], any controller.
 
     Parameters
     ----------
     lin : Linearization
         The hover linearization (7.57) (fields A, B, D).
-    ctrl : dict
-        A design dict of :func:`design`.
+    result : SynthesisResult
+        A design of :func:`design`.
 
     Returns
     -------
@@ -174,12 +208,12 @@ def wind_channel_norm(lin: Linearization, ctrl: dict[str, Any]) -> float:
     """
     from sobolev_drake.synthesis import sobolev as sb
 
-    C = None if ctrl["kind"] == "sf" else ctrl["C"]
-    return _closed_loop_norm(sb.winf_plant(lin.A, lin.B, C, lin.D, Gamma0=GAMMA0, Gamma1=GAMMA1), ctrl)
+    plant = sb.winf_plant(lin.A, lin.B, measurement_matrix(result), lin.D, Gamma0=GAMMA0, Gamma1=GAMMA1)
+    return _closed_loop_norm(plant, result)
 
 
 def _solve(lin, spec, backend, x0=None):
-    """Returns (SynthesisResult, C or None, extra notes); ``x0``: see :func:`design`."""
+    """Returns (SynthesisResult, extra notes); ``x0``: see :func:`design`."""
     from sobolev_drake.synthesis import hinf, regions
     from sobolev_drake.synthesis import sobolev as sb
     from sobolev_drake.synthesis.lmi import InfeasibleLMIError
@@ -201,11 +235,11 @@ def _solve(lin, spec, backend, x0=None):
         backend = "clarabel" if thesis_form else "auto"
     if spec.disturbance == "none" and not of:
         return sb.winf_state_feedback(A, B, D, GAMMA0, GAMMA1, backend=backend, initial_states=x0,
-                                      region=region, time_limit=None), None, notes
+                                      region=region, time_limit=None), notes
     if spec.disturbance == "none":
         C = output_matrix()
         return hinf.output_feedback(sb.winf_plant(A, B, C, D, Gamma0=GAMMA0, Gamma1=GAMMA1), region=region,
-                                    backend=backend, initial_states=x0, time_limit=None), C, notes
+                                    backend=backend, initial_states=x0, time_limit=None), notes
     Ad, Bd, Cd = _disturbance_model()
     if thesis_form:
         ups1 = UPSILON1_OF if of else UPSILON1_SF
@@ -230,7 +264,7 @@ def _solve(lin, spec, backend, x0=None):
             raise InfeasibleLMIError(f"non-strict ({'6.36' if of else '6.31'}) not solved: {exc}",
                                      exc.status) from None
         notes.append("non-strict solve: γ is the solver's value, not a verified bound")
-        return r, C, notes
+        return r.replace(method="thesis_lmi"), notes
     C = output_matrix() if of else None
     plant = sb.augmented_disturbance_plant(A, B, D, Ad, Bd, Cd, GAMMA0, GAMMA1, C=C)
     notes.append("well-posed: filter states in the plant, unmeasured; γ bounds ‖T_vz‖∞")
@@ -244,11 +278,11 @@ def _solve(lin, spec, backend, x0=None):
     # were measured not to fly better (docs/experiments/tiltrotor-hover-linear.md).  The
     # optimum can still differ between machines (it depends on Clarabel's thread count).
     r = hinf.output_feedback(plant, region=region, backend=dm_backend, time_limit=None)
-    return r, (np.eye(20) if C is None else C), notes
+    return r, notes
 
 
 def design(lin: Linearization, which: str | HoverDesign, *, backend: str | None = None,
-           initial_state: ArrayLike | None = None) -> dict[str, Any]:
+           initial_state: ArrayLike | None = None) -> SynthesisResult:
     """Synthesize one of :data:`DESIGNS` on the linearization ``lin``.
 
     Given an ``initial_state``, the designs whose γ is fixed at (1+δ)γ* (W∞, W∞-O.F.: optimum
@@ -272,13 +306,21 @@ def design(lin: Linearization, which: str | HoverDesign, *, backend: str | None 
 
     Returns
     -------
-    dict
-        ``kind`` ("sf" with ``K`` or "dyn" with ``AK, BK, CK, DK`` acting on y = ``C`` Δx),
-        ``gamma``, ``certified`` (None when there is no verified bound to check),
-        ``achieved`` (‖T‖∞ of the design's own channel), ``gamma_wind`` (‖T_ζz‖∞,
-        :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`),
-        ``max_real``/``max_abs`` (closed-loop poles), ``delay_margin_s``/``gain_margins``
-        (:func:`loop_margins`), ``solve_s``, ``notes`` (list of str), ``result``.
+    SynthesisResult
+        The synthesis result; its ``controller`` acts on y = C Δx, C =
+        :func:`measurement_matrix` (``kind`` is ``"output_feedback"`` for the well-posed
+        W∞-D too: it estimates the unmeasured filter states).  ``warnings`` also holds the
+        design's notes (degeneracy of the thesis forms, warnings raised while solving);
+        ``timings["design"]`` is the wall time of the whole call; the thesis-form results
+        have ``method == "thesis_lmi"`` (γ the solver's value, not a verified bound).
+        :func:`design_metrics` scores it.
+
+    Raises
+    ------
+    ValueError
+        ``which`` is not a design, or ``initial_state`` is not a finite 20-vector.
+    SynthesisError
+        The synthesis failed (W∞-O.F.D (thesis LMI) does).
     """
     from sobolev_drake.synthesis.lmi import SynthesisError
 
@@ -292,37 +334,60 @@ def design(lin: Linearization, which: str | HoverDesign, *, backend: str | None 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            r, C, notes = _solve(lin, spec, backend, x0)
+            r, notes = _solve(lin, spec, backend, x0)
             failed = None
         except SynthesisError as exc:
             failed = exc
     if failed is not None:
         raise failed
-    notes += [str(w.message) for w in caught]
-    out = {"gamma": float(r.gamma), "solver": r.solver, "status": r.status,
-           "solve_s": time.perf_counter() - t0, "notes": notes, "result": r,
+    notes = list(dict.fromkeys([*r.warnings, *notes, *(str(w.message) for w in caught)]))
+    return r.replace(warnings=notes, timings={**r.timings, "design": time.perf_counter() - t0})
+
+
+def design_metrics(lin: Linearization, result: SynthesisResult) -> dict[str, Any]:
+    """The scores of a hover design: its γ, certificate, channel norms, poles and margins.
+
+    Parameters
+    ----------
+    lin : Linearization
+        The hover linearization (7.57) the design was made on.
+    result : SynthesisResult
+        A result of :func:`design`.
+
+    Returns
+    -------
+    dict
+        ``kind`` and ``order`` (controller states), ``gamma``, ``gamma_opt``,
+        ``feedthrough_bound``, ``transient_bound``, ``solver``, ``status``, ``solve_s``
+        (``timings["design"]``), ``notes`` (``warnings``), ``certified`` (None when there
+        is no verified bound to check: the thesis forms), ``achieved`` (‖T‖∞ of the design's
+        own channel), ``max_real``/``max_abs`` (closed-loop poles), ``certificate_failures``
+        (the last four only with a certificate), ``gamma_wind`` (‖T_ζz‖∞,
+        :func:`wind_channel_norm`), ``gamma_common`` (‖T_vz‖∞, :func:`common_channel_norm`),
+        ``delay_margin_s``/``gain_margins`` (:func:`loop_margins`).  JSON-serializable
+        apart from inf/NaN.
+    """
+    r = result
+    out = {"kind": r.kind, "order": int(r.controller.nk), "gamma": float(r.gamma),
            "gamma_opt": float(r.gamma_opt), "feedthrough_bound": float(r.feedthrough_bound),
-           "transient_bound": r.transient_bound}
-    if r.K is not None:
-        out.update(kind="sf", K=np.asarray(r.K))
-    else:
-        c = r.controller
-        out.update(kind="dyn", AK=c.AK, BK=c.BK, CK=c.CK, DK=c.DK, C=C, order=int(c.AK.shape[0]))
+           "transient_bound": r.transient_bound, "solver": r.solver, "status": r.status,
+           "solve_s": float(r.timings.get("design", r.timings.get("total", np.nan))),
+           "notes": list(r.warnings)}
     cert = r.certificate
     if cert is not None:
         ev = cert.eigenvalues
         out.update(achieved=float(cert.achieved), max_real=float(cert.max_real_eig),
                    max_abs=float(np.abs(ev).max()) if ev.size else np.nan,
-                   certified=None if spec.disturbance == "thesis" else bool(cert.ok),
+                   certified=None if r.method == "thesis_lmi" else bool(cert.ok),
                    certificate_failures=list(cert.failures))
-    out["gamma_wind"] = wind_channel_norm(lin, out)
-    out["gamma_common"] = common_channel_norm(lin, out)
-    out.update(loop_margins(lin, out))
+    out["gamma_wind"] = wind_channel_norm(lin, r)
+    out["gamma_common"] = common_channel_norm(lin, r)
+    out.update(loop_margins(lin, r))
     return out
 
 
-def loop_margins(lin: Linearization, ctrl: dict[str, Any]) -> dict[str, Any]:
-    """Delay and gain margins of ``ctrl`` at the plant input of the linearization.
+def loop_margins(lin: Linearization, result: SynthesisResult) -> dict[str, Any]:
+    """Delay and gain margins of ``result``'s controller at the plant input of the linearization.
 
     Uniform on all four inputs (:mod:`sobolev_drake.synthesis.margins`).
 
@@ -330,8 +395,8 @@ def loop_margins(lin: Linearization, ctrl: dict[str, Any]) -> dict[str, Any]:
     ----------
     lin : Linearization
         The hover linearization (7.57) (fields A, B).
-    ctrl : dict
-        A design dict of :func:`design`.
+    result : SynthesisResult
+        A design of :func:`design`.
 
     Returns
     -------
@@ -341,9 +406,9 @@ def loop_margins(lin: Linearization, ctrl: dict[str, Any]) -> dict[str, Any]:
     """
     from sobolev_drake.synthesis.margins import input_delay_margin, input_gain_margins
 
-    K, C = (ctrl["K"], None) if ctrl["kind"] == "sf" else (_dynamic_controller(ctrl), ctrl["C"])
+    C = measurement_matrix(result)
     try:
-        return {"delay_margin_s": input_delay_margin(lin.A, lin.B, K, C),
-                "gain_margins": list(input_gain_margins(lin.A, lin.B, K, C))}
+        return {"delay_margin_s": input_delay_margin(lin.A, lin.B, result.controller, C),
+                "gain_margins": list(input_gain_margins(lin.A, lin.B, result.controller, C))}
     except ValueError:  # unstable nominal loop (a thesis-form solve is not verified)
         return {"delay_margin_s": None, "gain_margins": None}

@@ -67,26 +67,27 @@ def thesis_cells(spec: HoverDesign) -> tuple[float, float] | tuple[str, str]:
     return THESIS_TABLE_7_2[spec.column] if spec.column else ("-", "-")
 
 
-def gamma_cell(ctrl: dict[str, Any]) -> str:
+def gamma_cell(metrics: dict[str, Any]) -> str:
     """γ column: value, ✓ when certified, or why it is not a bound.
 
     Parameters
     ----------
-    ctrl : dict
-        A design dict (``gamma``, ``certified``, ``achieved``).
+    metrics : dict
+        Scores of a design (:func:`~sobolev_drake.tiltrotor.linear_design.design_metrics`:
+        ``gamma``, ``certified``, ``achieved``).
 
     Returns
     -------
     str
     """
-    if ctrl.get("certified") is None:
-        return f"{ctrl['gamma']:.4g} (solver value, not a bound)"
-    if ctrl["certified"]:
-        return f"{ctrl['gamma']:.4g} ✓"
-    return f"{ctrl['gamma']:.4g} ✗ (‖T‖∞ = {ctrl['achieved']:.4g})"
+    if metrics.get("certified") is None:
+        return f"{metrics['gamma']:.4g} (solver value, not a bound)"
+    if metrics["certified"]:
+        return f"{metrics['gamma']:.4g} ✓"
+    return f"{metrics['gamma']:.4g} ✗ (‖T‖∞ = {metrics['achieved']:.4g})"
 
 
-def design_cells(name: str, ctrl: dict[str, Any]) -> list[str]:
+def design_cells(name: str, metrics: dict[str, Any]) -> list[str]:
     """The first columns of a synthesized design's row of :data:`TABLE_7_2_COLUMNS`
     (design … synthesis).
 
@@ -94,20 +95,20 @@ def design_cells(name: str, ctrl: dict[str, Any]) -> list[str]:
     ----------
     name : str
         Row label.
-    ctrl : dict
-        The design dict.
+    metrics : dict
+        Its scores (:func:`~sobolev_drake.tiltrotor.linear_design.design_metrics`).
 
     Returns
     -------
     list of str
     """
-    tau = ctrl.get("delay_margin_s")
+    tau = metrics.get("delay_margin_s")
     margin = "-" if tau is None else ("∞" if np.isinf(tau) else f"{1e3 * tau:.3g}")
-    return [name, gamma_cell(ctrl), f"{ctrl['gamma_wind']:.4g}", f"{ctrl['gamma_common']:.4g}", margin,
-            f"{ctrl['solve_s']:.1f}"]
+    return [name, gamma_cell(metrics), f"{metrics['gamma_wind']:.4g}", f"{metrics['gamma_common']:.4g}", margin,
+            f"{metrics['solve_s']:.1f}"]
 
 
-def flight_row(spec: HoverDesign, ctrl: dict[str, Any], idx: dict[str, Any],
+def flight_row(spec: HoverDesign, metrics: dict[str, Any], idx: dict[str, Any],
                stopped: str) -> list[str | float]:
     """Row of a flown design: its cells, ISE, IADU, the thesis' and the notes.
 
@@ -115,8 +116,8 @@ def flight_row(spec: HoverDesign, ctrl: dict[str, Any], idx: dict[str, Any],
     ----------
     spec : HoverDesign
         The design.
-    ctrl : dict
-        Its design dict (``notes``).
+    metrics : dict
+        Its scores (``notes``; :func:`~sobolev_drake.tiltrotor.linear_design.design_metrics`).
     idx : dict
         Flight indices (``ise``, ``iadu``).
     stopped : str
@@ -126,8 +127,8 @@ def flight_row(spec: HoverDesign, ctrl: dict[str, Any], idx: dict[str, Any],
     -------
     list
     """
-    return [*design_cells(spec.label, ctrl), f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}",
-            *thesis_cells(spec), "; ".join(([stopped.upper()] if stopped else []) + ctrl["notes"])[:300]]
+    return [*design_cells(spec.label, metrics), f"{idx['ise']:.1f}", f"{idx['iadu']:.1f}",
+            *thesis_cells(spec), "; ".join(([stopped.upper()] if stopped else []) + metrics["notes"])[:300]]
 
 
 def synthesis_failed_row(spec: HoverDesign, error: str) -> list[str | float]:
@@ -147,15 +148,15 @@ def synthesis_failed_row(spec: HoverDesign, error: str) -> list[str | float]:
     return [spec.label, "synthesis failed", "-", "-", "-", "-", "-", "-", *thesis_cells(spec), error[:200]]
 
 
-def sim_failed_row(spec: HoverDesign, ctrl: dict[str, Any], error: str) -> list[str | float]:
+def sim_failed_row(spec: HoverDesign, metrics: dict[str, Any], error: str) -> list[str | float]:
     """Row of a design whose flight raised.
 
     Parameters
     ----------
     spec : HoverDesign
         The design.
-    ctrl : dict
-        Its design dict.
+    metrics : dict
+        Its scores (:func:`~sobolev_drake.tiltrotor.linear_design.design_metrics`).
     error : str
         The failure.
 
@@ -163,7 +164,7 @@ def sim_failed_row(spec: HoverDesign, ctrl: dict[str, Any], error: str) -> list[
     -------
     list
     """
-    return [*design_cells(spec.label, ctrl), "sim failed", "-", *thesis_cells(spec), error[:200]]
+    return [*design_cells(spec.label, metrics), "sim failed", "-", *thesis_cells(spec), error[:200]]
 
 
 LITERAL_NOISE_COLUMNS = ["design", "flight", "RMS position [m]", "final [m]", "max |φ|,|θ| [°]",

@@ -48,7 +48,7 @@ def test_same_case_same_record_even_after_resynthesis():
     first = strip(run_case(case))
     assert strip(run_case(case)) == first
     # synthesize again and fly that copy: this solver is deterministic, so pinning changes nothing
-    assert strip(run_case(case, {"design": qp.campaign_gain("W∞")})) == first
+    assert strip(run_case(case, {"design": qp.campaign_design("W∞")})) == first
     assert strip(run_case(make_cases(NAME, 1, first_seed=8, designs=["W∞"], smoke=True)[0])) != first
 
 
@@ -82,6 +82,6 @@ def test_default_scenario_unchanged_and_truth_separate_from_trim():
 
 def test_diverging_flight_is_a_failed_record():
     case = make_cases(NAME, 1, smoke=True)[0]
-    out = qh.campaign_flight(-qp.campaign_gain("W∞"), 2.0, case)   # positive feedback tumbles
+    out = qh.campaign_flight(-qp.campaign_design("W∞").K, 2.0, case)   # positive feedback tumbles
     assert not out["success"] and "DIVERGED_TILT" in out["failure"]
     assert out["indices"]["ISE"] == math.inf

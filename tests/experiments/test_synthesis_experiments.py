@@ -135,7 +135,14 @@ def test_linear_simple_designs_are_values():
     """The rows of Table 6.1 are LoopDesign values (dispatched on their fields), in table order;
     an unknown feedback is rejected."""
     assert [d.label for d in sl.DESIGNS] == ["W∞", "W∞-D", "W∞-O.F.", "W∞-O.F.D"]
-    assert [d.feedback for d in sl.DESIGNS] == ["sf", "of_x", "of_y", "of_y"]
+    assert [(d.feedback, d.measured) for d in sl.DESIGNS] == [
+        ("state_feedback", "state"), ("output_feedback", "state"), ("output_feedback", "output"),
+        ("output_feedback", "output")]
+    # the older spellings still construct the same rows
+    assert [clb.LoopDesign(d.label, old, d.disturbance_model) for d, old in
+            zip(sl.DESIGNS, ("sf", "of_x", "of_y", "of_y"))] == list(sl.DESIGNS)
+    with pytest.raises(ValueError, match="measured must be"):
+        clb.LoopDesign("W∞", "state_feedback", measured="output")
     assert [d.disturbance_model for d in sl.DESIGNS] == [False, True, False, True]
-    with pytest.raises(ValueError, match="feedback must be one of"):
+    with pytest.raises(ValueError, match="feedback must be 'state_feedback' or 'output_feedback'"):
         clb.LoopDesign("W∞", "static")

@@ -24,6 +24,8 @@ from pydrake.systems.controllers import LinearQuadraticRegulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Linearize
 
+from sobolev_drake.synthesis.controller import DynamicController
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.tiltrotor.aerodynamics import AerodynamicSurfaces
 from sobolev_drake.tiltrotor.allocation import ControlAllocator
 from sobolev_drake.tiltrotor.body_frame import body_kinematics_scalar
@@ -222,11 +224,13 @@ def test_linear_hover_controller_converts():
         q, n, tau_s = np.r_[-0.137, -0.137, 0, 0.137, 0, 0, 0, 0], np.r_[51.9, 51.9], np.r_[-0.127, -0.127]
 
     C = np.eye(20)[[i for i in range(20) if i not in (13, 14)]]
-    designs = [{"kind": "sf", "K": rng.normal(size=(4, 20))},
-               {"kind": "dyn", "AK": -np.eye(3), "BK": rng.normal(size=(3, 18)),
-                "CK": rng.normal(size=(4, 3)), "DK": rng.normal(size=(4, 18)), "C": C}]
-    for ctrl, reference in zip(designs, ("zero", "path")):
-        c = LinearHoverController(ctrl, Trim(), reference)
+    designs = [SynthesisResult("state_feedback", np.nan, K=rng.normal(size=(4, 20))),
+               SynthesisResult("output_feedback", np.nan, controller=DynamicController(
+                   -np.eye(3), rng.normal(size=(3, 18)), rng.normal(size=(4, 3)),
+                   rng.normal(size=(4, 18))))]
+    for result, reference in zip(designs, ("zero", "path")):
+        ctrl = {"kind": result.kind, "K": result.K, **dict(zip(("AK", "BK", "CK", "DK"), result.controller))}
+        c = LinearHoverController(result, Trim(), reference)
         x, ref, s = rng.normal(size=16), rng.normal(size=12), rng.normal(size=4 + c.nk)
         ctx = c.CreateDefaultContext()
         c.get_input_port(0).FixValue(ctx, x)
@@ -234,7 +238,7 @@ def test_linear_hover_controller_converts():
         ctx.SetContinuousState(s)
         outs = [c.get_output_port(i).Eval(ctx) for i in range(4)] + [c.EvalTimeDerivatives(ctx).CopyToVector()]
         dx, xk = c.delta_x(ctx)
-        terms = np.abs(ctrl["K"]) @ np.abs(dx) if ctrl["kind"] == "sf" else \
+        terms = np.abs(ctrl["K"]) @ np.abs(dx) if ctrl["kind"] == "state_feedback" else \
             np.abs(ctrl["CK"]) @ np.abs(xk) + np.abs(ctrl["DK"]) @ (C @ np.abs(dx))
         tol = 20 * EPS * max(terms.max(), 60.0)          # the 20-term sums (module docstring)
         z = InitializeAutoDiff(np.r_[x, ref, s])[:, 0]
@@ -247,7 +251,7 @@ def test_linear_hover_controller_converts():
         for r, g in zip(outs, got):
             np.testing.assert_allclose(ExtractValue(g).ravel(), r, rtol=0, atol=tol)
         # ∂(delta_u)/∂x of a state feedback is K on the state part of Δx
-        if ctrl["kind"] == "sf":
+        if ctrl["kind"] == "state_feedback":
             np.testing.assert_allclose(ExtractGradient(got[3])[:, :16], ctrl["K"][:, :16], rtol=0, atol=0)
         sym = c.ToSymbolic()
         sctx = sym.CreateDefaultContext()

@@ -7,6 +7,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from sobolev_drake.experiments import tiltrotor_hover_linear as hl
+from sobolev_drake.synthesis.controller import DynamicController
+from sobolev_drake.synthesis.problem import SynthesisResult
 from sobolev_drake.tiltrotor import hover_flight as hf
 from sobolev_drake.tiltrotor import linear_design as ld
 from sobolev_drake.tiltrotor.linear_controller import LinearHoverController
@@ -42,7 +44,7 @@ def test_state_feedback_output_and_integrators(velocity_reference):
     x = np.r_[_Trim.q + rng.normal(scale=0.01, size=8), rng.normal(scale=0.1, size=8)]
     ref = np.r_[1.0, 2.0, 3.0, 0.1, 0.5, -0.5, 0.2, 0.0, 0, 0, 0, 0]
     ints = np.array([0.1, -0.2, 0.3, 0.05])
-    c, cc = _build({"kind": "sf", "K": K}, x, ref, ints, velocity_reference)
+    c, cc = _build(SynthesisResult("state_feedback", np.nan, K=K), x, ref, ints, velocity_reference)
     qr = _Trim.q.copy()
     qr[4:8] = [0.1, 1.0, 2.0, 3.0]
     qdr = np.zeros(8)  # "zero": the thesis' q̇_r = 0
@@ -63,11 +65,13 @@ def test_dynamic_controller_output():
     nk = 3
     C = ld.output_matrix()
     assert C.shape == (18, 20) and np.all(C[:, 13] == 0) and np.all(C[:, 14] == 0)
-    ctrl = {"kind": "dyn", "AK": -np.eye(nk), "BK": rng.normal(size=(nk, 18)),
-            "CK": rng.normal(size=(4, nk)), "DK": rng.normal(scale=0.01, size=(4, 18)), "C": C}
+    ctrl = {"AK": -np.eye(nk), "BK": rng.normal(size=(nk, 18)),
+            "CK": rng.normal(size=(4, nk)), "DK": rng.normal(scale=0.01, size=(4, 18))}
+    result = SynthesisResult("output_feedback", np.nan, controller=DynamicController(**ctrl))
+    assert np.array_equal(ld.measurement_matrix(result), C)    # 18 inputs: y = C Δx
     x = np.r_[_Trim.q, np.zeros(8)]
     ref = np.zeros(12)
-    c, cc = _build(ctrl, x, ref, np.r_[0, 0, 0, 0, 1.0, 2.0, 3.0])
+    c, cc = _build(result, x, ref, np.r_[0, 0, 0, 0, 1.0, 2.0, 3.0])
     dx = np.zeros(20)
     xk = np.array([1.0, 2.0, 3.0])
     assert np.allclose(c.GetOutputPort("delta_u").Eval(cc), ctrl["CK"] @ xk + ctrl["DK"] @ (C @ dx))
@@ -86,7 +90,9 @@ def test_initial_error_literal_noise_and_bad_options(tmp_path):
     assert np.allclose(lit.sigma, np.array([1.0, 5, 3]) * np.sqrt(0.01 / np.pi))
     assert lit.offset == (-3.0, 0.0, 0.0) and (lit.t_on, lit.t_off) == (30.0, 170.0)
     with pytest.raises(ValueError, match="velocity_reference"):
-        LinearHoverController({"kind": "sf", "K": np.zeros((4, 20))}, _Trim(), "wind")
+        LinearHoverController(SynthesisResult("state_feedback", 1.0, K=np.zeros((4, 20))), _Trim(), "wind")
+    with pytest.raises(ValueError, match="controller reads Δx"):   # neither 20 nor 18 inputs
+        LinearHoverController(DynamicController.static(np.zeros((4, 16))), _Trim())
     with pytest.raises(ValueError, match="regularization"):
         hl.run(tmp_path, smoke=True, regularization="h2")
     with pytest.raises(ValueError, match="crossflow must be one of"):
@@ -133,11 +139,11 @@ def test_smoke_design_certified_and_stable(smoke):
 
     out, res = smoke
     m = res.metrics["W∞"]
-    assert m["certified"] is True and m["kind"] == "sf"
+    assert m["certified"] is True and m["kind"] == "state_feedback" and m["order"] == 0
     # γ sits 1 % above the feedthrough (Parrott) bound ‖Γ1^½ D‖ (regularized design)
     assert m["feedthrough_bound"] <= m["gamma"] <= 1.011 * m["feedthrough_bound"]
     g = np.load(res.outputs["controllers_npz"])
-    assert str(g["d0_name"]) == "W∞"
+    assert str(g["d0_name"]) == "W∞" and str(g["d0_kind"]) == "state_feedback"
     K = g["d0_K"]
     lin = linearize(trim_hover())
     Acl = lin.A + lin.B @ K
@@ -217,7 +223,7 @@ def test_common_channel_is_wind_channel_times_von_karman_filter(smoke):
         return np.linalg.norm(T @ H, 2)
 
     sweep = max(gain(om) for om in w)
-    g = ld.common_channel_norm(lin, {"kind": "sf", "K": K})
+    g = ld.common_channel_norm(lin, SynthesisResult("state_feedback", np.nan, K=K))
     assert sweep <= g * (1 + 1e-6)
     assert sweep >= 0.99 * g
     assert g == pytest.approx(res.metrics["W∞"]["gamma_common"], rel=1e-9)
@@ -241,6 +247,6 @@ def test_flight_monitor_stops_early_and_says_why():
     same monitor stops lost aircraft, |φ| or |θ| > 90°, and non-finite states)."""
     from sobolev_drake.tiltrotor.trim import trim_hover
 
-    d = hf.simulate_design({"kind": "sf", "K": np.zeros((4, 20))}, trim_hover(), 5.0, max_wall_s=0.0)
+    d = hf.simulate_design(DynamicController.static(np.zeros((4, 20))), trim_hover(), 5.0, max_wall_s=0.0)
     assert d["stopped"].startswith("stopped at t = ") and "wall time > 0 s" in d["stopped"]
     assert d["t"][-1] < 0.5
