@@ -15,6 +15,7 @@ from sobolev_drake.synthesis.certificates import brl_residual, hinf_norm
 from sobolev_drake.synthesis.hinf_riccati import riccati_synthesis
 from sobolev_drake.synthesis.output_feedback import output_feedback
 from sobolev_drake.synthesis.random_plants import plant_family, random_plant
+from test_certificate_floor import stabilizing_brl_solution   # the same backward-error bound
 
 FAMILIES = ("stable", "unstable", "lightly_damped", "ill_conditioned", "feedthrough")
 
@@ -104,29 +105,6 @@ def test_output_feedback_optimum_matches_an_independent_care_bisection(case):
     assert res.gamma_opt == pytest.approx(hi, rel=2e-6)
 
 
-def _stabilizing_brl_solution(cl, P, level):
-    """(backward error, its bound, spectral abscissa of the feedback) of P for the closed
-    loop's bounded-real Riccati equation at ``level``.  Bound: 2n eps κ, the rounding of
-    2n-state data amplified by κ = max(cond(V), ||A_F|| / min |Re λ(A_F)|): the eigenvector
-    conditioning of the loop (test_certificate_floor.py) or the Riccati equation's own, whose
-    Lyapunov operator in A_F = Acl + Bcl F has separation ~ 2 min |Re λ(A_F)| — small when
-    ``level`` sits near the loop's norm (measured 1.2e-6 ||A_F|| on the unstable plant below,
-    whose backward error moved from 2e-11 to 1.1e-10 across OpenBLAS kernel families)."""
-    Acl, Bcl, Ccl, Dcl = cl
-    F = -np.linalg.solve(Dcl.T @ Dcl - level ** 2 * np.eye(Bcl.shape[1]),
-                         Bcl.T @ P + Dcl.T @ Ccl)
-    resid = Acl.T @ P + P @ Acl + Ccl.T @ Ccl + (P @ Bcl + Ccl.T @ Dcl) @ F
-    a = np.abs
-    terms = a(Acl).T @ a(P) + a(P) @ a(Acl) + a(Ccl).T @ a(Ccl) \
-        + (a(P) @ a(Bcl) + a(Ccl).T @ a(Dcl)) @ a(F)
-    AF = Acl + Bcl @ F
-    ev = np.linalg.eigvals(AF)
-    kappa = max(np.linalg.cond(np.linalg.eig(Acl)[1]),
-                np.linalg.norm(AF, 2) / max(np.abs(ev.real).min(), np.finfo(float).tiny))
-    tol = Acl.shape[0] * np.finfo(float).eps * kappa
-    return a(resid).max() / terms.max(), tol, ev.real.max()
-
-
 def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
     """A lightly damped plant whose P from the separation structure has a bounded-real
     residual between 1e-9 and BRL_TOL = 1e-7: accepted without the 2n-state CARE that used to
@@ -139,7 +117,7 @@ def test_candidate_p_accepted_on_the_final_test_is_the_stabilizing_solution():
         res = output_feedback(case.plant)
     cl = res.closed_loop(case.plant)
     assert 1e-9 < brl_residual(*cl, res.P, res.gamma) <= 1e-7
-    err, tol, abscissa = _stabilizing_brl_solution(cl, res.P, res.gamma / (1 + 1e-6))
+    err, tol, abscissa = stabilizing_brl_solution(cl, res.P, res.gamma / (1 + 1e-6))
     assert err <= tol and abscissa < 0
 
 
@@ -159,7 +137,7 @@ def test_p_between_design_level_and_gamma_when_the_candidate_fails():
     level = res.gamma / (1 + 1e-6)
     assert np.linalg.eigvalsh(res.P).min() >= -1e-12 * np.abs(res.P).max()
     assert brl_residual(*cl, res.P, res.gamma) <= 1e-7
-    err, tol, abscissa = _stabilizing_brl_solution(cl, res.P, np.sqrt(level * res.gamma))
+    err, tol, abscissa = stabilizing_brl_solution(cl, res.P, np.sqrt(level * res.gamma))
     assert err <= tol and abscissa < 0
     Acl, Bcl, Ccl, Dcl = cl
     for balanced in (True, False):  # at the design level scipy's CARE finds no acceptable P
