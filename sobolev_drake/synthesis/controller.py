@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..optional import python_control
 from .certificates import as_matrix
@@ -66,7 +67,7 @@ class DynamicController:
     DK: np.ndarray
     dt: float = 0.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         DK = as_matrix("DK", self.DK)
         nu, ny = DK.shape
         AK = as_matrix("AK", self.AK)
@@ -84,7 +85,7 @@ class DynamicController:
             object.__setattr__(self, name, value)
 
     @classmethod
-    def static(cls, K, dt=0.0):
+    def static(cls, K: ArrayLike, dt: float = 0.0) -> DynamicController:
         """The static controller u = K y (a state-feedback gain: y = x).
 
         Parameters
