@@ -25,13 +25,13 @@ from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, if_then_else, logical_and
 
 #: a scalar of any of Drake's types (for the hints of the scalar-generic functions)
-Scalar = _Scalar = float | AutoDiffXd | Expression
+Scalar = float | AutoDiffXd | Expression
 
-__all__ = ["scalar_value", "is_symbolic", "interval_indicator", "piece_index", "piecewise",
+__all__ = ["Scalar", "scalar_value", "is_symbolic", "interval_indicator", "piece_index", "piecewise",
            "smooth_window", "probe_scalar_type", "template_signature"]
 
 
-def is_symbolic(x: _Scalar) -> bool:
+def is_symbolic(x: Scalar) -> bool:
     """True if ``x`` is a ``symbolic.Expression`` (or a Variable's expression).
 
     Parameters
@@ -46,7 +46,7 @@ def is_symbolic(x: _Scalar) -> bool:
     return isinstance(x, Expression)
 
 
-def scalar_value(x: _Scalar, name: str = "time") -> float:
+def scalar_value(x: Scalar, name: str = "time") -> float:
     """The float value of a scalar of any Drake type (an AutoDiffXd's value, a constant
     Expression evaluated).
 
@@ -76,7 +76,7 @@ def scalar_value(x: _Scalar, name: str = "time") -> float:
     return float(x)
 
 
-def interval_indicator(t: _Scalar, lo: float, hi: float,
+def interval_indicator(t: Scalar, lo: float, hi: float,
                        closed: tuple[bool, bool] = (True, True)) -> float | Expression:
     """1 if ``t`` lies between ``lo`` and ``hi``, else 0, for t of any scalar type.
 
@@ -127,7 +127,7 @@ def piece_index(t_value: float, breakpoints: Sequence[float]) -> int:
     return bisect_left(breakpoints, t_value)
 
 
-def piecewise(t: _Scalar, breakpoints: Sequence[float], values: Sequence[Any]) -> Any:
+def piecewise(t: Scalar, breakpoints: Sequence[float], values: Sequence[Any]) -> Any:
     """``values[k]`` on (b_{k−1}, b_k] (the last for t beyond the last breakpoint).
 
     Parameters
@@ -161,7 +161,7 @@ def piecewise(t: _Scalar, breakpoints: Sequence[float], values: Sequence[Any]) -
     return result[()] if result.ndim == 0 else result
 
 
-def smooth_window(t: _Scalar, t0: float, t1: float, rise: float) -> _Scalar:
+def smooth_window(t: Scalar, t0: float, t1: float, rise: float) -> Scalar:
     """1 on [t0, t1], else 0; with rise > 0, half-cosine ramps of length ``rise`` centred on t0
     and t1 (the window's integral stays t1 − t0), for t of any scalar type.
 

@@ -29,15 +29,12 @@ import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.symbolic import Expression, ExpressionKind, Formula, Variable, if_then_else
 
-from sobolev_drake.systems.scalar_time import template_signature
+from sobolev_drake.systems.scalar_time import Scalar, template_signature
 
 if TYPE_CHECKING:
     from pydrake.systems.scalar_conversion import TemplateSystem
 
 __all__ = ["Scalar", "ScalarMath", "scalar_math", "default_instantiation", "DoubleOnly"]
-
-#: a scalar of any of Drake's scalar types (the type hint of the scalar-generic cores)
-Scalar = float | AutoDiffXd | Expression
 
 
 class ScalarMath:
