@@ -202,10 +202,11 @@ def save_result(result: SynthesisResult, path: str | os.PathLike[str]) -> Path:
     if not isinstance(result, SynthesisResult):
         raise TypeError(f"result must be a SynthesisResult, got {type(result).__name__}")
     path, suffix = _suffix(path)
-    tree = to_tree(encode_result(result))
+    fields = encode_result(result)
+    tree = to_tree(fields)
     doc = {"format": RESULT_FORMAT, "schema": RESULT_SCHEMA, "checksum": fingerprint(tree)}
     if suffix == ".json":
-        return write_json_atomic(path, {**doc, "result": encode_result(result)})
+        return write_json_atomic(path, {**doc, "result": fields})
     arrays = {}
 
     def extract(node):  # array nodes -> references to the archive's entries
