@@ -271,10 +271,14 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             output.SetFromVector(self._state.Eval(context)[self._perm16])
 
         def _calc_inputs(self, context, value) -> None:
-            """u = ``u`` plus the propeller speeds, servo torques and deflections (a list of 8
-            floats; unconnected ports read zero)."""
+            """(u, has_wind, has_force_disturbance, has_disturbance): u = ``u`` plus the propeller
+            speeds, servo torques and deflections (a list of 8 floats; unconnected ports read
+            zero), and whether the three other optional inputs have a value.  An input that has
+            one keeps it in this context (Drake can neither disconnect nor unfix a port), so the
+            force evaluations skip its ``HasValue`` until the next sample; one without a value is
+            asked again at every evaluation (a later ``FixValue`` does not recompute this entry)."""
             self.input_evaluations += 1
-            p_u, p_n, p_s, p_d = self._port_list[:4]
+            p_u, p_n, p_s, p_d, p_w, p_f, p_dist = self._port_list
             u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
             if p_n.HasValue(context):
                 a, b = p_n.Eval(context).tolist()
@@ -286,7 +290,8 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
                 u[3] += b
             if p_d.HasValue(context):
                 u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
-            value.set_value(u)
+            value.set_value((u, p_w.HasValue(context), p_f.HasValue(context),
+                             p_dist.HasValue(context)))
 
         def thesis_force(self, context: Context) -> np.ndarray:
             """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
@@ -309,7 +314,7 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             self.evaluations += 1
             ql = self._state.Eval(context)[self._perm16].tolist()
             q, qd = ql[:8], ql[8:]
-            u = self._inputs.Eval(context)                   # read only: the cached list
+            u = self._inputs.Eval(context)[0]                # read only: the cached list
             p_w, p_f, p_dist = self._port_list[4:]
             zeta = p_w.Eval(context).tolist() if p_w.HasValue(context) else [0.0] * 3
             if T is not float:              # scalar-generic tier, the same sums (module docstring)
@@ -339,11 +344,11 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
             self.evaluations += 1
             force, model, state, inputs, wind, has_wind, fd, has_fd, dist, has_dist = self._fast
-            # EvalAbstract(...).get_value(): the cached list itself, cheaper than CacheEntry.Eval
-            force(model, state(context), inputs(context).get_value(),
-                  wind(context) if has_wind(context) else None,
-                  fd(context) if has_fd(context) else None,
-                  dist(context) if has_dist(context) else None, out, drake_order)
+            # EvalAbstract(...).get_value(): the cached tuple itself, cheaper than CacheEntry.Eval
+            u, w_on, f_on, d_on = inputs(context).get_value()
+            force(model, state(context), u, wind(context) if w_on or has_wind(context) else None,
+                  fd(context) if f_on or has_fd(context) else None,
+                  dist(context) if d_on or has_dist(context) else None, out, drake_order)
 
         def _calc_thesis(self, context, output) -> None:
             if self._native is None:

@@ -445,3 +445,33 @@ def test_reverse_flow_models():
         assert np.all(np.einsum("ij,ij->i", F[:5], v[:5]) <= 1e-9)
     with pytest.raises(ValueError, match="reverse_flow must be one of"):
         TiltrotorParams(reverse_flow="reversed")
+
+
+@pytest.mark.parametrize("native", [None, False])
+def test_optional_inputs_fixed_after_the_inputs_were_cached(native):
+    """The actuator-input cache also records which of wind, force_disturbance and disturbance
+    have a value; a port fixed *after* that record was made must act on the very next
+    evaluation, equal to a fresh context (whether or not Drake recomputes the record then)."""
+    b = DiagramBuilder()
+    h = add_tiltrotor(b, native=native)
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    q, qd, zeta = random_state(np.random.default_rng(5))
+    h.set_state(ctx, d, q, qd)
+    fc = h.forces.GetMyMutableContextFromRoot(ctx)
+    h.propeller_speed.FixValue(fc, [40.0, 45.0])
+    before = h.generalized_force.Eval(fc).copy()
+    late = ((h.wind, zeta), (h.force_disturbance, [1.0, -2.0, 0.5]),
+            (h.disturbance, np.linspace(-0.3, 0.4, 8)))
+    for port, value in late:
+        port.FixValue(fc, value)
+        after = h.generalized_force.Eval(fc).copy()
+        assert not np.allclose(after, before), port.get_name()
+        fresh = d.CreateDefaultContext()
+        h.set_state(fresh, d, q, qd)
+        ff = h.forces.GetMyMutableContextFromRoot(fresh)
+        for p in (h.propeller_speed, *(p for p, _ in late)):
+            if p.HasValue(fc):
+                p.FixValue(ff, p.Eval(fc))
+        np.testing.assert_array_equal(h.generalized_force.Eval(ff), after)
+        before = after
