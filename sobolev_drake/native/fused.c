@@ -294,7 +294,8 @@ PyDoc_STRVAR(sample_doc,
 "sample(capsule, x, reference, wind, old_record, old_active, record_out, active_out) -> bool\n\n"
 "One sample of the tilt-rotor law (module docstring): the new 30-entry record into\n"
 "record_out and the allocation's active set (-1, 0, +1) into active_out; old_active is the\n"
-"warm start (signs).  False: declined, nothing written (the caller runs the Python path).");
+"warm start (signs; any NaN: none, the cold start).  False: declined, nothing written (the\n"
+"caller runs the Python path).");
 
 static PyObject *py_sample(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -349,8 +350,11 @@ static PyObject *py_sample(PyObject *self, PyObject *const *args, Py_ssize_t nar
     int iterations;
     if (forces_api->surface_bounds(V6 + 1, S->bounds, lo, up))
         Py_RETURN_FALSE;
-    int status = bls_api->solve(8, 8, B, u, lo, up, S->reg, warm, (int)S->max_iter, tau, active,
-                                &iterations, &res);
+    int cold = 0;                         /* NaN: no last active set, the cold start */
+    for (int i = 0; i < N_ACTIVE; i++)
+        cold |= isnan(warm[i]) != 0;
+    int status = bls_api->solve(8, 8, B, u, lo, up, S->reg, cold ? NULL : warm, (int)S->max_iter,
+                                tau, active, &iterations, &res);
     if (status == BLS_NOMEM)
         return PyErr_NoMemory();
     if (status != BLS_OK)
@@ -400,6 +404,11 @@ static const void *import_api(const char *module, const char *name, int version)
         return NULL;
     Py_DECREF(mod);
     const int *api = (const int *)PyCapsule_Import(name, 0);
+    if (!api && !PyErr_ExceptionMatches(PyExc_ImportError)) {
+        PyErr_Clear();                    /* a build without the interface: not importable */
+        PyErr_Format(PyExc_ImportError, "%s is missing (stale build)", name);
+        return NULL;
+    }
     if (api && *api != version) {
         PyErr_Format(PyExc_ImportError, "%s has version %d, _fused needs %d (stale build)", name,
                      *api, version);

@@ -323,9 +323,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         # the first sample is taken at initialization (outputs are never the placeholder); the
         # periodic event at that same time then finds it stamped and leaves it
         self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
-        # the allocation's last active set (−1, 0, +1 per actuator), the compiled update's warm
-        # start (all free at first; affects the solver's iterations, not its solution)
-        self._active = self.DeclareDiscreteState(BasicVector(np.zeros(N_TAU)))
+        # the allocation's last active set (−1, 0, +1 per actuator; NaN: none yet), its warm
+        # start on both paths (through make_law's allocate.warm_start on the Python path)
+        self._active = self.DeclareDiscreteState(BasicVector(np.full(N_TAU, np.nan)))
         compiled = law.compiled_sample
         self._compiled = compiled if compiled is not None and compiled.matches(law) else None
         self._sample = None if self._compiled is None else self._compiled.kernel(self.period)
@@ -394,7 +394,13 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
                 self._hold(discrete_state, old if self.computation_delay and stamp != -np.inf
                            else rec)
                 return
+        warm = getattr(self.law.allocate, "warm_start", None)
+        if type(warm) is dict:
+            active = context.get_discrete_state(i_act).value()
+            warm["active"] = None if np.isnan(active).any() else active.copy()
         step = self.law.step(x[:N_Q], x[N_Q:], ref, wind, old[self._I], n_prev=old[self._N])
+        if type(warm) is dict and warm["active"] is not None:
+            discrete_state.set_value(i_act, np.asarray(warm["active"], dtype=float))
         # layout [∫e_c | τ̄ | n | u* | residual | saturation], assembled from float lists (a
         # few numpy calls on 3-vectors cost more than the arithmetic); forward-Euler integral
         # of the controlled-DOF error over one sample

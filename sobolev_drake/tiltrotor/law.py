@@ -115,6 +115,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
                                               return_info=True)
             last["active"] = info["active"]
             return tau
+        # the controller keeps the active set in its Context and passes it through here
+        allocate.warm_start = last
 
     # One scalar pass of the force model per sample serves B, ϑ_passive, the surface air
     # speeds of the bounds and the rotor inflow of the thrust inversion (all at (q, q̇, ζ)).
