@@ -115,6 +115,16 @@ def compiled_sample(law: TiltrotorWInfLaw, forces_capsule: Any, *,
     Returns
     -------
     CompiledSample or None
+
+    Examples
+    --------
+    make_law attaches it (None without the compiled kernels):
+
+    >>> from sobolev_drake.tiltrotor.law import make_law
+    >>> from sobolev_drake.tiltrotor.plant import TiltrotorModel
+    >>> law = make_law(TiltrotorModel(), schedule="data")
+    >>> law.compiled_sample is None or law.compiled_sample.matches(law)
+    True
     """
     from sobolev_drake.systems.mechanical_sample import compiled_desired_acceleration
     from sobolev_drake.tiltrotor.allocation import thesis_bounds_constants

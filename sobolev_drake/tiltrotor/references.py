@@ -129,6 +129,12 @@ def regulated_values(schedule: TiltSchedule, vel_ref: Sequence[float] | np.ndarr
     -------
     tuple of 6 floats
         Tilt reference α and its first two time derivatives, heading ψ and its derivatives.
+
+    Examples
+    --------
+    >>> sched = tilt_schedule_polynomial([0.01, 0.0])          # α = 0.01 U
+    >>> regulated_values(sched, [10.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0] * 3)
+    (0.1, 0.01, 0.0, 0.0, 0.0, 0.0)
     """
     psi, psid, psidd = (float(v) for v in psi_ref)
     U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
