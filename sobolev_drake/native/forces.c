@@ -799,8 +799,9 @@ PyMODINIT_FUNC PyInit__forces(void)
  * The per-sample pieces of the tilt-rotor law on contiguous arrays (capi.h, used by fused.c).
  * affine_core, newton_core, bounds_core and flags_core repeat, operation for operation, the
  * arithmetic of py_affine_terms, py_newton_speed, py_surface_bounds and py_saturation_flags
- * above (appended rather than factored out of those entries, which another change is editing;
- * tests/native/test_native_fused.py checks that both give the same bits).
+ * above: appended rather than factored out of those entries, to leave the rest of this file to
+ * a concurrent change of the force system; tests/tiltrotor/test_compiled_sample.py checks that
+ * both give the same bits (B, bounds, speeds and flags enter the records compared there).
  */
 #include "capi.h"
 

@@ -38,11 +38,11 @@ the allocation and the propeller data.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector

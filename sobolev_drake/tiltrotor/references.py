@@ -143,7 +143,8 @@ def regulated_values(schedule: TiltSchedule, vel_ref: Sequence[float] | np.ndarr
 
 
 def tracked_reference(ref_c: Sequence[ArrayLike], ref_r: Sequence[ArrayLike]) -> np.ndarray:
-    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`.
+    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of the partition (7.63)
+    (``tiltrotor.controller.PARTITION``).
 
     Parameters
     ----------
