@@ -75,11 +75,12 @@ def _residual_tolerance(law, x, wind, record):
             + 18 * EPS * float(fields["allocation_residual"][0]))
 
 
-def test_compiled_record_equals_python_path_on_mission_states(python_flight):
+def test_compiled_record_equals_python_path_on_mission_states(python_flight, monkeypatch):
     """Every sample of the Python path's flight, replayed through the compiled call with the
     same warm start (the active set the controller kept): declined where the Python path takes
     the bracketing thrust solver (the first sample, no last speeds), else the same record (bits;
     residual to the derived bound) and active set.  The states include saturated surfaces."""
+    monkeypatch.setattr(native, "_ENABLED", True)    # a kernel feature: on even under =0
     built, _, samples = python_flight
     law = built["law"]
     sample = law.compiled_sample.kernel(built["controller"].period)
@@ -101,10 +102,11 @@ def test_compiled_record_equals_python_path_on_mission_states(python_flight):
     assert saturated > 20
 
 
-def test_declines_where_the_python_path_decides(python_flight):
+def test_declines_where_the_python_path_decides(python_flight, monkeypatch):
     """Newton failing (last speeds ≤ 1 rev/s: the bracketing solver), non-finite inputs (the
     Python path raises its error): declined, nothing written; the Python path still answers the
     first and raises on the second."""
+    monkeypatch.setattr(native, "_ENABLED", True)
     built, _, samples = python_flight
     law = built["law"]
     sample = law.compiled_sample.kernel(0.01)
