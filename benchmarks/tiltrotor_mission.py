@@ -148,34 +148,53 @@ def instrument(built):
 
 
 def floor_patches():
-    """Context manager: the tilt-rotor law's step returns its first result and the plant force
-    system a constant zero force (the cost of the diagram without the Python work)."""
+    """Context manager: the tilt-rotor law's step returns its first result, the controller's
+    compiled update (``tiltrotor.compiled_sample``) writes its first record again, and the
+    plant force system gives a constant zero force (the cost of the diagram without the law's
+    and the forces' work).  Controllers built inside the block are patched."""
     import contextlib
 
     import numpy as np
 
+    from sobolev_drake.tiltrotor.compiled_sample import CompiledSample
     from sobolev_drake.tiltrotor.plant import TiltrotorForces
     from sobolev_drake.tiltrotor.controller import TiltrotorWInfLaw
 
     @contextlib.contextmanager
     def patched():
         step, force = TiltrotorWInfLaw.step, TiltrotorForces.thesis_force
-        native = TiltrotorForces._native_force
+        native, compiled = TiltrotorForces._native_force, CompiledSample.kernel
         first = {}
 
         def const_step(self, *a, **k):
             if "s" not in first:
                 first["s"] = step(self, *a, **k)
             return first["s"]
+
+        def const_kernel(self, period):
+            sample, kept = compiled(self, period), []
+            if sample is None:
+                return None
+
+            def const_sample(x, ref, wind, old, old_active, record, active):
+                if not kept:                     # the first accepted sample, then copies of it
+                    if not sample(x, ref, wind, old, old_active, record, active):
+                        return False
+                    kept.extend((record.copy(), active.copy()))
+                    return True
+                record[:], active[:] = kept
+                return True
+            return const_sample
         zero = np.zeros(8)
         TiltrotorWInfLaw.step = const_step
+        CompiledSample.kernel = const_kernel
         TiltrotorForces.thesis_force = lambda self, context: zero
         TiltrotorForces._native_force = lambda self, context, out, drake_order: out.fill(0.0)
         try:
             yield
         finally:
             TiltrotorWInfLaw.step, TiltrotorForces.thesis_force = step, force
-            TiltrotorForces._native_force = native
+            TiltrotorForces._native_force, CompiledSample.kernel = native, compiled
     return patched()
 
 

@@ -156,10 +156,10 @@ TYPED_MODULES = ("sobolev_drake.errors", "sobolev_drake.native", "sobolev_drake.
                      "multirotor", "quadrotor_hover", "quadrotor_hover_plots", "seven_link")),
                  *(f"sobolev_drake.tiltrotor.{m}" for m in (
                      "aero_tables", "aerodynamics", "allocation", "body_frame", "campaigns",
-                     "controller", "envelope_analysis", "gain_schedule", "generic_forces",
+                     "compiled_sample", "controller", "envelope_analysis", "gain_schedule", "generic_forces",
                      "hover_flight", "input_affine", "law", "law_checks", "linear_controller",
                      "linear_design", "linearization", "mission", "mission_metrics", "params",
-                     "plant", "plots", "propeller", "propulsion", "scalars", "tables",
+                     "plant", "plots", "propeller", "propulsion", "references", "scalars", "tables",
                      "tilt_schedule", "trim", "urdf")),
                  "sobolev_drake.simulation", "sobolev_drake.harness", "sobolev_drake.plots",
                  "sobolev_drake.viz", "sobolev_drake.recording_html", "sobolev_drake.analysis_plots",

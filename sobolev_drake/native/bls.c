@@ -31,6 +31,8 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "capi.h"
+
 /* Work arrays live in a stack buffer up to n, m = 16 (the controller: 8 x 8), on the heap beyond. */
 #define STACK_BYTES 32768
 #define JACOBI_MAX_SWEEPS 60
@@ -376,68 +378,34 @@ static int ws_value(const Py_buffer *v, Py_ssize_t i, double *out)
     }
 }
 
-/* leave bls_solve with this result (releasing what it holds) */
+/* leave bls_core with this result (releasing its heap work space) */
 #define FINISH(r)                                                                         \
     do {                                                                                  \
         result = (r);                                                                     \
         goto done;                                                                        \
     } while (0)
-#define DECLINE() FINISH(Py_NewRef(Py_NotImplemented))  /* the Python reference decides */
-#define NONE() FINISH(Py_NewRef(Py_None))               /* what the reference returns */
+#define DECLINE() FINISH(BLS_DECLINE)   /* the Python reference decides */
+#define NONE() FINISH(BLS_NONE)         /* what the reference returns */
 
-PyDoc_STRVAR(solve_doc,
-"solve(B, u, lo, hi, reg, warm_start, max_iter) -> (tau, info) | None | NotImplemented\n\n"
-"bounded_ls._bls_fast_python compiled: min ||u - B tau|| s.t. lo <= tau <= hi by PDAS on the\n"
-"scaled box QP with Tikhonov weight reg, then the minimum-norm polish.  Same arguments and\n"
-"the same result: (tau, {'method': 'pdas', 'iterations', 'residual', 'active'}) or None.\n"
-"NotImplemented: this case is left to the Python reference (see the module docstring).");
+/* the warm start of bls_core: none (cold start), given (warm), or a verdict the Python entry
+ * reached while reading it, returned at the point where the reference reads it */
+#define WARM_COLD 0
+#define WARM_GIVEN 1
+#define WARM_DECLINE 2
+#define WARM_NONE 3
 
-static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* _bls_fast_python on contiguous arrays: B (n x m, row-major), u (n), lo, hi (m); warm (m
+ * signs) when warm_mode is WARM_GIVEN.  BLS_OK with tau_out, active_out, *iterations and
+ * *residual, or BLS_NONE / BLS_DECLINE (what solve() returns as None / NotImplemented), or
+ * BLS_NOMEM.  Both solve() and the C interface (fused.c) call this. */
+static int bls_core(int n, int m, const double *Bin, const double *uin, const double *loin,
+                    const double *hiin, double reg, int warm_mode, const double *warm,
+                    long max_iter, double *tau_out, signed char *active_out, int *iterations,
+                    double *residual)
 {
-    (void)self;
-    if (nargs != 7) {
-        PyErr_SetString(PyExc_TypeError, "solve() takes 7 arguments (B, u, lo, hi, reg, warm_start, max_iter)");
-        return NULL;
-    }
-    PyObject *oB = args[0], *ou = args[1], *olo = args[2], *ohi = args[3], *ows = args[5];
-    /* bounded_least_squares passes a float reg and max_iter 25; anything else: Python */
-    double reg = PyFloat_AsDouble(args[4]);
-    long max_iter = PyLong_AsLong(args[6]);
-    if (PyErr_Occurred()) {
-        PyErr_Clear();
-        Py_RETURN_NOTIMPLEMENTED;
-    }
-    if (!(Py_TYPE(oB) == (PyTypeObject *)ndarray_type && Py_TYPE(ou) == (PyTypeObject *)ndarray_type
-          && Py_TYPE(olo) == (PyTypeObject *)ndarray_type && Py_TYPE(ohi) == (PyTypeObject *)ndarray_type))
-        Py_RETURN_NONE;
-
-    PyObject *result = NULL, *tau_arr = NULL, *act_arr = NULL;
-    Buf in[5];
-    memset(in, 0, sizeof in);
+    int result = BLS_OK;
     void *heap = NULL;
     double stackbuf[STACK_BYTES / sizeof(double)];
-
-    PyObject *objs[4] = {oB, ou, olo, ohi};
-    for (int k = 0; k < 4; k++) {
-        if (PyObject_GetBuffer(objs[k], &in[k].v, PyBUF_STRIDED_RO | PyBUF_FORMAT) < 0) {
-            PyErr_Clear();
-            DECLINE();
-        }
-        in[k].held = 1;
-        /* float64 is exported as "d"; anything else is either not float64 (None in Python)
-         * or an unusual spelling of it: let Python decide. */
-        if (in[k].v.format == NULL || strcmp(in[k].v.format, "d") != 0)
-            DECLINE();
-    }
-    if (in[0].v.ndim != 2)
-        NONE();
-    const Py_ssize_t n_ = in[0].v.shape[0], m_ = in[0].v.shape[1];
-    if (in[1].v.ndim != 1 || in[1].v.shape[0] != n_ || in[2].v.ndim != 1 || in[2].v.shape[0] != m_
-        || in[3].v.ndim != 1 || in[3].v.shape[0] != m_ || n_ == 0 || m_ == 0)
-        NONE();
-    if (n_ > 4096 || m_ > 4096)          /* int indexing below */
-        DECLINE();
-    const int n = (int)n_, m = (int)m_;
 
     /* ---- work space */
     size_t nd = (size_t)n * m * 3          /* Bm, A, F (free block) */
@@ -448,10 +416,8 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
     char *mem = (char *)stackbuf;
     if (bytes > sizeof stackbuf) {
         heap = PyMem_Malloc(bytes);
-        if (heap == NULL) {
-            PyErr_NoMemory();
-            goto done;
-        }
+        if (heap == NULL)
+            return BLS_NOMEM;
         mem = heap;
     }
     double *Bm = (double *)mem, *A = Bm + (size_t)n * m, *F = A + (size_t)n * m;
@@ -466,8 +432,7 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
 
     /* ---- the Python checks, in order: bounds, then u and B */
     for (int i = 0; i < m; i++) {
-        double a = rd((const char *)in[2].v.buf + i * in[2].v.strides[0]);
-        double c = rd((const char *)in[3].v.buf + i * in[3].v.strides[0]);
+        double a = loin[i], c = hiin[i];
         if (!(isfinite(a) && isfinite(c) && a < c))
             NONE();
         lo[i] = a;
@@ -486,7 +451,7 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
     }
     double asum = 0.0;
     for (int i = 0; i < n; i++) {
-        double v = rd((const char *)in[1].v.buf + i * in[1].v.strides[0]);
+        double v = uin[i];
         if (!isfinite(v))
             NONE();
         u[i] = v;
@@ -497,9 +462,8 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
     int nonfinite = 0;
     asum = 0.0;
     for (int i = 0; i < n; i++) {
-        const char *row = (const char *)in[0].v.buf + i * in[0].v.strides[0];
         for (int j = 0; j < m; j++) {
-            double v = rd(row + j * in[0].v.strides[1]);
+            double v = Bin[(size_t)i * m + j];
             Bm[i * m + j] = v;
             if (!isfinite(v))
                 nonfinite = 1;
@@ -555,22 +519,14 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
     }
 
     /* ---- initial active-set guess */
-    if (ows != Py_None) {
-        if (Py_TYPE(ows) != (PyTypeObject *)ndarray_type)
-            DECLINE();                    /* lists etc.: np.asarray in Python */
-        if (PyObject_GetBuffer(ows, &in[4].v, PyBUF_STRIDED_RO | PyBUF_FORMAT) < 0) {
-            PyErr_Clear();
-            DECLINE();
-        }
-        in[4].held = 1;
-        if (in[4].v.ndim != 1 || in[4].v.shape[0] != m)
-            NONE();                       /* ws.shape != (m,) */
+    if (warm_mode == WARM_DECLINE)
+        DECLINE();                        /* not a plain numeric ndarray: np.asarray in Python */
+    if (warm_mode == WARM_NONE)
+        NONE();                           /* ws.shape != (m,) */
+    if (warm_mode == WARM_GIVEN) {
         for (int i = 0; i < m; i++) {
-            double w;
-            if (ws_value(&in[4].v, i, &w) < 0)
-                DECLINE();
-            low[i] = w < 0;
-            up[i] = w > 0;
+            low[i] = warm[i] < 0;
+            up[i] = warm[i] > 0;
         }
     } else {
         memcpy(LU, H, sizeof(double) * m * m);
@@ -720,6 +676,151 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
         rr += ri * ri;
     }
 
+    for (int i = 0; i < m; i++) {
+        tau_out[i] = tau[i];
+        active_out[i] = low[i] ? -1 : (up[i] ? 1 : 0);
+    }
+    *iterations = it + 1;
+    *residual = sqrt(rr);
+done:
+    if (heap)
+        PyMem_Free(heap);
+    return result;
+}
+#undef FINISH
+#undef DECLINE
+#undef NONE
+
+static int capi_solve(int n, int m, const double *B, const double *u, const double *lo,
+                      const double *hi, double reg, const double *warm, int max_iter,
+                      double *tau, signed char *active, int *iterations, double *residual)
+{
+    if (n < 1 || m < 1 || n > 4096 || m > 4096)
+        return BLS_DECLINE;
+    return bls_core(n, m, B, u, lo, hi, reg, warm ? WARM_GIVEN : WARM_COLD, warm, max_iter, tau,
+                    active, iterations, residual);
+}
+
+static BlsCAPI c_api = {BLS_CAPI_VERSION, capi_solve};
+
+/* ----------------------------------------------------------------------- solve() -------- */
+
+PyDoc_STRVAR(solve_doc,
+"solve(B, u, lo, hi, reg, warm_start, max_iter) -> (tau, info) | None | NotImplemented\n\n"
+"bounded_ls._bls_fast_python compiled: min ||u - B tau|| s.t. lo <= tau <= hi by PDAS on the\n"
+"scaled box QP with Tikhonov weight reg, then the minimum-norm polish.  Same arguments and\n"
+"the same result: (tau, {'method': 'pdas', 'iterations', 'residual', 'active'}) or None.\n"
+"NotImplemented: this case is left to the Python reference (see the module docstring).");
+
+/* a 1-d (cols = 1) or 2-d strided float64 buffer into a contiguous row-major array */
+static void copy_strided(const Py_buffer *v, int rows, int cols, double *out)
+{
+    for (int i = 0; i < rows; i++) {
+        const char *row = (const char *)v->buf + i * v->strides[0];
+        for (int j = 0; j < cols; j++)
+            out[(size_t)i * cols + j] = rd(row + (v->ndim == 2 ? j * v->strides[1] : 0));
+    }
+}
+
+static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)self;
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "solve() takes 7 arguments (B, u, lo, hi, reg, warm_start, max_iter)");
+        return NULL;
+    }
+    PyObject *oB = args[0], *ou = args[1], *olo = args[2], *ohi = args[3], *ows = args[5];
+    /* bounded_least_squares passes a float reg and max_iter 25; anything else: Python */
+    double reg = PyFloat_AsDouble(args[4]);
+    long max_iter = PyLong_AsLong(args[6]);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+        Py_RETURN_NOTIMPLEMENTED;
+    }
+    if (!(Py_TYPE(oB) == (PyTypeObject *)ndarray_type && Py_TYPE(ou) == (PyTypeObject *)ndarray_type
+          && Py_TYPE(olo) == (PyTypeObject *)ndarray_type && Py_TYPE(ohi) == (PyTypeObject *)ndarray_type))
+        Py_RETURN_NONE;
+
+    PyObject *result = NULL, *tau_arr = NULL, *act_arr = NULL;
+    Buf in[5];
+    memset(in, 0, sizeof in);
+    double *mem = NULL;
+
+    PyObject *objs[4] = {oB, ou, olo, ohi};
+    for (int k = 0; k < 4; k++) {
+        if (PyObject_GetBuffer(objs[k], &in[k].v, PyBUF_STRIDED_RO | PyBUF_FORMAT) < 0) {
+            PyErr_Clear();
+            result = Py_NewRef(Py_NotImplemented);
+            goto done;
+        }
+        in[k].held = 1;
+        /* float64 is exported as "d"; anything else is either not float64 (None in Python)
+         * or an unusual spelling of it: let Python decide. */
+        if (in[k].v.format == NULL || strcmp(in[k].v.format, "d") != 0) {
+            result = Py_NewRef(Py_NotImplemented);
+            goto done;
+        }
+    }
+    if (in[0].v.ndim != 2) {
+        result = Py_NewRef(Py_None);
+        goto done;
+    }
+    const Py_ssize_t n_ = in[0].v.shape[0], m_ = in[0].v.shape[1];
+    if (in[1].v.ndim != 1 || in[1].v.shape[0] != n_ || in[2].v.ndim != 1 || in[2].v.shape[0] != m_
+        || in[3].v.ndim != 1 || in[3].v.shape[0] != m_ || n_ == 0 || m_ == 0) {
+        result = Py_NewRef(Py_None);
+        goto done;
+    }
+    if (n_ > 4096 || m_ > 4096) {         /* int indexing below */
+        result = Py_NewRef(Py_NotImplemented);
+        goto done;
+    }
+    const int n = (int)n_, m = (int)m_;
+    /* contiguous copies of B, u, lo, hi; the warm start, tau and the active set */
+    mem = PyMem_Malloc(sizeof(double) * ((size_t)n * m + n + 4 * (size_t)m) + (size_t)m);
+    if (mem == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double *B = mem, *u = B + (size_t)n * m, *lo = u + n, *hi = lo + m, *ws = hi + m;
+    double *tau = ws + m;
+    signed char *active = (signed char *)(tau + m);
+    copy_strided(&in[0].v, n, m, B);
+    copy_strided(&in[1].v, n, 1, u);
+    copy_strided(&in[2].v, m, 1, lo);
+    copy_strided(&in[3].v, m, 1, hi);
+
+    /* the warm start's verdicts, applied by bls_core where the reference reads it */
+    int warm_mode = WARM_COLD;
+    if (ows != Py_None) {
+        if (Py_TYPE(ows) != (PyTypeObject *)ndarray_type) {
+            warm_mode = WARM_DECLINE;     /* lists etc.: np.asarray in Python */
+        } else if (PyObject_GetBuffer(ows, &in[4].v, PyBUF_STRIDED_RO | PyBUF_FORMAT) < 0) {
+            PyErr_Clear();
+            warm_mode = WARM_DECLINE;
+        } else {
+            in[4].held = 1;
+            warm_mode = WARM_GIVEN;
+            if (in[4].v.ndim != 1 || in[4].v.shape[0] != m)
+                warm_mode = WARM_NONE;    /* ws.shape != (m,) */
+            for (int i = 0; i < m && warm_mode == WARM_GIVEN; i++)
+                if (ws_value(&in[4].v, i, &ws[i]) < 0)
+                    warm_mode = WARM_DECLINE;
+        }
+    }
+    int iterations;
+    double residual;
+    int status = bls_core(n, m, B, u, lo, hi, reg, warm_mode, ws, max_iter, tau, active,
+                          &iterations, &residual);
+    if (status == BLS_NOMEM) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    if (status != BLS_OK) {
+        result = Py_NewRef(status == BLS_NONE ? Py_None : Py_NotImplemented);
+        goto done;
+    }
+
     /* ---- results: float64 tau and default-int active, as np.array(list) in Python */
     {
         PyObject *mobj = PyLong_FromLong(m);
@@ -740,7 +841,7 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
         if (PyObject_GetBuffer(act_arr, &oa, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
             goto done;
         for (int i = 0; i < m; i++) {
-            int v = low[i] ? -1 : (up[i] ? 1 : 0);
+            int v = active[i];
             if (oa.itemsize == 8) {
                 int64_t t = v;
                 memcpy((char *)oa.buf + 8 * i, &t, 8);
@@ -757,7 +858,7 @@ static PyObject *bls_solve(PyObject *self, PyObject *const *args, Py_ssize_t nar
         PyObject *info = PyDict_New();
         if (info == NULL)
             goto done;
-        PyObject *itv = PyLong_FromLong(it + 1), *res = PyFloat_FromDouble(sqrt(rr));
+        PyObject *itv = PyLong_FromLong(iterations), *res = PyFloat_FromDouble(residual);
         if (itv == NULL || res == NULL || PyDict_SetItem(info, key_method, str_pdas) < 0
             || PyDict_SetItem(info, key_iterations, itv) < 0
             || PyDict_SetItem(info, key_residual, res) < 0
@@ -777,8 +878,7 @@ done:
     Py_XDECREF(tau_arr);
     Py_XDECREF(act_arr);
     release(in, 5);
-    if (heap)
-        PyMem_Free(heap);
+    PyMem_Free(mem);
     return result;
 }
 
@@ -904,5 +1004,8 @@ PyMODINIT_FUNC PyInit__bls(void)
     str_pdas = PyUnicode_InternFromString("pdas");
     if (!key_method || !key_iterations || !key_residual || !key_active || !str_pdas)
         return NULL;
-    return PyModule_Create(&moddef);
+    PyObject *module = PyModule_Create(&moddef);
+    if (module && export_c_api(module, &c_api, BLS_CAPI_NAME) < 0)
+        Py_CLEAR(module);
+    return module;
 }

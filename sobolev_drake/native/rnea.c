@@ -28,6 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "capi.h"
 #include "pyconvert.h"
 
 #define CAPSULE_NAME "sobolev_drake.native.rnea.Model"
@@ -643,32 +644,12 @@ fail:
     return NULL;
 }
 
-static PyObject *py_desired_acceleration(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* q̈_des into acc (n) from q, q̇ (n), ∫e (nc), reference (3 n_ref); work: 5 n_ref + nc doubles */
+static void qdd_core(const DesiredAcceleration *D, const double *q, const double *qd,
+                     const double *eint, const double *ref, double *work, double *acc)
 {
-    /* (capsule, q, qdot, e_int, reference) -> list of n floats (NaN nowhere: no uncontrolled DOF) */
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "desired_acceleration takes (law, q, qdot, e_int, reference)");
-        return NULL;
-    }
-    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(args[0], QDD_CAPSULE_NAME);
-    if (!D)
-        return NULL;
-    int n = D->n, nc = D->nc, nr = D->nr, ns = D->ns, n_ref = D->n_ref;
-    double small[16 * 32], *buf = small;
-    /* q, q̇, a (n each), ∫e (nc), reference (3 n_ref), e, ė (n_ref each), z (3 n_ref + nc) */
-    size_t need = 3 * (size_t)n + 2 * (size_t)nc + 8 * (size_t)n_ref;
-    if (need > sizeof(small) / sizeof(double)) {
-        buf = (double *)malloc(sizeof(double) * need);
-        if (!buf)
-            return PyErr_NoMemory();
-    }
-    double *q = buf, *qd = q + n, *eint = qd + n, *ref = eint + nc, *e = ref + 3 * n_ref;
-    double *ed = e + n_ref, *z = ed + n_ref, *acc = z + 3 * (size_t)n_ref + nc;
-    PyObject *out = NULL;
-    if (read_doubles(args[1], n, q, "q") || read_doubles(args[2], n, qd, "qdot")
-        || read_doubles(args[3], nc, eint, "e_int")
-        || read_doubles(args[4], 3 * n_ref, ref, "reference"))
-        goto done;
+    int nc = D->nc, nr = D->nr, ns = D->ns, n_ref = D->n_ref;
+    double *e = work, *ed = e + n_ref, *z = ed + n_ref;
     const int *tr = D->index, *ic = tr + n_ref, *ir = ic + nc, *is = ir + nr;
     const double *Kc = D->K, *Kr = Kc + 3 * (size_t)nc * nc, *Ks = Kr + 2 * (size_t)nr * nr;
     const double *qddr = ref + 2 * n_ref;
@@ -703,12 +684,83 @@ static PyObject *py_desired_acceleration(PyObject *self, PyObject *const *args, 
             s += Ks[(size_t)k * ns + j] * qd[is[j]];
         acc[is[k]] = -s;
     }
+}
+
+static PyObject *py_desired_acceleration(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    /* (capsule, q, qdot, e_int, reference) -> list of n floats (NaN nowhere: no uncontrolled DOF) */
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "desired_acceleration takes (law, q, qdot, e_int, reference)");
+        return NULL;
+    }
+    DesiredAcceleration *D = (DesiredAcceleration *)PyCapsule_GetPointer(args[0], QDD_CAPSULE_NAME);
+    if (!D)
+        return NULL;
+    int n = D->n, nc = D->nc, n_ref = D->n_ref;
+    double small[16 * 32], *buf = small;
+    /* q, q̇, a (n each), ∫e (nc), reference (3 n_ref), e, ė (n_ref each), z (3 n_ref + nc) */
+    size_t need = 3 * (size_t)n + 2 * (size_t)nc + 8 * (size_t)n_ref;
+    if (need > sizeof(small) / sizeof(double)) {
+        buf = (double *)malloc(sizeof(double) * need);
+        if (!buf)
+            return PyErr_NoMemory();
+    }
+    double *q = buf, *qd = q + n, *eint = qd + n, *ref = eint + nc, *e = ref + 3 * n_ref;
+    double *acc = e + 5 * (size_t)n_ref + nc;
+    PyObject *out = NULL;
+    if (read_doubles(args[1], n, q, "q") || read_doubles(args[2], n, qd, "qdot")
+        || read_doubles(args[3], nc, eint, "e_int")
+        || read_doubles(args[4], 3 * n_ref, ref, "reference"))
+        goto done;
+    qdd_core(D, q, qd, eint, ref, e, acc);
     out = list_of(acc, n);
 done:
     if (buf != small)
         free(buf);
     return out;
 }
+
+/* ------------------------------------------------- C interface for other kernels ---- */
+
+static const void *capi_model(PyObject *capsule)
+{
+    return PyCapsule_GetPointer(capsule, CAPSULE_NAME);
+}
+
+static int capi_model_size(const void *model)
+{
+    return ((const Model *)model)->n;
+}
+
+static void capi_inverse_dynamics(const void *model, const double *q, const double *v,
+                                  const double *vd, double *tau)
+{
+    inverse_dynamics((const Model *)model, q, v, vd, tau);
+}
+
+static const void *capi_qdd_law(PyObject *capsule)
+{
+    return PyCapsule_GetPointer(capsule, QDD_CAPSULE_NAME);
+}
+
+static void capi_qdd_sizes(const void *law, int *n, int *nc, int *n_ref, int *work)
+{
+    const DesiredAcceleration *D = (const DesiredAcceleration *)law;
+    *n = D->n;
+    *nc = D->nc;
+    *n_ref = D->n_ref;
+    *work = 5 * D->n_ref + D->nc;
+}
+
+static void capi_desired_acceleration(const void *law, const double *q, const double *qd,
+                                      const double *eint, const double *ref, double *work,
+                                      double *acc)
+{
+    qdd_core((const DesiredAcceleration *)law, q, qd, eint, ref, work, acc);
+}
+
+static RneaCAPI c_api = {RNEA_CAPI_VERSION, capi_model, capi_model_size, capi_inverse_dynamics,
+                         capi_qdd_law, capi_qdd_sizes, capi_desired_acceleration};
 
 /* ---------------------------------------------------------------- Python entry ---- */
 
@@ -776,5 +828,8 @@ static struct PyModuleDef moduledef = {
 
 PyMODINIT_FUNC PyInit__rnea(void)
 {
-    return PyModule_Create(&moduledef);
+    PyObject *module = PyModule_Create(&moduledef);
+    if (module && export_c_api(module, &c_api, RNEA_CAPI_NAME) < 0)
+        Py_CLEAR(module);
+    return module;
 }

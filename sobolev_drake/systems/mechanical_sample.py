@@ -49,6 +49,7 @@ def compiled_desired_acceleration(law: MechanicalLaw
     by the compiled kernel (``_rnea.desired_acceleration``, the same operations in the same
     order: equal to the bit on Python < 3.12, whose ``sum`` is not compensated, to rounding
     after), or None (kernel not built or switched off, no Sobolev law, a reduced model).
+    The function's ``capsule`` attribute holds the kernel's gains (for other kernels).
 
     Parameters
     ----------
@@ -91,6 +92,7 @@ def compiled_desired_acceleration(law: MechanicalLaw
 
     def desired_acceleration(q, qdot, e_int, reference):
         return evaluate(capsule, q, qdot, e_int, reference)
+    desired_acceleration.capsule = capsule      # for kernels composing it in C (native/fused.c)
     return desired_acceleration
 
 

@@ -15,7 +15,9 @@ trim          hover and level-flight trims (7.3.1)
 tilt_schedule the tilt schedule α(V) from level-flight trims
 linearization (A, B, D) about a trim (7.57)
 allocation    control allocation (7.84)–(7.89) and the thrust → propeller-speed inversion (7.90)
+references    the tilt reference α(U) over forward air speed and the regulated references
 law           the W∞ law composed with the model, allocation and propeller data (7.3.2)
+compiled_sample  the controller's whole per-sample update in one compiled call (native/fused.c)
 controller    the nonlinear W∞ controller LeafSystem of the missions (7.3.2)
 gain_schedule the envelope's scheduled W∞ weights (beyond 7.3.2: targets per regime, C² blend)
 envelope_analysis  frozen-point closed-loop poles of a design at level-flight trims

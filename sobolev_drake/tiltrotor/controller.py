@@ -38,17 +38,20 @@ the allocation and the propeller data.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from sobolev_drake.models.base import check_vector
 from sobolev_drake.synthesis.mechanical import controlled_gains, regulated_gains, stabilized_gains
 from sobolev_drake.systems.mechanical_controller import MechanicalLaw, Partition, SobolevLaw
 from sobolev_drake.tiltrotor.law_checks import checked_vector, saturation_flag_list, saturation_flags
+from sobolev_drake.tiltrotor.references import (TiltSchedule, forward_air_speed, regulated_reference,
+                                                regulated_values, tilt_schedule_polynomial,
+                                                tracked_reference)
 from sobolev_drake.tiltrotor.scalars import DoubleOnly
 
 __all__ = [
@@ -56,9 +59,6 @@ __all__ = [
     "forward_air_speed", "regulated_reference", "tracked_reference", "saturation_flags",
     "ControlStep", "TiltrotorWInfLaw", "TiltrotorWInfController", "checked_vector", "TiltSchedule",
 ]
-
-#: a tilt reference schedule ``U -> (α, dα/dU, d²α/dU²)`` (forward air speed U in m/s, α in rad)
-TiltSchedule = Callable[[float], tuple[float, float, float]]
 
 # Thesis-order index sets of the partition (7.63).
 STABILIZED = np.array([2, 3])        # φ θ
@@ -103,119 +103,6 @@ def thesis_inner_law(weights: dict[str, ArrayLike] | None = None) -> SobolevLaw:
     return SobolevLaw(controlled=controlled_gains(W["Gamma0"], W["Gamma1"], W["Gamma2"], W["Gamma3"]),
                       regulated=regulated_gains(W["Sigma0"], W["Sigma1"], W["Sigma2"]),
                       stabilized=stabilized_gains(W["Upsilon0"], W["Upsilon1"]))
-
-
-def tilt_schedule_polynomial(coefficients: ArrayLike,
-                             speed_range: tuple[float, float] = (0.0, 33.99)) -> TiltSchedule:
-    """Tilt-angle reference α(U_b) from a polynomial in forward air speed.
-
-    U is clamped to ``speed_range`` (derivatives are zero outside it), as in the mission data
-    file's trim-derived schedule.
-
-    Parameters
-    ----------
-    coefficients : sequence of float
-        Polynomial coefficients, highest power first.
-    speed_range : tuple of 2 floats, default (0.0, 33.99)
-        Range of U (m/s) where the polynomial applies.
-
-    Returns
-    -------
-    callable
-        ``f(U) -> (α, dα/dU, d²α/dU²)``.
-    """
-    c = np.asarray(coefficients, dtype=float)
-    if c.ndim != 1 or c.size < 1:
-        raise ValueError("coefficients must be a non-empty 1-D sequence (highest power first)")
-    d1, d2 = np.polyder(c, 1), np.polyder(c, 2)
-    lo, hi = speed_range
-
-    def schedule(U):
-        inside = lo <= U <= hi
-        Uc = min(max(U, lo), hi)
-        if not inside:
-            return float(np.polyval(c, Uc)), 0.0, 0.0
-        return float(np.polyval(c, Uc)), float(np.polyval(d1, Uc)), float(np.polyval(d2, Uc))
-
-    return schedule
-
-
-def forward_air_speed(vel_ref: Sequence[float] | np.ndarray, acc_ref: Sequence[float] | np.ndarray, psi: float, psidot: float,
-                      wind: Sequence[float] | np.ndarray) -> tuple[float, float]:
-    """Forward air speed U_b of the *reference* motion in the heading frame and its rate.
-
-    U_b = [cos ψ, sin ψ]·(ṗ_r − ζ)_xy with the measured wind ζ taken constant over a sample;
-    using the reference (not the measured velocity) keeps α_r smooth with known derivatives.
-
-    Parameters
-    ----------
-    vel_ref, acc_ref, wind : sequence of float
-        Reference velocity and acceleration, measured wind (x, y first).
-    psi, psidot : float
-        Heading reference and its rate.
-
-    Returns
-    -------
-    U, Udot : float
-        Forward air speed and its rate.
-    """
-    psi, psidot = float(psi), float(psidot)
-    c, s = math.cos(psi), math.sin(psi)
-    vx, vy = float(vel_ref[0]) - float(wind[0]), float(vel_ref[1]) - float(wind[1])
-    U = c * vx + s * vy
-    Udot = c * float(acc_ref[0]) + s * float(acc_ref[1]) + psidot * (-s * vx + c * vy)
-    return U, Udot
-
-
-def regulated_reference(schedule: TiltSchedule, vel_ref: Sequence[float] | np.ndarray, acc_ref: Sequence[float] | np.ndarray,
-                        psi_ref: Sequence[float] | np.ndarray, wind: Sequence[float] | np.ndarray
-                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """(q_rr, q̇_rr, q̈_rr) of the regulated DOF [αR αL ψ] (tilt from the trim schedule).
-
-    q̈ of the tilt uses α''U̇² (the jerk term α'Ü is dropped: the mission references are
-    piecewise constant-acceleration).
-
-    Parameters
-    ----------
-    schedule : callable
-        ``U -> (α, α', α'')`` tilt schedule.
-    vel_ref, acc_ref, wind : sequence of float
-        Reference velocity and acceleration, measured wind (x, y first).
-    psi_ref : sequence of 3 floats
-        (ψ_r, ψ̇_r, ψ̈_r) from the mission.
-
-    Returns
-    -------
-    tuple of 3 ndarrays, shape (3,)
-        (q_rr, q̇_rr, q̈_rr) of [αR αL ψ].
-    """
-    a, qd_a, qdd_a, psi, psid, psidd = _regulated_values(schedule, vel_ref, acc_ref, psi_ref, wind)
-    return (np.array([a, a, psi]), np.array([qd_a, qd_a, psid]), np.array([qdd_a, qdd_a, psidd]))
-
-
-def _regulated_values(schedule, vel_ref, acc_ref, psi_ref, wind):
-    """(α, α̇, α̈, ψ, ψ̇, ψ̈) as floats: the one implementation behind
-    :func:`regulated_reference` (as arrays) and the law's per-sample step (as floats)."""
-    psi, psid, psidd = (float(v) for v in psi_ref)
-    U, Udot = forward_air_speed(vel_ref, acc_ref, psi, psid, wind)
-    a, da, dda = schedule(U)
-    return a, da * Udot, dda * Udot**2, psi, psid, psidd
-
-
-def tracked_reference(ref_c: Sequence[ArrayLike], ref_r: Sequence[ArrayLike]) -> np.ndarray:
-    """Stack (q, q̇, q̈) of [x y z] and [αR αL ψ] in the tracked order of :data:`PARTITION`.
-
-    Parameters
-    ----------
-    ref_c, ref_r : tuple of 3 arrays, shape (3,)
-        (q, q̇, q̈) references of [x y z] and of [αR αL ψ].
-
-    Returns
-    -------
-    ndarray, shape (18,)
-        The stacked reference of ``MechanicalLaw``.
-    """
-    return np.concatenate([np.concatenate([c, r]) for c, r in zip(ref_c, ref_r)])
 
 
 @dataclass
@@ -290,6 +177,9 @@ class TiltrotorWInfLaw:
         # Optional fused form of everything after q̈_des (set by make_law with the compiled
         # kernels): used while the four callables are still the ones it was made for.
         self.fused_sample = None
+        # Optional compiled form of the controller's whole update (``tiltrotor.compiled_sample``,
+        # set by make_law): used by TiltrotorWInfController while the pieces are unchanged.
+        self.compiled_sample = None
         # Optional q̈_des of another weighting of the same law (e.g. the envelope gain schedule,
         # ``tiltrotor.gain_schedule``): ``f(q, q̇, ∫e, tracked, reference, wind) -> list of 8``
         self.desired_acceleration = None
@@ -322,7 +212,7 @@ class TiltrotorWInfLaw:
         _, r = checked_vector("reference", reference, 12)
         wind, wl = checked_vector("wind", wind, 3)
         _, iel = checked_vector("e_int", integral_ec, len(CONTROLLED))
-        al, ald, aldd, psi, psid, psidd = _regulated_values(self.tilt_schedule, r[4:8], r[8:12],
+        al, ald, aldd, psi, psid, psidd = regulated_values(self.tilt_schedule, r[4:8], r[8:12],
                                                            (r[3], r[7], r[11]), wl)
         ref_r = (np.array([al, al, psi]), np.array([ald, ald, psid]), np.array([aldd, aldd, psidd]))
         # tracked_reference((p, v, a)[:3], ref_r) assembled directly
@@ -433,13 +323,19 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         # the first sample is taken at initialization (outputs are never the placeholder); the
         # periodic event at that same time then finds it stamped and leaves it
         self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
+        # the allocation's last active set (−1, 0, +1 per actuator; NaN: none yet), its warm
+        # start on both paths (through make_law's allocate.warm_start on the Python path)
+        self._active = self.DeclareDiscreteState(BasicVector(np.full(N_TAU, np.nan)))
+        compiled = law.compiled_sample
+        self._compiled = compiled if compiled is not None and compiled.matches(law) else None
+        self._sample = None if self._compiled is None else self._compiled.kernel(self.period)
         self.DeclareInitializationDiscreteUpdateEvent(self._update)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
         for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
             self.DeclareStateOutputPort(name, idx)
         # group numbers as ints: DiscreteValues.set_value(int, array) is one pybind call (a
         # BasicVector's SetFromVector from a list costs several times more)
-        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp))
+        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp, self._active))
         dep = {self.discrete_state_ticket(self._state)}
         for name in ("tau_bar", "u_star", "allocation_residual", "integral_error", "saturation"):
             sl = self.RECORD_FIELDS[name]
@@ -482,13 +378,29 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         t, stamp = context.get_time(), context.get_discrete_state(self._stamp).GetAtIndex(0)
         if stamp == t:
             return                                   # this sample was taken at initialization
-        i_state, i_n, i_s, i_d, i_stamp = self._groups
+        i_state, i_n, i_s, i_d, i_stamp, i_act = self._groups
         discrete_state.get_mutable_value(i_stamp)[0] = t
         x = self.x_port.Eval(context)
         ref = self.reference_port.Eval(context)
+        wind = self.wind_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
-        step = self.law.step(x[:N_Q], x[N_Q:], ref, self.wind_port.Eval(context), old[self._I],
-                             n_prev=old[self._N])
+        sample = self._sample
+        if sample is not None and self._compiled.matches(self.law):
+            # the whole update in one compiled call (tiltrotor.compiled_sample), the record
+            # written in place; declined samples (False) take the Python path below
+            rec = discrete_state.get_mutable_value(i_state)
+            if sample(x, ref, wind, old, context.get_discrete_state(i_act).value(), rec,
+                      discrete_state.get_mutable_value(i_act)):
+                self._hold(discrete_state, old if self.computation_delay and stamp != -np.inf
+                           else rec)
+                return
+        warm = getattr(self.law.allocate, "warm_start", None)
+        if type(warm) is dict:
+            active = context.get_discrete_state(i_act).value()
+            warm["active"] = None if np.isnan(active).any() else active.copy()
+        step = self.law.step(x[:N_Q], x[N_Q:], ref, wind, old[self._I], n_prev=old[self._N])
+        if type(warm) is dict and warm["active"] is not None:
+            discrete_state.set_value(i_act, np.asarray(warm["active"], dtype=float))
         # layout [∫e_c | τ̄ | n | u* | residual | saturation], assembled from float lists (a
         # few numpy calls on 3-vectors cost more than the arithmetic); forward-Euler integral
         # of the controlled-DOF error over one sample
@@ -498,8 +410,13 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         discrete_state.set_value(i_state, np.array(
             ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
             + saturation_flag_list(tau, step.lo, step.up)))
-        if self.computation_delay and stamp != -np.inf:    # the previous sample goes out now
-            tau, n = old[self._TAU], old[self._N]
-        discrete_state.set_value(i_n, n)
-        discrete_state.set_value(i_s, tau[2:4])
-        discrete_state.set_value(i_d, tau[4:8])
+        self._hold(discrete_state, old if self.computation_delay and stamp != -np.inf
+                   else discrete_state.get_value(i_state))
+
+    def _hold(self, discrete_state, record):
+        """Copy n, τs and δ of ``record`` (the new sample's, or with ``computation_delay`` the
+        previous one's) into the groups of the three plant-facing outputs."""
+        _, i_n, i_s, i_d = self._groups[:4]
+        discrete_state.set_value(i_n, record[11:13])
+        discrete_state.set_value(i_s, record[5:7])
+        discrete_state.set_value(i_d, record[7:11])

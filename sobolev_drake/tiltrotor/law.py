@@ -5,7 +5,8 @@ from the plant's own level-flight trims (:func:`plant_trim_schedule`) and the wa
 Newton inversion of the thrust (7.90) (:func:`newton_speed_for_thrust`) live here too.
 
 With the compiled kernels (``sobolev_drake.native``) the law also gets a fused per-sample path
-that calls them directly; it computes the same numbers as the composed callables.
+that calls them directly; it computes the same numbers as the composed callables.  The
+controller's whole update in one compiled call is ``tiltrotor.compiled_sample``.
 """
 
 from __future__ import annotations
@@ -77,12 +78,15 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
     Returns
     -------
     TiltrotorWInfLaw
-        The composed law (with ``propulsion`` and ``aero`` cores attached, and a fused
-        per-sample path when the compiled kernels are built).
+        The composed law (with ``propulsion`` and ``aero`` cores attached, a fused per-sample
+        path when the compiled kernels are built, and ``compiled_sample``, the controller's
+        one-call update (``tiltrotor.compiled_sample``), for the thesis design with the
+        default allocation).
     """
     from sobolev_drake.data import load
     from sobolev_drake.tiltrotor.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
+    from sobolev_drake.tiltrotor.compiled_sample import compiled_sample
     from sobolev_drake.tiltrotor.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
                                                     input_affine)
 
@@ -100,6 +104,7 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
         sched = plant_trim_schedule(model)
     else:
         raise ValueError(f"schedule must be 'data', 'plant' or a callable, got {schedule!r}")
+    default_allocation = allocate is None
     if allocate is None:
         # The previous sample's active set warm-starts the solver: one linear solve when it
         # is unchanged; the solution is the same (KKT-certified), only the iterations differ.
@@ -110,6 +115,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
                                               return_info=True)
             last["active"] = info["active"]
             return tau
+        # the controller keeps the active set in its Context and passes it through here
+        allocate.warm_start = last
 
     # One scalar pass of the force model per sample serves B, ϑ_passive, the surface air
     # speeds of the bounds and the rotor inflow of the thrust inversion (all at (q, q̇, ζ)).
@@ -177,6 +184,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
     if native is not None:
         law.fused_sample = _fused_sample(law, native, speeds,
                                          (affine, bounds, allocate, thrust_to_speed))
+    law.compiled_sample = compiled_sample(law, None if native is None else native[1],
+                                          default_allocation=default_allocation)
     return law
 
 
@@ -362,4 +371,7 @@ def plant_trim_schedule(model: TiltrotorModel | None = None) -> TiltSchedule:
         if not inside:
             return val, 0.0, 0.0
         return val, (3.0 * c3 * x + 2.0 * c2) * x + c1, 6.0 * c3 * x + 2.0 * c2
+    # the same evaluation in native/fused.c (the compiled per-sample path)
+    sched.compiled_form = {"schedule": 0, "knots": xs, "coefficients": [v for c in coefs for v in c],
+                           "lo": float(lo), "hi": float(hi)}
     return sched
