@@ -130,12 +130,14 @@ def mission(duration, period, accuracy, floor=False):
     from sobolev_drake.tiltrotor.mission import build_mission
     from tiltrotor_mission import floor_patches
 
-    built = build_mission(2, duration, period=period)       # as simulate_mission builds it
-    diagram = built["diagram"]
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    built["handles"].set_state(context, diagram, np.zeros(8), np.zeros(8))
+    # the floor's patches act on systems built inside them (the controller binds its compiled
+    # update at construction), so the mission is built inside the block too
     with floor_patches() if floor else contextlib.nullcontext():
+        built = build_mission(2, duration, period=period)       # as simulate_mission builds it
+        diagram = built["diagram"]
+        simulator = Simulator(diagram)
+        context = simulator.get_mutable_context()
+        built["handles"].set_state(context, diagram, np.zeros(8), np.zeros(8))
         start = time.process_time()
         simulate(diagram, context, duration, progress=False, integrator="runge_kutta3",
                  accuracy=accuracy, max_step=period, simulator=simulator)
