@@ -39,7 +39,8 @@ from .hinf_common import BRL_TOL, certify_result, validate_plants
 from .problem import GeneralizedPlant, SynthesisResult
 from .lmi import InfeasibleLMIError, SynthesisError
 from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_controller,
-                      normalize, output_feedback_test, rank_deficiency, state_feedback_test)
+                      normalize, output_feedback_level_test, rank_deficiency,
+                      state_feedback_test)
 from .scaling import resolve_scaling, scale_plant, unscale_controller, unscale_gain
 
 __all__ = ["GammaNotReachable", "perturbed_plant", "riccati_synthesis", "BudgetExceeded"]
@@ -133,7 +134,7 @@ class _Problem:
         if not self.of:
             return s, (lambda g: state_feedback_test(s, g)), None
         nrm = normalize(s)
-        return s, (lambda g: output_feedback_test(nrm.plant, g)), nrm
+        return s, output_feedback_level_test(nrm.plant), nrm
 
     def controller(self, eps, gamma):
         """Controller of the original plant reaching ``gamma`` on the eps-perturbed plant."""
