@@ -331,9 +331,33 @@ def output_feedback_test(pn: GeneralizedPlant, gamma: float) -> OutputFeedbackLe
 
 
 def output_feedback_level_test(pn: GeneralizedPlant) -> Callable[[float], OutputFeedbackLevel]:
-    """:func:`output_feedback_test` of ``pn`` as a function of gamma alone, with the
-    level-independent matrices of both Riccati equations formed once (for a bisection:
-    ``bisect_gamma(output_feedback_level_test(pn), ...)``); the same results."""
+    """:func:`output_feedback_test` of ``pn`` as a function of gamma alone.
+
+    The level-independent matrices of both Riccati equations (B, Q, S, D'D of each) are
+    formed once instead of at every level of a bisection; the arithmetic per level, hence
+    every result, is that of :func:`output_feedback_test`.
+
+    Parameters
+    ----------
+    pn : GeneralizedPlant
+        A normalized regular plant (:func:`normalize`).
+
+    Returns
+    -------
+    callable
+        gamma -> :class:`OutputFeedbackLevel`, raising :class:`RiccatiInfeasible` where gamma
+        is not reachable.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sobolev_drake.synthesis.random_plants import random_plant
+    >>> p = random_plant(np.random.default_rng(0), 4, "stable").plant
+    >>> test = output_feedback_level_test(normalize(p).plant)
+    >>> lo, hi, level, count = bisect_gamma(test, 0.0, rtol=1e-6)
+    >>> print(f"{hi:.3f}", bool(np.all(np.linalg.eigvalsh(level.X) > -1e-9)))
+    2.066 True
+    """
     x_eq, y_eq = _GameRiccati(pn), _GameRiccati(pn, dual=True)
 
     def test(gamma):
