@@ -20,7 +20,8 @@ one warning line says which level, perturbation and pole ratio were taken.
 
 Every controller is certified on the original plant (``hinf_common.certify_result``) before it
 is returned; the Lyapunov matrix P reported is the stabilizing solution of the closed loop's
-bounded-real Riccati equation at the design level, or between it and the certified gamma
+bounded-real Riccati equation at the design level, else that between the design level and
+the certified gamma, else the central controller's closed-form solution at the design level
 (:func:`_closed_loop_lyapunov`).
 """
 
@@ -39,7 +40,8 @@ from .hinf_common import BRL_TOL, certify_result, validate_plants
 from .problem import GeneralizedPlant, SynthesisResult
 from .lmi import InfeasibleLMIError, SynthesisError
 from .riccati import (BudgetExceeded, RiccatiInfeasible, bisect_gamma, central_controller,
-                      normalize, output_feedback_test, rank_deficiency, state_feedback_test)
+                      normalize, output_feedback_level_test, rank_deficiency,
+                      state_feedback_test)
 from .scaling import resolve_scaling, scale_plant, unscale_controller, unscale_gain
 
 __all__ = ["GammaNotReachable", "perturbed_plant", "riccati_synthesis", "BudgetExceeded"]
@@ -133,7 +135,7 @@ class _Problem:
         if not self.of:
             return s, (lambda g: state_feedback_test(s, g)), None
         nrm = normalize(s)
-        return s, (lambda g: output_feedback_test(nrm.plant, g)), nrm
+        return s, output_feedback_level_test(nrm.plant), nrm
 
     def controller(self, eps, gamma):
         """Controller of the original plant reaching ``gamma`` on the eps-perturbed plant."""
@@ -148,90 +150,105 @@ class _Problem:
         return gain
 
     def storage(self, gain):
-        """Closed-form route to the closed loop's Lyapunov matrix P for the controller ``gain``
-        last built by :meth:`controller`: a function of (A_cl, B_cl, C_cl, D_cl, level)
-        returning a candidate P, or None for another gain.
+        """Closed-form routes to the closed loop's Lyapunov matrix P for the controller
+        ``gain`` last built by :meth:`controller`: (first, last), two tuples of candidates,
+        functions of (A_cl, B_cl, C_cl, D_cl, level) returning a P -- ``first`` tried before
+        the 2n-state solve of :func:`_closed_loop_lyapunov`, ``last`` after it (both empty
+        for another gain).  The caller accepts a candidate only on its own bounded-real check
+        (``brl_residual``).
 
         State feedback u = F2 x: the game Riccati solution X is the stabilizing solution of the
         closed loop's bounded-real Riccati equation at the design level (its closed-loop
-        matrix A + B1 F1 + B2 F2 is Hurwitz).  Central controller (state x^ estimating the
-        scaled state x~): with the worst-case disturbance split off, w = F1 x~ + r, the
-        dissipation splits into x~'X x~ and a storage e'Pi e of the estimation error
-        e = x~ - x^, whose dynamics driven by r do not involve x~ (the separation structure of
-        Zhou, Doyle & Glover 1996, sec. 16.8).  So P = S'diag(X, Pi) S with S (x, x_K) = (x~, e),
-        and Pi is the stabilizing solution of the n-state bounded-real Riccati equation of the
-        error block of the closed loop in those coordinates -- one n-state solve instead of
-        one of the 2n-state closed loop.  The caller accepts a candidate only on its own
-        bounded-real check (``brl_residual``)."""
+        matrix A + B1 F1 + B2 F2 is Hurwitz).
+
+        Central controller (state x^ estimating the scaled state x~): with the worst-case
+        disturbance split off, w = F1 x~ + r, the dissipation splits into x~'X x~ and a storage
+        e'Pi e of the estimation error e = x~ - x^, whose dynamics driven by r do not involve
+        x~ (the separation structure of Zhou, Doyle & Glover 1996, sec. 16.8).  So
+        P = S'diag(X, Pi) S with S (x, x_K) = (x~, e), for any solution Pi of the error
+        block's bounded-real Riccati equation at the design level:
+
+        1. the stabilizing one, from the n-state equation of the error block of the closed
+           loop in those coordinates (one n-state solve instead of one of the 2n-state loop);
+           then P is the closed loop's stabilizing solution;
+        2. in closed form, Pi = level^2 Y^-1 - X (Doyle, Glover, Khargonekar & Francis 1989;
+           Zhou, Doyle & Glover 1996, ch. 16: the error block is the output-estimation
+           problem whose dual Riccati solution is Y (I - X Y / level^2)^-1, and its
+           inverse times level^2 solves the error block's equation), no Riccati solve at all.
+           It is the error block's anti-stabilizing (largest) solution, so P is a solution
+           of the loop's equation but not its stabilizing one: a larger storage (a looser
+           ``transient_bound``), hence last, after the 2n-state solve -- where the first
+           fails (the loop's norm within rounding of the level, where the stabilizing
+           solution is ill-posed), the 2n-state solve fails too and Y is well enough
+           conditioned.  P >= 0 because rho(XY) < level^2."""
         kept, _, data = getattr(self, "_storage", (None, None, None))
         if kept is not gain:
-            return None
+            return (), ()
         Ti = 1.0 / self.T
         if not self.of:
             X = Ti[:, None] * data[1] * Ti
-            return lambda Acl, Bcl, Ccl, Dcl, level: X
+            return (lambda Acl, Bcl, Ccl, Dcl, level: X,), ()
         X, n = data.X, self.plant.n
 
-        def candidate(Acl, Bcl, Ccl, Dcl, level):
-            # S = [[diag(1/T), 0], [diag(1/T), -I]], S^-1 = [[diag(T), 0], [I, -I]]: the error
-            # block of S A_cl S^-1 and the error columns of C_cl S^-1, rows of S B_cl
+        def storage_matrix(Pi):
+            # S = [[diag(1/T), 0], [diag(1/T), -I]]: P = S'diag(X, Pi) S
+            Pi = 0.5 * (Pi + Pi.T)
+            return np.block([[Ti[:, None] * (X + Pi) * Ti, -Ti[:, None] * Pi],
+                             [-Pi * Ti, Pi]])
+
+        def stabilizing(Acl, Bcl, Ccl, Dcl, level):
+            # S^-1 = [[diag(T), 0], [I, -I]]: the error block of S A_cl S^-1 and the error
+            # columns of C_cl S^-1, rows of S B_cl
             A_ee = (Ti[:, None] * Acl[:n, n:] - Acl[n:, n:])  # (S A_cl)[e, x_K]
             A22 = -A_ee  # times S^-1[x_K, e] = -I
             B2 = Ti[:, None] * Bcl[:n] - Bcl[n:]
             C2 = -Ccl[:, n:]
             R = Dcl.T @ Dcl - level ** 2 * np.eye(Dcl.shape[1])
-            Pi = sla.solve_continuous_are(A22, B2, C2.T @ C2, R, s=C2.T @ Dcl)
-            Pi = 0.5 * (Pi + Pi.T)
-            return np.block([[Ti[:, None] * (X + Pi) * Ti, -Ti[:, None] * Pi],
-                             [-Pi * Ti, Pi]])
-        return candidate
+            return storage_matrix(sla.solve_continuous_are(A22, B2, C2.T @ C2, R,
+                                                           s=C2.T @ Dcl))
+
+        def closed_form(Acl, Bcl, Ccl, Dcl, level):
+            # at the level the controller was built at (data.gamma), as X and Y
+            return storage_matrix(data.gamma ** 2 * sla.cho_solve(sla.cho_factor(data.Y),
+                                                                  np.eye(n)) - X)
+        return (stabilizing,), (closed_form,)
 
     def optimum(self, eps, deadline):
         _, test, _ = self.variant(eps)
         return bisect_gamma(test, self.bound, rtol=BISECTION_RTOL, deadline=deadline)
 
 
-def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level, candidate=None):
+def _closed_loop_lyapunov(Acl, Bcl, Ccl, Dcl, gamma, level, candidates=((), ())):
     """Lyapunov matrix P of the closed loop for the bounded-real inequality at ``gamma`` (gamma^2
     form, see ``SynthesisResult``), or None when none is found.
 
-    Candidates: ``candidate`` (built from the design's Riccati solutions,
-    :meth:`_Problem.storage`) first -- the stabilizing solution of the closed loop's
-    bounded-real Riccati equation at ``level`` (the controller's design level, just below
-    ``gamma``) by an n-state Riccati solve instead of one of the 2n-state closed loop; only
-    when it fails, the stabilizing solution of that 2n-state equation at sqrt(level gamma),
-    between the design level and the published gamma, by scipy's CARE.  A candidate is
-    returned if it is positive semidefinite and its ``brl_residual`` at ``gamma`` is at most
-    ``BRL_TOL`` (the LMI path's acceptance test): whichever produced it, P is accepted only on
-    that independent check.
-
-    Why not the 2n-state equation at ``level`` (as before): the candidate is its stabilizing
-    solution whenever one exists (separation structure), and it fails when the closed loop's
-    norm is within rounding of the design level -- the central controller's norm can equal its
-    level to ~1e-9 -- where that solution is ill-posed or does not exist.  Measured on 120
-    random plants (4-40 states, five families): the candidate failed on 36; the two 2n-state
-    solves at ``level`` (balanced, unbalanced) gave an accepted P on 3 of them, one solve at
-    sqrt(level gamma), where a stabilizing solution exists once the norm is below it, on 23
-    (including those 3)."""
-    try:
-        P = None if candidate is None else candidate(Acl, Bcl, Ccl, Dcl, level)
-    except (np.linalg.LinAlgError, ValueError):
-        P = None
-    if _accepted(Acl, Bcl, Ccl, Dcl, P, gamma):
-        # the final acceptance test itself: a 2n-state solve could only return another
-        # rounding of the same (unique) stabilizing solution at ~10x the cost.  Measured on
-        # 153 random plants (4-60 states): 14 candidates had a residual in (1e-9, 1e-7]; the
-        # 2n-state solve that used to follow changed P in 4 of them, by <= 1.2e-3 relative,
-        # both within the backward-error bound of tests/synthesis/test_certificate_floor.py
-        return 0.5 * (P + P.T)
+    Candidates, in this order: ``candidates[0]`` (built from the design's Riccati solutions,
+    :meth:`_Problem.storage`: the stabilizing solution of the closed loop's bounded-real
+    Riccati equation at ``level``, the controller's design level just below ``gamma``,
+    without a Riccati solve of the 2n-state closed loop); the stabilizing solution of that
+    2n-state equation at sqrt(level gamma), between the design level and the published gamma,
+    by scipy's CARE; ``candidates[1]`` (a solution at ``level`` in closed form, not the
+    stabilizing one).  A candidate is returned if it is positive semidefinite and its
+    ``brl_residual`` at ``gamma`` is at most ``BRL_TOL`` (the LMI path's acceptance test):
+    whichever produced it, P is accepted only on that independent check.  An accepted
+    candidate is not polished by a 2n-state solve, and the 2n-state equation is solved at
+    sqrt(level gamma), not at ``level``, where the loop's norm can equal the level to
+    rounding: why, and how often each route answers, is measured in docs/scale.md (issue 36)."""
     mid = np.sqrt(level * gamma)
-    try:
-        P = sla.solve_continuous_are(Acl, Bcl, Ccl.T @ Ccl,
-                                     Dcl.T @ Dcl - mid ** 2 * np.eye(Bcl.shape[1]),
-                                     s=Ccl.T @ Dcl)
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-    return 0.5 * (P + P.T) if _accepted(Acl, Bcl, Ccl, Dcl, P, gamma) else None
+
+    def loop_solution(Acl, Bcl, Ccl, Dcl, level):
+        return sla.solve_continuous_are(Acl, Bcl, Ccl.T @ Ccl,
+                                        Dcl.T @ Dcl - mid ** 2 * np.eye(Bcl.shape[1]),
+                                        s=Ccl.T @ Dcl)
+    first, last = candidates
+    for candidate in (*first, loop_solution, *last):
+        try:
+            P = candidate(Acl, Bcl, Ccl, Dcl, level)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        if _accepted(Acl, Bcl, Ccl, Dcl, P, gamma):
+            return 0.5 * (P + P.T)
+    return None
 
 
 def _accepted(Acl, Bcl, Ccl, Dcl, P, gamma):

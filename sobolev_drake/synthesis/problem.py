@@ -246,8 +246,10 @@ class SynthesisResult:
 
     Riccati results: ``P`` is the stabilizing solution of the closed loop's bounded-real
     Riccati equation at the design level, ``gamma`` = level x (1 + 1e-6) -- or at
-    sqrt(level gamma) where the closed loop's norm is within rounding of the design level
-    (``hinf_riccati._closed_loop_lyapunov``); None when neither passes the bounded-real check.
+    sqrt(level gamma) where the closed loop's norm is within rounding of the design level, or
+    where that fails too the central controller's closed-form solution at the design level (not
+    the stabilizing one: a larger storage) (``hinf_riccati._closed_loop_lyapunov``); None when
+    none passes the bounded-real check.
 
     Frozen: a result is what the synthesis certified; :meth:`replace` (``dataclasses.replace``)
     makes a modified copy, e.g. to test a certificate against a changed ``P``.
