@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "capi.h"
 #include "pyconvert.h"
 
 #define HALF_PI 1.5707963267948966
@@ -435,6 +436,174 @@ static int aero_loads(const Model *m, const Kin *k, const double *delta, double 
     return 0;
 }
 
+/* ------------------------------------------------------------- per-sample cores ---- */
+/*
+ * The per-sample pieces of the tilt-rotor law on contiguous arrays, each computed only here:
+ * the Python entries affine_terms, newton_speed, surface_bounds and saturation_flags below
+ * are wrappers (arguments, errors, return values) around them, and the C interface (capi.h,
+ * used by fused.c) hands out the same functions.
+ */
+
+/* affine_terms: B (64, row-major), ϑ_passive (8), V (6), V_xz (2), φ (2); -1 with a Python
+ * exception set (NaN air data: ValueError; Ct = 0 through the thrust: ZeroDivisionError) */
+static int affine_core(const void *model, const double *q, const double *qd, const double *z,
+                       const double *n, int through_thrust, double *B, double *passive,
+                       double *V6, double *vxz, double *phis)
+{
+    const Model *m = (const Model *)model;
+    Kin k;
+    Rotor rot[2];
+    double cols[24];
+    static const double zero4[4] = {0.0, 0.0, 0.0, 0.0};
+    body_kinematics(q, qd, z, &k);
+    rotors(m, q, qd, &k, rot);
+    if (aero_loads(m, &k, zero4, passive, V6, cols))
+        return -1;
+    memset(B, 0, sizeof(double) * 64);
+    B[0 * 8 + 2] = m->cosb_B;
+    B[1 * 8 + 3] = m->cosb_B;
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 4; j++)
+            B[(2 + i) * 8 + 4 + j] = cols[6 * j + i];
+    for (int i = 0; i < 2; i++) {
+        const Rotor *r = &rot[i];
+        double v_xz = hypot(r->u, r->w);
+        double phi = clip_phi(atan2(r->u, r->w));
+        vxz[i] = v_xz;
+        phis[i] = phi;
+        double nd = n[i] * m->d;
+        double J = v_xz / (nd > 1e-300 ? nd : 1e-300);
+        J = J < m->Jmax ? J : m->Jmax;
+        double ct_, cq_;
+        ct_cq(m, J, phi, &ct_, &cq_);
+        double gf[4] = {r->dz * r->zx - r->dx * r->zz, r->ry * r->zz - r->rz * r->zy,
+                        r->rz * r->zx - r->rx * r->zz, r->rx * r->zy - r->ry * r->zx};
+        double gt[4] = {r->zy, r->zx, r->zy, r->zz}, col[4];
+        if (through_thrust) {
+            if (ct_ == 0.0) {
+                PyErr_SetString(PyExc_ZeroDivisionError, "float division by zero (Ct = 0)");
+                return -1;
+            }
+            double ratio = m->lam[i] * (m->d * cq_ / ct_);
+            for (int t = 0; t < 4; t++)
+                col[t] = gf[t] + gt[t] * ratio;
+        } else {
+            memcpy(col, gf, sizeof(gf));
+            double tq = m->lam[i] * (m->rho * pow(m->d, 5) * pow(n[i], 2) * cq_);
+            double zero3[3] = {0.0, 0.0, 0.0}, zax[3] = {r->zx, r->zy, r->zz}, w6[6];
+            passive[i] += tq * r->zy;
+            body_wrench(&k, zero3, zax, w6);
+            for (int t = 0; t < 3; t++)
+                passive[2 + t] += tq * w6[t];
+        }
+        double zax[3] = {r->zx, r->zy, r->zz}, w6[6];
+        B[i * 8 + i] = col[0];
+        body_wrench(&k, zax, col + 1, w6);
+        for (int t = 0; t < 6; t++)
+            B[(2 + t) * 8 + i] = w6[t];
+    }
+    passive[0] -= m->nu * qd[0];
+    passive[1] -= m->nu * qd[1];
+    return 0;
+}
+
+/* thrust − f at speed nn for the Horner coefficients c (c4 … c0) of Ct(J) at fixed φ */
+static double thrust_error(const Model *m, double kf4, const double *c, double vx, double f,
+                           double nn)
+{
+    double J = vx / (nn * m->d);
+    J = J < m->Jmax ? J : m->Jmax;
+    return kf4 * nn * nn * ((((c[0] * J + c[1]) * J + c[2]) * J + c[3]) * J + c[4]) - f;
+}
+
+/* newton_speed_for_thrust (tiltrotor/law.py): 0 and n_out (2) on convergence, 1 where the
+ * Python entry returns None (no exception set) */
+static int newton_core(const void *model, const double *f, const double *vx,
+                       const double *ph, const double *n_guess, long iterations, double rtol,
+                       double *n_out)
+{
+    const Model *m = (const Model *)model;
+    double n[2] = {n_guess[0], n_guess[1]}, c[2][5];
+    for (int i = 0; i < 2; i++)
+        if (f[i] <= 0 || n[i] <= 1.0)
+            return 1;
+    double kf4 = m->rho * pow(m->d, 4);
+    for (int i = 0; i < 2; i++) {   /* PropellerCoefficients.ct_in_J */
+        double P = ph[i], Pp[5] = {1.0, P, P * P, P * P * P, P * P * P * P}, a[5] = {0, 0, 0, 0, 0};
+        for (int t = 0; t < m->nterms; t++)
+            a[m->ti[t]] += m->ta[t] * Pp[m->tj[t]];
+        for (int t = 0; t < 5; t++)
+            c[i][t] = a[4 - t];
+    }
+    for (long it = 0; it < iterations; it++) {
+        double g0[2], dg[2];
+        int conv = 1;
+        for (int i = 0; i < 2; i++) {
+            g0[i] = thrust_error(m, kf4, c[i], vx[i], f[i], n[i]);
+            conv = conv && fabs(g0[i]) <= rtol * (1.0 + f[i]);
+        }
+        if (conv) {
+            n_out[0] = n[0];
+            n_out[1] = n[1];
+            return 0;
+        }
+        for (int i = 0; i < 2; i++) {
+            double h = 1e-6 * n[i];
+            dg[i] = (thrust_error(m, kf4, c[i], vx[i], f[i], n[i] + h) - g0[i]) / h;
+        }
+        if (dg[0] <= 0 || dg[1] <= 0)
+            return 1;
+        for (int i = 0; i < 2; i++)
+            n[i] = n[i] - g0[i] / dg[i];
+        if (n[0] <= 0 || n[1] <= 0)
+            return 1;
+    }
+    for (int i = 0; i < 2; i++)
+        if (!(fabs(thrust_error(m, kf4, c[i], vx[i], f[i], n[i])) <= 1e-6 * (1.0 + f[i])))
+            return 1;
+    n_out[0] = n[0];
+    n_out[1] = n[1];
+    return 0;
+}
+
+/* the per-surface branch of tiltrotor_bounds (tiltrotor/allocation.py), sigmf (7.89), with
+ * k = (s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi): 0, or -1 (no exception set) on an air
+ * speed that is negative or not finite */
+static int bounds_core(const double *v, const double *k, double *lo, double *hi)
+{
+    lo[0] = lo[1] = k[2];
+    lo[2] = lo[3] = k[4];
+    hi[0] = hi[1] = k[3];
+    hi[2] = hi[3] = k[5];
+    double s = k[0], c = k[1];
+    for (int i = 0; i < 4; i++) {
+        double x = v[i];
+        if (!(x >= 0 && isfinite(x)))
+            return -1;
+        double zz = -s * (x - c), e = exp(-fabs(zz));
+        double g = zz >= 0 ? e / (1.0 + e) : 1.0 / (1.0 + e);
+        lo[4 + i] = k[6] * g;
+        hi[4 + i] = k[7] * g;
+    }
+    return 0;
+}
+
+/* the per-sample branch of saturation_flags (tiltrotor/controller.py): +1 at the upper bound,
+ * -1 at the lower, 0 inside or where the bounds are no more than min_width apart */
+static void flags_core(const double *t, const double *lo, const double *up, double rel_tol,
+                       double min_width, double *out)
+{
+    for (int i = 0; i < 8; i++) {
+        double w = up[i] - lo[i];
+        if (w > min_width) {
+            double tol = rel_tol * w;
+            out[i] = t[i] >= up[i] - tol ? 1.0 : (t[i] <= lo[i] + tol ? -1.0 : 0.0);
+        } else {
+            out[i] = 0.0;
+        }
+    }
+}
+
 /* ---------------------------------------------------------------- Python entry points ---- */
 
 static PyObject *py_plant_force(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -577,70 +746,11 @@ static PyObject *py_affine_terms(PyObject *self, PyObject *const *args, Py_ssize
     if (!m || read_qqz(args, q, qd, z) || read_vec(args[4], 2, n, 0, "n"))
         return NULL;
     int through_thrust = PyObject_IsTrue(args[5]);
-    Kin k;
-    Rotor rot[2];
-    double passive[8], V6[6], cols[24], B[64], vxz[2], phis[2];
-    static const double zero4[4] = {0.0, 0.0, 0.0, 0.0};
-    body_kinematics(q, qd, z, &k);
-    rotors(m, q, qd, &k, rot);
-    if (aero_loads(m, &k, zero4, passive, V6, cols))
+    double B[64], passive[8], V6[6], vxz[2], phis[2];
+    if (affine_core(m, q, qd, z, n, through_thrust, B, passive, V6, vxz, phis))
         return NULL;
-    memset(B, 0, sizeof(B));
-    B[0 * 8 + 2] = m->cosb_B;
-    B[1 * 8 + 3] = m->cosb_B;
-    for (int i = 0; i < 6; i++)
-        for (int j = 0; j < 4; j++)
-            B[(2 + i) * 8 + 4 + j] = cols[6 * j + i];
-    for (int i = 0; i < 2; i++) {
-        const Rotor *r = &rot[i];
-        double v_xz = hypot(r->u, r->w);
-        double phi = clip_phi(atan2(r->u, r->w));
-        vxz[i] = v_xz;
-        phis[i] = phi;
-        double nd = n[i] * m->d;
-        double J = v_xz / (nd > 1e-300 ? nd : 1e-300);
-        J = J < m->Jmax ? J : m->Jmax;
-        double ct_, cq_;
-        ct_cq(m, J, phi, &ct_, &cq_);
-        double gf[4] = {r->dz * r->zx - r->dx * r->zz, r->ry * r->zz - r->rz * r->zy,
-                        r->rz * r->zx - r->rx * r->zz, r->rx * r->zy - r->ry * r->zx};
-        double gt[4] = {r->zy, r->zx, r->zy, r->zz}, col[4];
-        if (through_thrust) {
-            if (ct_ == 0.0) {
-                PyErr_SetString(PyExc_ZeroDivisionError, "float division by zero (Ct = 0)");
-                return NULL;
-            }
-            double ratio = m->lam[i] * (m->d * cq_ / ct_);
-            for (int t = 0; t < 4; t++)
-                col[t] = gf[t] + gt[t] * ratio;
-        } else {
-            memcpy(col, gf, sizeof(gf));
-            double tq = m->lam[i] * (m->rho * pow(m->d, 5) * pow(n[i], 2) * cq_);
-            double zero3[3] = {0.0, 0.0, 0.0}, zax[3] = {r->zx, r->zy, r->zz}, w6[6];
-            passive[i] += tq * r->zy;
-            body_wrench(&k, zero3, zax, w6);
-            for (int t = 0; t < 3; t++)
-                passive[2 + t] += tq * w6[t];
-        }
-        double zax[3] = {r->zx, r->zy, r->zz}, w6[6];
-        B[i * 8 + i] = col[0];
-        body_wrench(&k, zax, col + 1, w6);
-        for (int t = 0; t < 6; t++)
-            B[(2 + t) * 8 + i] = w6[t];
-    }
-    passive[0] -= m->nu * qd[0];
-    passive[1] -= m->nu * qd[1];
     return Py_BuildValue("(NNNNN)", list_of(B, 64), list_of(passive, 8), list_of(V6, 6),
                          list_of(vxz, 2), list_of(phis, 2));
-}
-
-/* thrust − f at speed nn for the Horner coefficients c (c4 … c0) of Ct(J) at fixed φ */
-static double thrust_error(const Model *m, double kf4, const double *c, double vx, double f,
-                           double nn)
-{
-    double J = vx / (nn * m->d);
-    J = J < m->Jmax ? J : m->Jmax;
-    return kf4 * nn * nn * ((((c[0] * J + c[1]) * J + c[2]) * J + c[3]) * J + c[4]) - f;
 }
 
 static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -652,7 +762,7 @@ static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize
         return NULL;
     }
     Model *m = get_model(args[0]);
-    double f[2], vx[2], ph[2], n[2], c[2][5];
+    double f[2], vx[2], ph[2], n[2], n_out[2];
     if (!m || read_vec(args[1], 2, f, 0, "f") || read_vec(args[2], 2, vx, 0, "v_xz")
         || read_vec(args[3], 2, ph, 0, "phi") || read_vec(args[4], 2, n, 0, "n_guess"))
         return NULL;
@@ -660,52 +770,19 @@ static PyObject *py_newton_speed(PyObject *self, PyObject *const *args, Py_ssize
     double rtol = PyFloat_AsDouble(args[6]);
     if (PyErr_Occurred())
         return NULL;
-    for (int i = 0; i < 2; i++)
-        if (f[i] <= 0 || n[i] <= 1.0)
-            Py_RETURN_NONE;
-    double kf4 = m->rho * pow(m->d, 4);
-    for (int i = 0; i < 2; i++) {   /* PropellerCoefficients.ct_in_J */
-        double P = ph[i], Pp[5] = {1.0, P, P * P, P * P * P, P * P * P * P}, a[5] = {0, 0, 0, 0, 0};
-        for (int t = 0; t < m->nterms; t++)
-            a[m->ti[t]] += m->ta[t] * Pp[m->tj[t]];
-        for (int t = 0; t < 5; t++)
-            c[i][t] = a[4 - t];
-    }
-    for (long it = 0; it < iterations; it++) {
-        double g0[2], dg[2];
-        int conv = 1;
-        for (int i = 0; i < 2; i++) {
-            g0[i] = thrust_error(m, kf4, c[i], vx[i], f[i], n[i]);
-            conv = conv && fabs(g0[i]) <= rtol * (1.0 + f[i]);
-        }
-        if (conv)
-            return list_of(n, 2);
-        for (int i = 0; i < 2; i++) {
-            double h = 1e-6 * n[i];
-            dg[i] = (thrust_error(m, kf4, c[i], vx[i], f[i], n[i] + h) - g0[i]) / h;
-        }
-        if (dg[0] <= 0 || dg[1] <= 0)
-            Py_RETURN_NONE;
-        for (int i = 0; i < 2; i++)
-            n[i] = n[i] - g0[i] / dg[i];
-        if (n[0] <= 0 || n[1] <= 0)
-            Py_RETURN_NONE;
-    }
-    for (int i = 0; i < 2; i++)
-        if (!(fabs(thrust_error(m, kf4, c[i], vx[i], f[i], n[i])) <= 1e-6 * (1.0 + f[i])))
-            Py_RETURN_NONE;
-    return list_of(n, 2);
+    if (newton_core(m, f, vx, ph, n, iterations, rtol, n_out))
+        Py_RETURN_NONE;
+    return list_of(n_out, 2);
 }
 
 static PyObject *py_surface_bounds(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    /* (v_air[4], s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi) -> (lo list 8, hi list 8):
-     * the per-surface branch of tiltrotor_bounds (tiltrotor/allocation.py), sigmf (7.89) */
+    /* (v_air[4], s, c, f_lo, f_hi, t_lo, t_hi, d_lo, d_hi) -> (lo list 8, hi list 8) */
     if (nargs != 9) {
         PyErr_SetString(PyExc_TypeError, "surface_bounds takes 9 arguments");
         return NULL;
     }
-    double v[4], k[8];
+    double v[4], k[8], lo[8], hi[8];
     if (read_vec(args[0], 4, v, 0, "v_air"))
         return NULL;
     for (int i = 0; i < 8; i++) {
@@ -713,27 +790,16 @@ static PyObject *py_surface_bounds(PyObject *self, PyObject *const *args, Py_ssi
         if (k[i] == -1.0 && PyErr_Occurred())
             return NULL;
     }
-    double s = k[0], c = k[1];
-    double lo[8] = {k[2], k[2], k[4], k[4]}, hi[8] = {k[3], k[3], k[5], k[5]};
-    for (int i = 0; i < 4; i++) {
-        double x = v[i];
-        if (!(x >= 0 && isfinite(x))) {
-            PyErr_Format(PyExc_ValueError, "v_air must be non-negative and finite, got %R",
-                         args[0]);
-            return NULL;
-        }
-        double z = -s * (x - c), e = exp(-fabs(z));
-        double g = z >= 0 ? e / (1.0 + e) : 1.0 / (1.0 + e);
-        lo[4 + i] = k[6] * g;
-        hi[4 + i] = k[7] * g;
+    if (bounds_core(v, k, lo, hi)) {
+        PyErr_Format(PyExc_ValueError, "v_air must be non-negative and finite, got %R", args[0]);
+        return NULL;
     }
     return Py_BuildValue("(NN)", list_of(lo, 8), list_of(hi, 8));
 }
 
 static PyObject *py_saturation_flags(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    /* (tau[8], lo[8], up[8], rel_tol, min_width) -> list 8 of ±1/0: the per-sample branch of
-     * saturation_flags (tiltrotor/controller.py) */
+    /* (tau[8], lo[8], up[8], rel_tol, min_width) -> list 8 of ±1/0 */
     if (nargs != 5) {
         PyErr_SetString(PyExc_TypeError, "saturation_flags takes 5 arguments");
         return NULL;
@@ -745,15 +811,7 @@ static PyObject *py_saturation_flags(PyObject *self, PyObject *const *args, Py_s
     double rel_tol = PyFloat_AsDouble(args[3]), min_width = PyFloat_AsDouble(args[4]);
     if (PyErr_Occurred())
         return NULL;
-    for (int i = 0; i < 8; i++) {
-        double w = up[i] - lo[i];
-        if (w > min_width) {
-            double tol = rel_tol * w;
-            out[i] = t[i] >= up[i] - tol ? 1.0 : (t[i] <= lo[i] + tol ? -1.0 : 0.0);
-        } else {
-            out[i] = 0.0;
-        }
-    }
+    flags_core(t, lo, up, rel_tol, min_width, out);
     return list_of(out, 8);
 }
 
@@ -784,178 +842,20 @@ static struct PyModuleDef moduledef = {
     methods, NULL, NULL, NULL, NULL,
 };
 
-static int export_forces_c_api(PyObject *module);   /* appended below */
-
-PyMODINIT_FUNC PyInit__forces(void)
-{
-    PyObject *module = PyModule_Create(&moduledef);
-    if (module && export_forces_c_api(module) < 0)
-        Py_CLEAR(module);
-    return module;
-}
-
 /* ------------------------------------------------- C interface for other kernels ---- */
-/*
- * The per-sample pieces of the tilt-rotor law on contiguous arrays (capi.h, used by fused.c).
- * affine_core, newton_core, bounds_core and flags_core repeat, operation for operation, the
- * arithmetic of py_affine_terms, py_newton_speed, py_surface_bounds and py_saturation_flags
- * above: appended rather than factored out of those entries, to leave the rest of this file to
- * a concurrent change of the force system; tests/tiltrotor/test_compiled_sample.py checks that
- * both give the same bits (B, bounds, speeds and flags enter the records compared there).
- */
-#include "capi.h"
 
 static const void *capi_forces_model(PyObject *capsule)
 {
     return get_model(capsule);
 }
 
-static int affine_core(const void *model, const double *q, const double *qd, const double *z,
-                       const double *n, int through_thrust, double *B, double *passive,
-                       double *V6, double *vxz, double *phis)
-{
-    const Model *m = (const Model *)model;
-    Kin k;
-    Rotor rot[2];
-    double cols[24];
-    static const double zero4[4] = {0.0, 0.0, 0.0, 0.0};
-    body_kinematics(q, qd, z, &k);
-    rotors(m, q, qd, &k, rot);
-    if (aero_loads(m, &k, zero4, passive, V6, cols))
-        return -1;
-    memset(B, 0, sizeof(double) * 64);
-    B[0 * 8 + 2] = m->cosb_B;
-    B[1 * 8 + 3] = m->cosb_B;
-    for (int i = 0; i < 6; i++)
-        for (int j = 0; j < 4; j++)
-            B[(2 + i) * 8 + 4 + j] = cols[6 * j + i];
-    for (int i = 0; i < 2; i++) {
-        const Rotor *r = &rot[i];
-        double v_xz = hypot(r->u, r->w);
-        double phi = clip_phi(atan2(r->u, r->w));
-        vxz[i] = v_xz;
-        phis[i] = phi;
-        double nd = n[i] * m->d;
-        double J = v_xz / (nd > 1e-300 ? nd : 1e-300);
-        J = J < m->Jmax ? J : m->Jmax;
-        double ct_, cq_;
-        ct_cq(m, J, phi, &ct_, &cq_);
-        double gf[4] = {r->dz * r->zx - r->dx * r->zz, r->ry * r->zz - r->rz * r->zy,
-                        r->rz * r->zx - r->rx * r->zz, r->rx * r->zy - r->ry * r->zx};
-        double gt[4] = {r->zy, r->zx, r->zy, r->zz}, col[4];
-        if (through_thrust) {
-            if (ct_ == 0.0) {
-                PyErr_SetString(PyExc_ZeroDivisionError, "float division by zero (Ct = 0)");
-                return -1;
-            }
-            double ratio = m->lam[i] * (m->d * cq_ / ct_);
-            for (int t = 0; t < 4; t++)
-                col[t] = gf[t] + gt[t] * ratio;
-        } else {
-            memcpy(col, gf, sizeof(gf));
-            double tq = m->lam[i] * (m->rho * pow(m->d, 5) * pow(n[i], 2) * cq_);
-            double zero3[3] = {0.0, 0.0, 0.0}, zax[3] = {r->zx, r->zy, r->zz}, w6[6];
-            passive[i] += tq * r->zy;
-            body_wrench(&k, zero3, zax, w6);
-            for (int t = 0; t < 3; t++)
-                passive[2 + t] += tq * w6[t];
-        }
-        double zax[3] = {r->zx, r->zy, r->zz}, w6[6];
-        B[i * 8 + i] = col[0];
-        body_wrench(&k, zax, col + 1, w6);
-        for (int t = 0; t < 6; t++)
-            B[(2 + t) * 8 + i] = w6[t];
-    }
-    passive[0] -= m->nu * qd[0];
-    passive[1] -= m->nu * qd[1];
-    return 0;
-}
-
-static int newton_core(const void *model, const double *f, const double *vx,
-                       const double *ph, const double *n_guess, long iterations, double rtol,
-                       double *n_out)
-{
-    const Model *m = (const Model *)model;
-    double n[2] = {n_guess[0], n_guess[1]}, c[2][5];
-    for (int i = 0; i < 2; i++)
-        if (f[i] <= 0 || n[i] <= 1.0)
-            return 1;
-    double kf4 = m->rho * pow(m->d, 4);
-    for (int i = 0; i < 2; i++) {   /* PropellerCoefficients.ct_in_J */
-        double P = ph[i], Pp[5] = {1.0, P, P * P, P * P * P, P * P * P * P}, a[5] = {0, 0, 0, 0, 0};
-        for (int t = 0; t < m->nterms; t++)
-            a[m->ti[t]] += m->ta[t] * Pp[m->tj[t]];
-        for (int t = 0; t < 5; t++)
-            c[i][t] = a[4 - t];
-    }
-    for (long it = 0; it < iterations; it++) {
-        double g0[2], dg[2];
-        int conv = 1;
-        for (int i = 0; i < 2; i++) {
-            g0[i] = thrust_error(m, kf4, c[i], vx[i], f[i], n[i]);
-            conv = conv && fabs(g0[i]) <= rtol * (1.0 + f[i]);
-        }
-        if (conv) {
-            n_out[0] = n[0];
-            n_out[1] = n[1];
-            return 0;
-        }
-        for (int i = 0; i < 2; i++) {
-            double h = 1e-6 * n[i];
-            dg[i] = (thrust_error(m, kf4, c[i], vx[i], f[i], n[i] + h) - g0[i]) / h;
-        }
-        if (dg[0] <= 0 || dg[1] <= 0)
-            return 1;
-        for (int i = 0; i < 2; i++)
-            n[i] = n[i] - g0[i] / dg[i];
-        if (n[0] <= 0 || n[1] <= 0)
-            return 1;
-    }
-    for (int i = 0; i < 2; i++)
-        if (!(fabs(thrust_error(m, kf4, c[i], vx[i], f[i], n[i])) <= 1e-6 * (1.0 + f[i])))
-            return 1;
-    n_out[0] = n[0];
-    n_out[1] = n[1];
-    return 0;
-}
-
-static int bounds_core(const double *v, const double *k, double *lo, double *hi)
-{
-    lo[0] = lo[1] = k[2];
-    lo[2] = lo[3] = k[4];
-    hi[0] = hi[1] = k[3];
-    hi[2] = hi[3] = k[5];
-    double s = k[0], c = k[1];
-    for (int i = 0; i < 4; i++) {
-        double x = v[i];
-        if (!(x >= 0 && isfinite(x)))
-            return -1;
-        double zz = -s * (x - c), e = exp(-fabs(zz));
-        double g = zz >= 0 ? e / (1.0 + e) : 1.0 / (1.0 + e);
-        lo[4 + i] = k[6] * g;
-        hi[4 + i] = k[7] * g;
-    }
-    return 0;
-}
-
-static void flags_core(const double *t, const double *lo, const double *up, double rel_tol,
-                       double min_width, double *out)
-{
-    for (int i = 0; i < 8; i++) {
-        double w = up[i] - lo[i];
-        if (w > min_width) {
-            double tol = rel_tol * w;
-            out[i] = t[i] >= up[i] - tol ? 1.0 : (t[i] <= lo[i] + tol ? -1.0 : 0.0);
-        } else {
-            out[i] = 0.0;
-        }
-    }
-}
-
 static ForcesCAPI forces_c_api = {FORCES_CAPI_VERSION, capi_forces_model, affine_core,
                                   newton_core, bounds_core, flags_core};
 
-static int export_forces_c_api(PyObject *module)
+PyMODINIT_FUNC PyInit__forces(void)
 {
-    return export_c_api(module, &forces_c_api, FORCES_CAPI_NAME);
+    PyObject *module = PyModule_Create(&moduledef);
+    if (module && export_c_api(module, &forces_c_api, FORCES_CAPI_NAME) < 0)
+        Py_CLEAR(module);
+    return module;
 }
