@@ -270,26 +270,6 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
-/* n doubles into a writable C-contiguous float64 buffer */
-static int write_out(PyObject *obj, Py_ssize_t n, const double *src, const char *name)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)) {
-        PyErr_Clear();
-        PyErr_Format(PyExc_TypeError, "%s must be a writable float64 array", name);
-        return -1;
-    }
-    int ok = view.format && strcmp(view.format, "d") == 0 && view.len == (Py_ssize_t)(8 * n);
-    if (ok)
-        memcpy(view.buf, src, sizeof(double) * n);
-    PyBuffer_Release(&view);
-    if (!ok) {
-        PyErr_Format(PyExc_ValueError, "%s must be a float64 array of %zd entries", name, n);
-        return -1;
-    }
-    return 0;
-}
-
 PyDoc_STRVAR(sample_doc,
 "sample(capsule, x, reference, wind, old_record, old_active, record_out, active_out) -> bool\n\n"
 "One sample of the tilt-rotor law (module docstring): the new 30-entry record into\n"
@@ -376,8 +356,8 @@ static PyObject *py_sample(PyObject *self, PyObject *const *args, Py_ssize_t nar
         Py_RETURN_FALSE;
     for (int i = 0; i < N_ACTIVE; i++)
         act[i] = active[i];
-    if (write_out(args[6], N_RECORD, rec, "record_out")
-        || write_out(args[7], N_ACTIVE, act, "active_out"))
+    if (write_doubles(args[6], N_RECORD, rec, "record_out")
+        || write_doubles(args[7], N_ACTIVE, act, "active_out"))
         return NULL;
     Py_RETURN_TRUE;
 }

@@ -92,4 +92,25 @@ static PyObject *list_of(const double *v, Py_ssize_t n)
     return lst;
 }
 
+/* n doubles into a writable C-contiguous float64 buffer (TypeError when obj is not one,
+ * ValueError naming the size when it is not float64 or not n long) */
+static int write_doubles(PyObject *obj, Py_ssize_t n, const double *src, const char *name)
+{
+    Py_buffer view;
+    if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)) {
+        PyErr_Clear();
+        PyErr_Format(PyExc_TypeError, "%s must be a writable float64 array", name);
+        return -1;
+    }
+    int ok = view.format && strcmp(view.format, "d") == 0 && view.len == (Py_ssize_t)(8 * n);
+    if (ok)
+        memcpy(view.buf, src, sizeof(double) * n);
+    PyBuffer_Release(&view);
+    if (!ok) {
+        PyErr_Format(PyExc_ValueError, "%s must be a float64 array of %zd entries", name, n);
+        return -1;
+    }
+    return 0;
+}
+
 #endif

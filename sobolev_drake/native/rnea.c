@@ -489,25 +489,6 @@ fail:
     return NULL;
 }
 
-/* n doubles into a writable C-contiguous float64 buffer */
-static int write_doubles(PyObject *obj, Py_ssize_t n, const double *src, const char *name)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)) {
-        PyErr_Format(PyExc_TypeError, "%s must be a writable float64 array", name);
-        return -1;
-    }
-    int ok = view.format && strcmp(view.format, "d") == 0 && view.len == (Py_ssize_t)(8 * n);
-    if (ok)
-        memcpy(view.buf, src, sizeof(double) * n);
-    PyBuffer_Release(&view);
-    if (!ok) {
-        PyErr_Format(PyExc_ValueError, "%s must be a float64 array of %zd entries", name, n);
-        return -1;
-    }
-    return 0;
-}
-
 static PyObject *py_tracking_sample(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     /* (model, law, x, desired, qddot_r or None, e_int, u_out, rate_out) -> bool finite */
