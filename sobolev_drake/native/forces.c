@@ -63,13 +63,7 @@ static void free_model(PyObject *capsule)
 
 static int get_double(PyObject *dict, const char *key, double *out)
 {
-    PyObject *v = PyDict_GetItemString(dict, key);   /* borrowed */
-    if (!v) {
-        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
-        return -1;
-    }
-    *out = PyFloat_AsDouble(v);
-    return (*out == -1.0 && PyErr_Occurred()) ? -1 : 0;
+    return dict_double(dict, "make_model", key, out);
 }
 
 static PyObject *make_model(PyObject *self, PyObject *args)

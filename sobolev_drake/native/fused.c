@@ -73,43 +73,19 @@ static void free_sample(PyObject *capsule)
 /* dict[key] as a float / an int in [lo, hi] */
 static int get_double(PyObject *d, const char *key, double *out)
 {
-    PyObject *v = PyDict_GetItemString(d, key);
-    if (!v) {
-        PyErr_Format(PyExc_KeyError, "make_sample: missing %s", key);
-        return -1;
-    }
-    *out = PyFloat_AsDouble(v);
-    return *out == -1.0 && PyErr_Occurred() ? -1 : 0;
+    return dict_double(d, "make_sample", key, out);
 }
 
 static int get_long(PyObject *d, const char *key, long lo, long hi, long *out)
 {
-    PyObject *v = PyDict_GetItemString(d, key);
-    if (!v) {
-        PyErr_Format(PyExc_KeyError, "make_sample: missing %s", key);
-        return -1;
-    }
-    long x = PyLong_AsLong(v);
-    if (x == -1 && PyErr_Occurred())
-        return -1;
-    if (x < lo || x > hi) {
-        PyErr_Format(PyExc_ValueError, "make_sample: %s must be in [%ld, %ld], got %ld", key, lo,
-                     hi, x);
-        return -1;
-    }
-    *out = x;
-    return 0;
+    return dict_long(d, "make_sample", key, lo, hi, out);
 }
 
 /* a list's length (for the schedule's arrays) */
 static Py_ssize_t list_size(PyObject *d, const char *key)
 {
-    PyObject *v = PyDict_GetItemString(d, key);
-    if (!v) {
-        PyErr_Format(PyExc_KeyError, "make_sample: missing %s", key);
-        return -1;
-    }
-    return PySequence_Size(v);
+    PyObject *v = dict_item(d, "make_sample", key);
+    return v ? PySequence_Size(v) : -1;
 }
 
 PyDoc_STRVAR(make_doc,
@@ -129,11 +105,9 @@ static PyObject *make_sample(PyObject *self, PyObject *args)
         return PyErr_NoMemory();
     static const char *caps[3] = {"rnea_model", "qdd_law", "forces_model"};
     for (int i = 0; i < 3; i++) {
-        PyObject *c = PyDict_GetItemString(d, caps[i]);
-        if (!c) {
-            PyErr_Format(PyExc_KeyError, "make_sample: missing %s", caps[i]);
+        PyObject *c = dict_item(d, "make_sample", caps[i]);
+        if (!c)
             goto fail;
-        }
         Py_INCREF(c);
         S->owned[i] = c;
     }

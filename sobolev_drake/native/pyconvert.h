@@ -33,14 +33,51 @@ static int seq_to_doubles(PyObject *obj, Py_ssize_t n, double *out, const char *
     return 0;
 }
 
+/* dict[key] (borrowed), or NULL with a KeyError "<who>: missing <key>" (who: the constructor
+ * whose constants dict it is) */
+static PyObject *dict_item(PyObject *dict, const char *who, const char *key)
+{
+    PyObject *v = PyDict_GetItemString(dict, key);   /* borrowed */
+    if (!v)
+        PyErr_Format(PyExc_KeyError, "%s: missing %s", who, key);
+    return v;
+}
+
+/* dict[key] as a float */
+static int dict_double(PyObject *dict, const char *who, const char *key, double *out)
+{
+    PyObject *v = dict_item(dict, who, key);
+    if (!v)
+        return -1;
+    *out = PyFloat_AsDouble(v);
+    return (*out == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
+/* dict[key] as an integer in [lo, hi] (ValueError naming who, the key, the range and the value) */
+static int dict_long(PyObject *dict, const char *who, const char *key, long lo, long hi,
+                     long *out)
+{
+    PyObject *v = dict_item(dict, who, key);
+    if (!v)
+        return -1;
+    long x = PyLong_AsLong(v);
+    if (x == -1 && PyErr_Occurred())
+        return -1;
+    if (x < lo || x > hi) {
+        PyErr_Format(PyExc_ValueError, "%s: %s must be in [%ld, %ld], got %ld", who, key, lo, hi,
+                     x);
+        return -1;
+    }
+    *out = x;
+    return 0;
+}
+
 /* dict[key] as n doubles (KeyError naming the key when it is missing) */
 static int dict_doubles(PyObject *dict, const char *key, Py_ssize_t n, double *out)
 {
-    PyObject *seq = PyDict_GetItemString(dict, key);   /* borrowed */
-    if (!seq) {
-        PyErr_Format(PyExc_KeyError, "make_model: missing %s", key);
+    PyObject *seq = dict_item(dict, "make_model", key);
+    if (!seq)
         return -1;
-    }
     return seq_to_doubles(seq, n, out, key);
 }
 

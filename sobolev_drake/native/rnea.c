@@ -293,20 +293,11 @@ static void derive_body_constants(Body *b)
 
 static PyObject *make_model(PyObject *self, PyObject *args)
 {
-    PyObject *d, *nobj;
-    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &d))
+    PyObject *d;
+    long n;
+    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &d)
+        || dict_long(d, "make_model", "n", 1, MAX_BODIES, &n))
         return NULL;
-    if (!(nobj = PyDict_GetItemString(d, "n"))) {
-        PyErr_SetString(PyExc_KeyError, "make_model: missing n");
-        return NULL;
-    }
-    long n = PyLong_AsLong(nobj);
-    if (n == -1 && PyErr_Occurred())
-        return NULL;
-    if (n < 1 || n > MAX_BODIES) {
-        PyErr_Format(PyExc_ValueError, "make_model: n must be in [1, %d], got %ld", MAX_BODIES, n);
-        return NULL;
-    }
     Model *m = (Model *)calloc(1, sizeof(Model));
     double *buf = (double *)malloc(sizeof(double) * 9 * (size_t)n);
     if (m) {
@@ -426,19 +417,9 @@ static int law_ints(PyObject *d, const char *key, int count, int hi, int *out, d
 
 static int law_size(PyObject *d, const char *key, long lo, long hi, int *out)
 {
-    PyObject *obj = PyDict_GetItemString(d, key);
-    if (!obj) {
-        PyErr_Format(PyExc_KeyError, "make_tracking_law: missing %s", key);
+    long v;
+    if (dict_long(d, "make_tracking_law", key, lo, hi, &v))
         return -1;
-    }
-    long v = PyLong_AsLong(obj);
-    if (v == -1 && PyErr_Occurred())
-        return -1;
-    if (v < lo || v > hi) {
-        PyErr_Format(PyExc_ValueError, "make_tracking_law: %s must be in [%ld, %ld], got %ld",
-                     key, lo, hi, v);
-        return -1;
-    }
     *out = (int)v;
     return 0;
 }
