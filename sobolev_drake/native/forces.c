@@ -75,8 +75,13 @@ static PyObject *make_model(PyObject *self, PyObject *args)
     if (!m)
         return PyErr_NoMemory();
     double tmp[16], samples, indep, mirror, nterms;
-    if (get_double(d, "samples", &samples) || samples < 2 || samples > 100000)
+    if (get_double(d, "samples", &samples))
         goto fail;
+    if (!(samples >= 2 && samples <= 100000 && samples == floor(samples))) {   /* NaN too */
+        PyErr_Format(PyExc_ValueError, "make_model: samples must be an integer in [2, 100000], "
+                     "got %R", PyDict_GetItemString(d, "samples"));
+        goto fail;
+    }
     m->samples = (int)samples;
     m->atab = (double *)malloc(sizeof(double) * 18 * m->samples);
     m->btab = (double *)malloc(sizeof(double) * 18 * m->samples);
@@ -107,7 +112,7 @@ static PyObject *make_model(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "make_model: need nmax = samples - 1 and step > 0");
         goto fail;
     }
-    if (nterms < 0 || nterms > MAX_TERMS) {
+    if (!(nterms >= 0 && nterms <= MAX_TERMS)) {   /* NaN too: never cast to int */
         PyErr_SetString(PyExc_ValueError, "make_model: too many Ct/Cq terms");
         goto fail;
     }

@@ -208,6 +208,9 @@ def test_make_model_rejects_bad_constants():
     assert cap is not None
     with pytest.raises(KeyError, match="missing"):
         K.make_model({"samples": 10.0})
+    for samples in (1.0, float("nan"), 2.5):     # was a SystemError (no exception set) / UB
+        with pytest.raises(ValueError, match="samples must be an integer"):
+            K.make_model({"samples": samples})
     with pytest.raises(ValueError, match="alpha_tab"):
         K.make_model({"samples": 10.0, "points": [0.0] * 18, "half_rho_s": [0.0] * 6,
                       "alpha_tab": [0.0] * 3})
