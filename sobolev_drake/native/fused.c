@@ -155,12 +155,13 @@ static PyObject *make_sample(PyObject *self, PyObject *args)
                    c = list_size(d, "poly_d2");
         if (a < 0 || b < 0 || c < 0)
             goto fail;
-        if (a < 1 || b < 1 || c < 1 || a > 64 || b > 64 || c > 64) {
-            PyErr_SetString(PyExc_ValueError, "make_sample: polynomials need 1 to 64 coefficients");
+        /* np.polyder of a linear or constant schedule is empty: polyval of none is 0 */
+        if (a > 64 || b > 64 || c > 64) {
+            PyErr_SetString(PyExc_ValueError, "make_sample: polynomials need at most 64 coefficients");
             goto fail;
         }
         S->np0 = (int)a, S->np1 = (int)b, S->np2 = (int)c;
-        S->data = (double *)malloc(sizeof(double) * (size_t)(a + b + c));
+        S->data = (double *)malloc(sizeof(double) * (size_t)(a + b + c + 1));
         if (!S->data) {
             PyErr_NoMemory();
             goto fail;

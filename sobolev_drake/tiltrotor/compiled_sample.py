@@ -78,7 +78,8 @@ class CompiledSample:
     def kernel(self, period: float) -> Callable[..., bool] | None:
         """``f(x, reference, wind, old_record, old_active, record_out, active_out) -> bool``:
         one sample with the error integral over ``period`` (``_fused.sample`` bound to its
-        constants); None when the kernel is not built or switched off.
+        constants); None when the kernel is not built or switched off, or refuses these
+        constants (then the controller runs the Python path).
 
         Parameters
         ----------
@@ -92,7 +93,10 @@ class CompiledSample:
         fused = kernel("fused")
         if fused is None:
             return None
-        capsule = fused.make_sample({**self.constants, "period": float(period)})
+        try:
+            capsule = fused.make_sample({**self.constants, "period": float(period)})
+        except ValueError:      # constants the kernel does not take (e.g. a reversed speed
+            return None         # range): the Python path computes this law
         return functools.partial(fused.sample, capsule)
 
 

@@ -22,6 +22,7 @@ from sobolev_drake.tiltrotor.input_affine import affine_terms_scalar
 from sobolev_drake.tiltrotor.law import make_law, newton_speed_for_thrust
 from sobolev_drake.tiltrotor.mission import simulate_mission
 from sobolev_drake.tiltrotor.plant import TiltrotorModel
+from sobolev_drake.tiltrotor.references import tilt_schedule_polynomial
 
 pytest.importorskip("sobolev_drake.native._fused")      # CI has gcc: built there
 bls_kernel = pytest.importorskip("sobolev_drake.native._bls")
@@ -166,13 +167,17 @@ def test_compiled_path_only_for_the_law_it_was_made_for(monkeypatch):
     assert calls == [1, 1]
 
 
-@pytest.mark.parametrize("schedule", ["plant", "data"])
+@pytest.mark.parametrize("schedule", ["plant", "data", "linear", "constant"])
 def test_compiled_record_equals_law_step_on_random_states(schedule, monkeypatch):
-    """Off the mission (any heading, wind, forward speed; both schedule forms): the compiled
-    record equals the one assembled from ``law.step`` (bits; residual to the derived bound)."""
+    """Off the mission (any heading, wind, forward speed; both schedule forms, and polynomial
+    schedules whose derivatives vanish identically): the compiled record equals the one
+    assembled from ``law.step`` (bits; residual to the derived bound)."""
     monkeypatch.setattr(native, "_ENABLED", True)
-    law = make_law(TiltrotorModel(), schedule=schedule)
+    polynomial = {"linear": [0.004, -0.1], "constant": [0.2]}
+    law = make_law(TiltrotorModel(), schedule=tilt_schedule_polynomial(polynomial[schedule])
+                   if schedule in polynomial else schedule)
     sample = law.compiled_sample.kernel(0.01)
+    assert sample is not None
     rng = np.random.default_rng(5)
     accepted = 0
     for k in range(40):
@@ -223,3 +228,21 @@ def test_mission_with_every_kernel_off_agrees(python_flight):
         scale = np.abs(off[key]).max()
         np.testing.assert_allclose(logs[key], off[key], rtol=0, atol=1e-9 * (1 + scale),
                                    err_msg=key)
+
+
+def test_schedule_the_kernel_refuses_runs_the_python_path(monkeypatch):
+    """A schedule whose constants the compiled update does not take (a reversed speed range)
+    still builds a controller: it updates through the Python path, equal to ``law.step``."""
+    monkeypatch.setattr(native, "_ENABLED", True)
+    law = make_law(TiltrotorModel(), schedule=tilt_schedule_polynomial([0.01, 0.2],
+                                                                       speed_range=(34.0, 0.0)))
+    assert law.compiled_sample is None or law.compiled_sample.kernel(0.01) is None
+    ctrl = tc.TiltrotorWInfController(law, initial_speed=[60.0, 60.0])
+    ctx = ctrl.CreateDefaultContext()
+    x = np.r_[-0.137, -0.137, np.zeros(14)]
+    for port, value in ((0, x), (1, np.zeros(12)), (2, np.zeros(3))):
+        ctrl.get_input_port(port).FixValue(ctx, value)
+    record = ctrl.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector(0).CopyToVector()
+    law.allocate.warm_start["active"] = None
+    st = law.step(x[:8], x[8:], np.zeros(12), np.zeros(3), np.zeros(3), n_prev=[60.0, 60.0])
+    np.testing.assert_array_equal(record[3:11], st.tau_bar)
