@@ -156,6 +156,9 @@ class TiltrotorModel(MechanicalModel):
         return input_affine(self, q, qdot, zeta)[0]
 
 
+_NOTHING_KNOWN = (False,) * 7     # no port of the force system known to have a value
+
+
 @TemplateSystem.define("TiltrotorForces_")
 def TiltrotorForces_(T):                         # noqa: D103 - the template of the class below
     m = scalar_math(T)
@@ -271,27 +274,31 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             output.SetFromVector(self._state.Eval(context)[self._perm16])
 
         def _calc_inputs(self, context, value) -> None:
-            """(u, has_wind, has_force_disturbance, has_disturbance): u = ``u`` plus the propeller
-            speeds, servo torques and deflections (a list of 8 floats; unconnected ports read
-            zero), and whether the three other optional inputs have a value.  An input that has
-            one keeps it in this context (Drake can neither disconnect nor unfix a port), so the
-            force evaluations skip its ``HasValue`` until the next sample; one without a value is
-            asked again at every evaluation (a later ``FixValue`` does not recompute this entry)."""
+            """(u, has_wind, has_force_disturbance, has_disturbance, has): u = ``u`` plus the
+            propeller speeds, servo torques and deflections (a list of 8 floats; unconnected
+            ports read zero), whether the three other optional inputs have a value, and ``has``
+            for all seven optional ports.  A port that has a value keeps it in this context (Drake
+            can neither disconnect nor unfix a port; a clone copies fixed values with the cache),
+            so neither this entry's next computation (it reads its previous, immutable value) nor
+            a force evaluation asks such a port's ``HasValue`` again; a port without a value is
+            asked every time (a later ``FixValue`` need not recompute this entry)."""
             self.input_evaluations += 1
-            p_u, p_n, p_s, p_d, p_w, p_f, p_dist = self._port_list
-            u = p_u.Eval(context).tolist() if p_u.HasValue(context) else [0.0] * 8
-            if p_n.HasValue(context):
+            previous = value.get_value()
+            known = previous[4] if type(previous) is tuple else _NOTHING_KNOWN
+            has = tuple([k or p.HasValue(context) for k, p in zip(known, self._port_list)])
+            p_u, p_n, p_s, p_d = self._port_list[:4]
+            u = p_u.Eval(context).tolist() if has[0] else [0.0] * 8
+            if has[1]:
                 a, b = p_n.Eval(context).tolist()
                 u[0] += a
                 u[1] += b
-            if p_s.HasValue(context):
+            if has[2]:
                 a, b = p_s.Eval(context).tolist()
                 u[2] += a
                 u[3] += b
-            if p_d.HasValue(context):
+            if has[3]:
                 u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
-            value.set_value((u, p_w.HasValue(context), p_f.HasValue(context),
-                             p_dist.HasValue(context)))
+            value.set_value((u, has[4], has[5], has[6], has))
 
         def thesis_force(self, context: Context) -> np.ndarray:
             """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
@@ -345,7 +352,7 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             self.evaluations += 1
             force, model, state, inputs, wind, has_wind, fd, has_fd, dist, has_dist = self._fast
             # EvalAbstract(...).get_value(): the cached tuple itself, cheaper than CacheEntry.Eval
-            u, w_on, f_on, d_on = inputs(context).get_value()
+            u, w_on, f_on, d_on, _ = inputs(context).get_value()
             force(model, state(context), u, wind(context) if w_on or has_wind(context) else None,
                   fd(context) if f_on or has_fd(context) else None,
                   dist(context) if d_on or has_dist(context) else None, out, drake_order)

@@ -475,3 +475,27 @@ def test_optional_inputs_fixed_after_the_inputs_were_cached(native):
                 p.FixValue(ff, p.Eval(fc))
         np.testing.assert_array_equal(h.generalized_force.Eval(ff), after)
         before = after
+
+
+def test_input_record_of_a_cloned_context_stays_its_own():
+    """A clone starts with its source's cached input record; fixing a port in one of them
+    afterwards changes that context's force only."""
+    b = DiagramBuilder()
+    h = add_tiltrotor(b)
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    q, qd, zeta = random_state(np.random.default_rng(8))
+    h.set_state(ctx, d, q, qd)
+    fc = h.forces.GetMyMutableContextFromRoot(ctx)
+    h.propeller_speed.FixValue(fc, [42.0, 41.0])
+    before = h.generalized_force.Eval(fc).copy()
+    clone = ctx.Clone()
+    cc = h.forces.GetMyMutableContextFromRoot(clone)
+    h.wind.FixValue(cc, zeta)
+    h.servo_torque.FixValue(cc, [0.3, -0.2])
+    changed = h.generalized_force.Eval(cc).copy()
+    np.testing.assert_array_equal(h.generalized_force.Eval(fc), before)
+    assert not np.allclose(changed, before)
+    h.propeller_speed.FixValue(fc, [50.0, 41.0])            # the source moves on alone
+    assert not np.allclose(h.generalized_force.Eval(fc), before)
+    np.testing.assert_array_equal(h.generalized_force.Eval(cc), changed)
