@@ -447,19 +447,26 @@ def test_reverse_flow_models():
         TiltrotorParams(reverse_flow="reversed")
 
 
+def _spinning_tiltrotor(seed, native=None):
+    """(handles, diagram, root context, force-system context, q, q̇, ζ): a random state, the
+    propeller speeds fixed, nothing else connected."""
+    b = DiagramBuilder()
+    h = add_tiltrotor(b, native=native)
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    q, qd, zeta = random_state(np.random.default_rng(seed))
+    h.set_state(ctx, d, q, qd)
+    fc = h.forces.GetMyMutableContextFromRoot(ctx)
+    h.propeller_speed.FixValue(fc, [40.0, 45.0])
+    return h, d, ctx, fc, q, qd, zeta
+
+
 @pytest.mark.parametrize("native", [None, False])
 def test_optional_inputs_fixed_after_the_inputs_were_cached(native):
     """The actuator-input cache also records which of wind, force_disturbance and disturbance
     have a value; a port fixed *after* that record was made must act on the very next
     evaluation, equal to a fresh context (whether or not Drake recomputes the record then)."""
-    b = DiagramBuilder()
-    h = add_tiltrotor(b, native=native)
-    d = b.Build()
-    ctx = d.CreateDefaultContext()
-    q, qd, zeta = random_state(np.random.default_rng(5))
-    h.set_state(ctx, d, q, qd)
-    fc = h.forces.GetMyMutableContextFromRoot(ctx)
-    h.propeller_speed.FixValue(fc, [40.0, 45.0])
+    h, d, ctx, fc, q, qd, zeta = _spinning_tiltrotor(5, native)
     before = h.generalized_force.Eval(fc).copy()
     late = ((h.wind, zeta), (h.force_disturbance, [1.0, -2.0, 0.5]),
             (h.disturbance, np.linspace(-0.3, 0.4, 8)))
@@ -480,14 +487,7 @@ def test_optional_inputs_fixed_after_the_inputs_were_cached(native):
 def test_input_record_of_a_cloned_context_stays_its_own():
     """A clone starts with its source's cached input record; fixing a port in one of them
     afterwards changes that context's force only."""
-    b = DiagramBuilder()
-    h = add_tiltrotor(b)
-    d = b.Build()
-    ctx = d.CreateDefaultContext()
-    q, qd, zeta = random_state(np.random.default_rng(8))
-    h.set_state(ctx, d, q, qd)
-    fc = h.forces.GetMyMutableContextFromRoot(ctx)
-    h.propeller_speed.FixValue(fc, [42.0, 41.0])
+    h, d, ctx, fc, q, qd, zeta = _spinning_tiltrotor(8)
     before = h.generalized_force.Eval(fc).copy()
     clone = ctx.Clone()
     cc = h.forces.GetMyMutableContextFromRoot(clone)
