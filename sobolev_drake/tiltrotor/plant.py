@@ -274,17 +274,16 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             output.SetFromVector(self._state.Eval(context)[self._perm16])
 
         def _calc_inputs(self, context, value) -> None:
-            """(u, has_wind, has_force_disturbance, has_disturbance, has): u = ``u`` plus the
-            propeller speeds, servo torques and deflections (a list of 8 floats; unconnected
-            ports read zero), whether the three other optional inputs have a value, and ``has``
-            for all seven optional ports.  A port that has a value keeps it in this context (Drake
+            """(u, has): u = ``u`` plus the propeller speeds, servo torques and deflections (a
+            list of 8 floats; unconnected ports read zero) and ``has``, whether each of the seven
+            optional ports (``_port_list`` order) has a value.  A port that has a value keeps it in this context (Drake
             can neither disconnect nor unfix a port; a clone copies fixed values with the cache),
             so neither this entry's next computation (it reads its previous, immutable value) nor
             a force evaluation asks such a port's ``HasValue`` again; a port without a value is
             asked every time (a later ``FixValue`` need not recompute this entry)."""
             self.input_evaluations += 1
             previous = value.get_value()
-            known = previous[4] if type(previous) is tuple else _NOTHING_KNOWN
+            known = previous[1] if type(previous) is tuple else _NOTHING_KNOWN
             has = tuple([k or p.HasValue(context) for k, p in zip(known, self._port_list)])
             p_u, p_n, p_s, p_d = self._port_list[:4]
             u = p_u.Eval(context).tolist() if has[0] else [0.0] * 8
@@ -298,7 +297,7 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
                 u[3] += b
             if has[3]:
                 u[4:8] = [x + y for x, y in zip(u[4:8], p_d.Eval(context).tolist())]
-            value.set_value((u, has[4], has[5], has[6], has))
+            value.set_value((u, has))
 
         def thesis_force(self, context: Context) -> np.ndarray:
             """ϑ + w (thesis order) from the current inputs; the hot path of the simulation, so it
@@ -352,10 +351,10 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             self.evaluations += 1
             force, model, state, inputs, wind, has_wind, fd, has_fd, dist, has_dist = self._fast
             # EvalAbstract(...).get_value(): the cached tuple itself, cheaper than CacheEntry.Eval
-            u, w_on, f_on, d_on, _ = inputs(context).get_value()
-            force(model, state(context), u, wind(context) if w_on or has_wind(context) else None,
-                  fd(context) if f_on or has_fd(context) else None,
-                  dist(context) if d_on or has_dist(context) else None, out, drake_order)
+            u, has = inputs(context).get_value()
+            force(model, state(context), u, wind(context) if has[4] or has_wind(context) else None,
+                  fd(context) if has[5] or has_fd(context) else None,
+                  dist(context) if has[6] or has_dist(context) else None, out, drake_order)
 
         def _calc_thesis(self, context, output) -> None:
             if self._native is None:
