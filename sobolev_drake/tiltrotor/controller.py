@@ -298,6 +298,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _RES = slice(21, 22)    # residual
     _SAT = slice(22, 30)    # +1 on upper bound, −1 on lower bound, 0 inside
     _SIZE = 30
+    #: record slices held by the plant-facing outputs: n, τs (τ̄[2:4]) and δ (τ̄[4:8])
+    _HELD = (_N, slice(5, 7), slice(7, 11))
 
     def __init__(self, law: TiltrotorWInfLaw, *, period: float = 0.01,
                  initial_tau: ArrayLike | None = None, initial_speed: ArrayLike | None = None,
@@ -318,8 +320,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         if initial_speed is not None:
             init[self._N] = check_vector("initial_speed", initial_speed, 2)
         self._state = self.DeclareDiscreteState(BasicVector(init))
-        self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in
-                      (self._N, slice(5, 7), slice(7, 11))]
+        self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in self._HELD]
         # the first sample is taken at initialization (outputs are never the placeholder); the
         # periodic event at that same time then finds it stamped and leaves it
         self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
@@ -416,7 +417,5 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     def _hold(self, discrete_state, record):
         """Copy n, τs and δ of ``record`` (the new sample's, or with ``computation_delay`` the
         previous one's) into the groups of the three plant-facing outputs."""
-        _, i_n, i_s, i_d = self._groups[:4]
-        discrete_state.set_value(i_n, record[11:13])
-        discrete_state.set_value(i_s, record[5:7])
-        discrete_state.set_value(i_d, record[7:11])
+        for group, sl in zip(self._groups[1:4], self._HELD):
+            discrete_state.set_value(group, record[sl])
