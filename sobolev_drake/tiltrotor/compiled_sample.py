@@ -35,7 +35,7 @@ __all__ = ["CompiledSample", "compiled_sample", "REGULARIZATION", "MAX_ITERATION
 
 #: bounded_least_squares' default Tikhonov weight and the fast path's PDAS iteration limit
 REGULARIZATION, MAX_ITERATIONS = 1e-12, 25
-#: newton_speed_for_thrust's defaults as make_law calls it
+#: the warm Newton thrust inversion's steps and tolerance (make_law's speeds and the compiled update)
 NEWTON_ITERATIONS, NEWTON_RTOL = 4, 1e-9
 #: saturation_flag_list's tolerances
 REL_TOL, MIN_WIDTH = 1e-3, 1e-3

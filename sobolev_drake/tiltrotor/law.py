@@ -86,7 +86,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
     from sobolev_drake.data import load
     from sobolev_drake.tiltrotor.allocation import (bounded_least_squares, propeller_speed_for_thrust,
                                                   tiltrotor_bounds)
-    from sobolev_drake.tiltrotor.compiled_sample import compiled_sample
+    from sobolev_drake.tiltrotor.compiled_sample import (NEWTON_ITERATIONS, NEWTON_RTOL,
+                                                         compiled_sample)
     from sobolev_drake.tiltrotor.input_affine import (N_REF, native_core, affine_terms_scalar, cores,
                                                     input_affine)
 
@@ -158,7 +159,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
         if n_guess is not None:
             if native is not None and np.size(f) == 2 and np.size(n_guess) == 2:
                 n = native[0].newton_speed(native[1], np.asarray(f, float), v_xz, phi,
-                                           np.asarray(n_guess, float), 4, 1e-9)
+                                           np.asarray(n_guess, float), NEWTON_ITERATIONS,
+                                           NEWTON_RTOL)
                 n = None if n is None else np.array(n)
             else:
                 n = newton_speed_for_thrust(prop.coef, f, v_xz, phi, n_guess)
