@@ -176,7 +176,7 @@ TYPED_MODULES = ("sobolev_drake.errors", "sobolev_drake.native", "sobolev_drake.
                      "linear_controllers", "mechanical_controller", "mechanical_sample",
                      "multirotor_control", "partition", "plant_dynamics", "reference_catalogue",
                      "rotor_allocation", "scalar_law", "scalar_time", "controller_ports",
-                     "mechanical_law", "mechanical_hinf", "reference_smoothing", "references",
+                     "mechanical_law", "mechanical_hinf", "reference_coordinates", "reference_smoothing", "references",
                      "wind", "von_karman")),
                  "sobolev_drake.optional", "sobolev_drake.simulation_errors", "sobolev_drake.tuning",
                  "sobolev_drake.experiments",

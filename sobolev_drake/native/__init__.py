@@ -6,7 +6,8 @@ kernel reproduces a Python implementation of the library operation for operation
 revolute and prismatic joints), whose reference is Drake's CalcInverseDynamics, matched to
 rounding.  ``forces`` mirrors the scalar force tier of ``tiltrotor.propulsion``,
 ``tiltrotor.aerodynamics`` and ``tiltrotor.input_affine``, ``bls`` the Python tier of
-``systems.bounded_ls``; ``fused`` composes rnea, forces and bls into the tilt-rotor controller's
+``systems.bounded_ls``, ``reference`` the float path of ``systems.references`` (const, sine and
+poly pieces); ``fused`` composes rnea, forces and bls into the tilt-rotor controller's
 whole sample (``tiltrotor.compiled_sample``) through their C interfaces (``_C_API`` capsules,
 ``capi.h``), its reference being the Python path of the same sample.
 ``benchmarks/speed_tiers.py`` times each kernel against its Python paths.  :func:`kernel` returns the module or None, so callers fall back to the reference when

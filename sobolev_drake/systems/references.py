@@ -6,6 +6,8 @@ every t beyond the last breakpoint.  Each piece gives, for every coordinate, a
 :class:`Coordinate`: a callable of *absolute* time t returning (f, ḟ, f̈) — numpy-vectorized,
 with a float fast path and a form for any Drake scalar type (float, AutoDiffXd, Expression).
 
+The coordinates (:class:`Coordinate`, :func:`const`, :func:`sine`, :func:`poly`) live in
+:mod:`sobolev_drake.systems.reference_coordinates` and are re-exported here.
 :class:`PiecewiseTrajectory` is pure numpy (``evaluate(t) -> (q, qd, qdd)``);
 :class:`TrajectoryReference` wraps one, or a Drake ``Trajectory`` such as a
 ``PiecewisePolynomial``, as a scalar-convertible LeafSystem with output ports ``q_r``,
@@ -17,193 +19,27 @@ tables and the smoothness at the breakpoints) is :mod:`sobolev_drake.systems.ref
 
 from __future__ import annotations
 
-import math
 from bisect import bisect_left
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
-import pydrake.math as dm
 from pydrake.autodiffutils import AutoDiffXd
 from pydrake.systems.framework import BasicVector, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 from pydrake.trajectories import Trajectory
 
+from sobolev_drake.native import kernel
+from sobolev_drake.systems.reference_coordinates import Coordinate, compiled_program, const, poly, sine
 from sobolev_drake.systems.scalar_time import (Scalar, is_symbolic, piecewise, probe_scalar_type,
                                                scalar_value, template_signature)
-from sobolev_drake.validation import real_scalar, real_vector, sequence
+from sobolev_drake.validation import real_vector, sequence
 
 __all__ = [
     "Coordinate", "const", "sine", "poly", "PiecewiseTrajectory", "TrajectoryReference",
     "TrajectoryReference_",
 ]
 
-
-class Coordinate:
-    """One scalar reference coordinate on a piece: t ↦ (f(t), ḟ(t), f̈(t)), vectorized in t.
-
-    Calling the coordinate with t (scalar or array) returns (f, ḟ, f̈) as float arrays shaped
-    like t.
-
-    Parameters
-    ----------
-    fn : callable
-        ``fn(t) -> (f, ḟ, f̈)`` for a float array t of absolute times (results broadcast to
-        t's shape).
-    description : str, optional
-        Text shown by ``repr``.
-    scalar : callable, optional
-        The same function for one Python float t returning three floats; the per-sample
-        evaluation of a simulation uses it (numpy's per-call overhead dominates there).
-        Default: ``fn`` converted to floats.
-    generic : callable, optional
-        The same function for one scalar t of any Drake type (float, AutoDiffXd, Expression),
-        written with ``pydrake.math`` functions; used by the AutoDiffXd and symbolic versions
-        of :class:`TrajectoryReference`.  Default: ``fn`` called with that scalar (fine for
-        arithmetic-only functions).
-    """
-
-    def __init__(self, fn: Callable, description: str = "", scalar: Callable | None = None, generic: Callable | None = None) -> None:
-        self._fn = fn
-        self.description = description
-        self._scalar = scalar
-        self._generic = generic
-
-    def scalar(self, t: float) -> tuple[float, float, float]:
-        """(f, ḟ, f̈) as floats at one time t.
-
-        Parameters
-        ----------
-        t : float
-            Absolute time.
-
-        Returns
-        -------
-        f, fdot, fddot : float
-        """
-        if self._scalar is not None:
-            return self._scalar(t)
-        f, df, ddf = self(t)
-        return float(f), float(df), float(ddf)
-
-    def at(self, t: Scalar) -> tuple[Scalar, Scalar, Scalar]:
-        """(f, ḟ, f̈) at one time t of any Drake scalar type (float: :meth:`scalar`).
-
-        Parameters
-        ----------
-        t : float, AutoDiffXd or Expression
-            Absolute time.
-
-        Returns
-        -------
-        f, fdot, fddot : scalars of t's type (or floats where constant)
-        """
-        return self.scalar(t) if isinstance(t, float) else tuple((self._generic or self._fn)(t))
-
-    def __call__(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t = np.asarray(t, dtype=float)
-        f, df, ddf = self._fn(t)
-        shape = t.shape
-        return (np.broadcast_to(f, shape).astype(float), np.broadcast_to(df, shape).astype(float),
-                np.broadcast_to(ddf, shape).astype(float))
-
-    def __repr__(self) -> str:
-        return f"Coordinate({self.description})"
-
-
-def const(c: float) -> Coordinate:
-    """f(t) = c.
-
-    Parameters
-    ----------
-    c : float
-        The constant (finite).
-
-    Returns
-    -------
-    Coordinate
-        Value c, zero derivatives.
-    """
-    c = real_scalar("c", c)
-    return Coordinate(lambda t: (c + 0 * t, 0 * t, 0 * t), f"{c:g}", scalar=lambda t: (c, 0.0, 0.0),
-                      generic=lambda t: (c, 0.0, 0.0))
-
-
-def sine(amplitude: float, omega: float, *, phase: float = 0.0, offset: float = 0.0, t0: float = 0.0) -> Coordinate:
-    """f(t) = offset + A sin(ω (t − t0) + phase)  (use phase = π/2 for a cosine).
-
-    Parameters
-    ----------
-    amplitude : float
-        A.
-    omega : float
-        Angular frequency ω (rad/s).
-    phase : float, default 0.0
-        Phase (rad).
-    offset : float, default 0.0
-        Constant added.
-    t0 : float, default 0.0
-        Time origin of the sine.
-
-    Returns
-    -------
-    Coordinate
-        With its analytic derivatives.
-    """
-    A, w, ph, c, s = (real_scalar(n, v) for n, v in (("amplitude", amplitude), ("omega", omega),
-                                                   ("phase", phase), ("offset", offset), ("t0", t0)))
-
-    def fn(t):
-        arg = w * (t - s) + ph
-        return c + A * np.sin(arg), A * w * np.cos(arg), -A * w * w * np.sin(arg)
-
-    def fn_scalar(t):   # float fast path of fn_generic (math.sin on a float)
-        arg = w * (t - s) + ph
-        sn = math.sin(arg)
-        return c + A * sn, A * w * math.cos(arg), -A * w * w * sn
-
-    def fn_generic(t):
-        arg = w * (t - s) + ph
-        sn = dm.sin(arg)
-        return c + A * sn, A * w * dm.cos(arg), -A * w * w * sn
-
-    return Coordinate(fn, f"{c:g} + {A:g} sin({w:g}(t-{s:g}) + {ph:g})", scalar=fn_scalar,
-                      generic=fn_generic)
-
-
-def poly(coefficients: Sequence[float], *, t0: float = 0.0) -> Coordinate:
-    """f(t) = Σ_k c_k (t − t0)^k with ascending coefficients c_0, c_1, …
-
-    Parameters
-    ----------
-    coefficients : sequence of float
-        c_0, c_1, … (ascending powers).
-    t0 : float, default 0.0
-        Time origin of the polynomial.
-
-    Returns
-    -------
-    Coordinate
-        With its analytic derivatives.
-    """
-    c = real_vector("coefficients (ascending powers c_0, c_1, ...)", coefficients)
-    P = np.polynomial.Polynomial(c)
-    dP, ddP = P.deriv(1), P.deriv(2)
-    s = real_scalar("t0", t0)
-    cs = [P.coef.tolist()[::-1], dP.coef.tolist()[::-1], ddP.coef.tolist()[::-1]]  # highest first
-
-    def fn_scalar(t):   # any scalar type: Horner uses + and * only
-        x = t - s
-        out = []
-        for cc in cs:
-            v = cc[0]
-            for a in cc[1:]:
-                v = v * x + a
-            out.append(v)
-        return out[0], out[1], out[2]
-
-    return Coordinate(lambda t: (P(t - s), dP(t - s), ddP(t - s)), f"poly{tuple(c)} in (t-{s:g})",
-                      scalar=fn_scalar, generic=fn_scalar)
 
 
 class PiecewiseTrajectory:
@@ -468,6 +304,12 @@ def TrajectoryReference_(T):   # the class for scalar type T (float, AutoDiffXd,
                     self._ref.Eval(c)[k * m:(k + 1) * m]), prerequisites_of_calc=time_only)
             self._ref = self.DeclareVectorOutputPort("reference", 3 * m, self._calc_all,
                                                      prerequisites_of_calc=time_only)
+            # the double system's per-sample evaluation in one compiled call where it can be
+            # (const/sine/poly pieces; the Python path stays the reference, tested equal)
+            self._program = (compiled_program(trajectory.pieces, trajectory.breakpoints)
+                             if T is float and self._derivs is None
+                             else None)
+            self._evaluate_into = None if self._program is None else kernel("reference").evaluate
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.trajectory, None if other._derivs is None else other.names,
@@ -500,6 +342,8 @@ def TrajectoryReference_(T):   # the class for scalar type T (float, AutoDiffXd,
                     for k, d in enumerate(self._derivs)]
 
         def _calc_all(self, context, output: BasicVector):
+            if self._program is not None:
+                return self._evaluate_into(self._program, context.get_time(), output.get_mutable_value())
             t = context.get_time()
             if self._derivs is None:
                 return output.SetFromVector(sum(self.trajectory.evaluate_any(t), []))
