@@ -257,6 +257,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         - propeller_speed
         - servo_torque
         - surface_deflection
+        - actuator_command
         - tau_bar
         - u_star
         - allocation_residual
@@ -267,7 +268,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     ``x`` (16, thesis order [q; q̇]), ``reference`` (12, [x y z ψ] positions, rates,
     accelerations), ``wind_measured`` (3, inertial m/s; Assumption 19 — gusts are *not* in it);
     ``propeller_speed`` (2, rev/s), ``servo_torque`` (2, N m), ``surface_deflection`` (4, rad
-    [δWR δWL δTR δTL]), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1, ‖u* − Bτ̄‖),
+    [δWR δWL δTR δTL]), ``actuator_command`` (8, the same three in the order of the plant's ``u``
+    port, [n τs δ]: one connection instead of three), ``tau_bar`` (8), ``u_star`` (8), ``allocation_residual`` (1, ‖u* − Bτ̄‖),
     ``integral_error`` (3), ``saturation`` (8, ±1 on a bound), ``sample_record`` (30, all in one
     vector, :meth:`split_record`): zero-order holds of the last update.  Double only
     (:class:`~sobolev_drake.tiltrotor.scalars.DoubleOnly`).
@@ -289,8 +291,9 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     conversion_refusal = ("its allocation is an active-set solve and its thrust inversion a root "
                           "search; linearize the hover loop with LinearHoverController instead")
     # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
-    # copies of n, τs and δ for the three plant-facing outputs, declared as state output ports
-    # (copied by Drake in C++: three Python output callbacks less per sample)
+    # copies of n, τs and δ for the three plant-facing outputs and group 6 all three in the
+    # plant's u order, declared as state output ports (copied by Drake in C++: no Python output
+    # callback per sample); group 4 the time stamp, group 5 the allocation's active set
     _I = slice(0, 3)        # ∫e_c
     _TAU = slice(3, 11)     # τ̄
     _N = slice(11, 13)      # propeller speeds
@@ -300,6 +303,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _SIZE = 30
     #: record slices held by the plant-facing outputs: n, τs (τ̄[2:4]) and δ (τ̄[4:8])
     _HELD = (_N, slice(5, 7), slice(7, 11))
+    #: record entries of ``actuator_command``: [n τs δ], the plant's ``u`` order
+    _COMMAND = np.r_[_N, 5:7, 7:11]
 
     def __init__(self, law: TiltrotorWInfLaw, *, period: float = 0.01,
                  initial_tau: ArrayLike | None = None, initial_speed: ArrayLike | None = None,
@@ -321,6 +326,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
             init[self._N] = check_vector("initial_speed", initial_speed, 2)
         self._state = self.DeclareDiscreteState(BasicVector(init))
         self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in self._HELD]
+        self._command = self.DeclareDiscreteState(BasicVector(init[self._COMMAND]))
         # the first sample is taken at initialization (outputs are never the placeholder); the
         # periodic event at that same time then finds it stamped and leaves it
         self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
@@ -332,11 +338,13 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         self._sample = None if self._compiled is None else self._compiled.kernel(self.period)
         self.DeclareInitializationDiscreteUpdateEvent(self._update)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-        for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection"), self._held):
+        for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection", "actuator_command"),
+                             (*self._held, self._command)):
             self.DeclareStateOutputPort(name, idx)
         # group numbers as ints: DiscreteValues.set_value(int, array) is one pybind call (a
         # BasicVector's SetFromVector from a list costs several times more)
-        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp, self._active))
+        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp, self._active,
+                                              self._command))
         dep = {self.discrete_state_ticket(self._state)}
         for name in ("tau_bar", "u_star", "allocation_residual", "integral_error", "saturation"):
             sl = self.RECORD_FIELDS[name]
@@ -379,7 +387,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         t, stamp = context.get_time(), context.get_discrete_state(self._stamp).GetAtIndex(0)
         if stamp == t:
             return                                   # this sample was taken at initialization
-        i_state, i_n, i_s, i_d, i_stamp, i_act = self._groups
+        i_state, i_stamp, i_act = self._groups[0], self._groups[4], self._groups[5]
         discrete_state.get_mutable_value(i_stamp)[0] = t
         x = self.x_port.Eval(context)
         ref = self.reference_port.Eval(context)
@@ -416,6 +424,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
 
     def _hold(self, discrete_state, record):
         """Copy n, τs and δ of ``record`` (the new sample's, or with ``computation_delay`` the
-        previous one's) into the groups of the three plant-facing outputs."""
+        previous one's) into the groups of the plant-facing outputs."""
         for group, sl in zip(self._groups[1:4], self._HELD):
             discrete_state.set_value(group, record[sl])
+        discrete_state.set_value(self._groups[6], record[self._COMMAND])

@@ -233,8 +233,9 @@ def build_mission(scenario: int, duration: float, *, period: float = 0.01, sched
     builder.Connect(handles.x, ctrl.GetInputPort("x"))
     builder.Connect(ref.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
     builder.Connect(const.get_output_port(), ctrl.GetInputPort("wind_measured"))
-    for name in ("propeller_speed", "servo_torque", "surface_deflection"):
-        builder.Connect(ctrl.GetOutputPort(name), _plant_port(handles, name))
+    # the three commands through one port: the force system's actuator-input record then reads
+    # one port per sample instead of three
+    builder.Connect(ctrl.GetOutputPort("actuator_command"), handles.u)
     # one log sample per controller sample: a log period of 5 controller periods gives event
     # times k·0.05 and j·0.01 that differ by an ulp at some instants, each costing the
     # integrator an extra (1e-16 s) step
