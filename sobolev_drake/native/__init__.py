@@ -10,7 +10,8 @@ rounding.  ``forces`` mirrors the scalar force tier of ``tiltrotor.propulsion``,
 poly pieces); ``fused`` composes rnea, forces and bls into the tilt-rotor controller's
 whole sample (``tiltrotor.compiled_sample``) through their C interfaces (``_C_API`` capsules,
 ``capi.h``), its reference being the Python path of the same sample.
-``benchmarks/speed_tiers.py`` times each kernel against its Python paths.  :func:`kernel` returns the module or None, so callers fall back to the reference when
+``benchmarks/speed_tiers.py`` times the force, allocation and inverse-dynamics kernels against
+their Python paths.  :func:`kernel` returns the module or None, so callers fall back to the reference when
 it was not built (no C compiler at install time) or is switched off: ``SOBOLEV_DRAKE_NATIVE=0``
 in the environment (read at import) or :func:`set_enabled` / :func:`disabled` at run time (A/B
 comparisons, debugging).  Systems built while the kernels were on keep using them.

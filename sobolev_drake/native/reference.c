@@ -11,6 +11,8 @@
  *   poly   x = t - s, Horner with the coefficients of P, P' and P'' (highest power first)
  *
  * A trajectory with any other kind of coordinate is not compiled (the caller keeps Python).
+ * evaluate() returns False when a value is not finite (an infinite time, an overflowing sine
+ * argument): the caller then takes the Python path, whose checks name the input.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -76,8 +78,10 @@ static int read_coordinate(PyObject *spec, Coordinate *c, Py_ssize_t k, Py_ssize
         return -1;
     }
     long kind = PyLong_AsLong(PyTuple_GET_ITEM(spec, 0));
-    if (kind == -1 && PyErr_Occurred())
+    if (kind == -1 && PyErr_Occurred()) {
+        PyErr_Format(PyExc_TypeError, "make_program: pieces[%zd][%zd] kind must be an int", k, j);
         return -1;
+    }
     Py_ssize_t size = PyTuple_GET_SIZE(spec);
     c->kind = (int)kind;
     c->coef = NULL;
@@ -95,8 +99,11 @@ static int read_coordinate(PyObject *spec, Coordinate *c, Py_ssize_t k, Py_ssize
         Py_ssize_t total = 0;
         for (int i = 0; i < 3; i++) {
             long n = PyLong_AsLong(PyTuple_GET_ITEM(spec, i + 2));
-            if (n == -1 && PyErr_Occurred())
+            if (n == -1 && PyErr_Occurred()) {
+                PyErr_Format(PyExc_TypeError, "make_program: pieces[%zd][%zd] coefficient count "
+                             "%d must be an int", k, j, i);
                 return -1;
+            }
             if (n < 1 || n > MAX_COEFFICIENTS) {
                 PyErr_Format(PyExc_ValueError, "make_program: pieces[%zd][%zd] polynomial %d "
                              "must have 1 to %d coefficients, got %ld", k, j, i,
@@ -160,8 +167,15 @@ static PyObject *make_program(PyObject *self, PyObject *args)
     }
     for (Py_ssize_t i = 0; i < p->nbreak; i++) {
         p->breakpoints[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(bp, i));
-        if (p->breakpoints[i] == -1.0 && PyErr_Occurred())
+        if (p->breakpoints[i] == -1.0 && PyErr_Occurred()) {
+            PyErr_Format(PyExc_TypeError, "make_program: breakpoints[%zd] must be a float", i);
             goto fail;
+        }
+        if (!isfinite(p->breakpoints[i])) {
+            PyErr_Format(PyExc_ValueError, "make_program: breakpoints[%zd] must be finite, got %R",
+                         i, PySequence_Fast_GET_ITEM(bp, i));
+            goto fail;
+        }
         if (i > 0 && !(p->breakpoints[i] > p->breakpoints[i - 1])) {
             PyErr_SetString(PyExc_ValueError, "make_program: breakpoints must be strictly "
                             "increasing");
@@ -169,10 +183,11 @@ static PyObject *make_program(PyObject *self, PyObject *args)
         }
     }
     for (Py_ssize_t k = 0; k < p->pieces; k++) {
-        PyObject *piece = PySequence_Fast(PySequence_Fast_GET_ITEM(pieces, k),
-                                          "make_program: each piece must be a sequence");
-        if (!piece)
+        PyObject *piece = PySequence_Fast(PySequence_Fast_GET_ITEM(pieces, k), "");
+        if (!piece) {
+            PyErr_Format(PyExc_TypeError, "make_program: pieces[%zd] must be a sequence", k);
             goto fail;
+        }
         Py_ssize_t m = PySequence_Fast_GET_SIZE(piece);
         if (k == 0) {
             p->m = m;
@@ -218,9 +233,10 @@ static double horner(const double *c, int n, double x)
     return v;
 }
 
-/* [q; qdot; qddot] at t into out (3m doubles) */
-static void evaluate_program(const Program *p, double t, double *out)
+/* [q; qdot; qddot] at t into out (3m doubles); whether every value is finite */
+static int evaluate_program(const Program *p, double t, double *out)
 {
+    int finite = 1;
     Py_ssize_t lo = 0, hi = p->nbreak;          /* bisect_left: first breakpoint >= t */
     while (lo < hi) {
         Py_ssize_t mid = (lo + hi) / 2;
@@ -254,7 +270,9 @@ static void evaluate_program(const Program *p, double t, double *out)
         out[j] = f;
         out[m + j] = df;
         out[2 * m + j] = ddf;
+        finite &= isfinite(f) && isfinite(df) && isfinite(ddf);
     }
+    return finite;
 }
 
 static PyObject *py_evaluate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -280,9 +298,9 @@ static PyObject *py_evaluate(PyObject *self, PyObject *const *args, Py_ssize_t n
         PyBuffer_Release(&view);
         return NULL;
     }
-    evaluate_program(p, t, (double *)view.buf);
+    int finite = evaluate_program(p, t, (double *)view.buf);
     PyBuffer_Release(&view);
-    Py_RETURN_NONE;
+    return PyBool_FromLong(finite);
 }
 
 static PyObject *py_size(PyObject *self, PyObject *capsule)
@@ -296,7 +314,8 @@ static PyMethodDef methods[] = {
      "make_program(breakpoints, pieces) -> capsule: pieces[k][j] is the spec tuple of\n"
      "coordinate j on piece k (see systems/references.py)."},
     {"evaluate", (PyCFunction)(void (*)(void))py_evaluate, METH_FASTCALL,
-     "evaluate(program, t, out) -> None: [q; qdot; qddot] at t into out (3m float64)."},
+     "evaluate(program, t, out) -> bool: [q; qdot; qddot] at t into out (3m float64);\n"
+     "False when a value is not finite (the caller then takes the Python path)."},
     {"coordinates", (PyCFunction)py_size, METH_O,
      "coordinates(program) -> m, the number of coordinates."},
     {NULL, NULL, 0, NULL},

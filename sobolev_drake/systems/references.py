@@ -342,9 +342,12 @@ def TrajectoryReference_(T):   # the class for scalar type T (float, AutoDiffXd,
                     for k, d in enumerate(self._derivs)]
 
         def _calc_all(self, context, output: BasicVector):
-            if self._program is not None:
-                return self._evaluate_into(self._program, context.get_time(), output.get_mutable_value())
             t = context.get_time()
+            # the compiled program where it applies; False (a value not finite: t = ±inf, an
+            # overflowing sine argument) leaves the result to the Python path below
+            if self._program is not None and self._evaluate_into(self._program, t,
+                                                                 output.get_mutable_value()):
+                return None
             if self._derivs is None:
                 return output.SetFromVector(sum(self.trajectory.evaluate_any(t), []))
             if is_symbolic(t) and not t.GetVariables().empty():

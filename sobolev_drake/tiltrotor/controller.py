@@ -326,13 +326,13 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
             init[self._N] = check_vector("initial_speed", initial_speed, 2)
         self._state = self.DeclareDiscreteState(BasicVector(init))
         self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in self._HELD]
-        self._command = self.DeclareDiscreteState(BasicVector(init[self._COMMAND]))
         # the first sample is taken at initialization (outputs are never the placeholder); the
         # periodic event at that same time then finds it stamped and leaves it
         self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
         # the allocation's last active set (−1, 0, +1 per actuator; NaN: none yet), its warm
         # start on both paths (through make_law's allocate.warm_start on the Python path)
         self._active = self.DeclareDiscreteState(BasicVector(np.full(N_TAU, np.nan)))
+        self._command = self.DeclareDiscreteState(BasicVector(init[self._COMMAND]))
         compiled = law.compiled_sample
         self._compiled = compiled if compiled is not None and compiled.matches(law) else None
         self._sample = None if self._compiled is None else self._compiled.kernel(self.period)

@@ -245,3 +245,46 @@ def test_mission_params_reach_plant_and_controller_model():
     assert built["handles"].model.params.reverse_flow == "clipped"
     assert not built["handles"].forces.aero.mirrored
     assert built["law"].mech_law.model.params.reverse_flow == "clipped"
+
+
+@pytest.mark.parametrize("delay", [False, True])
+def test_actuator_command_joins_the_three_split_outputs(law, delay):
+    """``actuator_command`` is [propeller_speed, servo_torque, surface_deflection] — the plant's
+    ``u`` order — before initialization and after every sample, with and without the
+    computation delay (which holds the previous sample's commands)."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    rng = np.random.default_rng(11)
+    builder = DiagramBuilder()
+    ctrl = builder.AddSystem(tc.TiltrotorWInfController(law, period=0.01, computation_delay=delay,
+                                                        initial_speed=[40.0, 41.0]))
+    q, qd, ref, wind, _ = _random_case(rng)
+    for name, value in (("x", np.r_[q, qd]), ("reference", ref), ("wind_measured", wind)):
+        source = builder.AddSystem(ConstantVectorSource(value))
+        builder.Connect(source.get_output_port(), ctrl.GetInputPort(name))
+    diagram = builder.Build()
+
+    def check(context):
+        c = ctrl.GetMyContextFromRoot(context)
+        split = np.concatenate([ctrl.GetOutputPort(n).Eval(c) for n in
+                                ("propeller_speed", "servo_torque", "surface_deflection")])
+        command = ctrl.GetOutputPort("actuator_command").Eval(c)
+        np.testing.assert_array_equal(command, split)
+        record = ctrl.GetOutputPort("sample_record").Eval(c)
+        return command, np.r_[record[11:13], record[5:7], record[7:11]]
+
+    simulator = Simulator(diagram)
+    command, _ = check(simulator.get_context())     # before initialization: the initial values
+    assert command[:2].tolist() == [40.0, 41.0]
+    simulator.Initialize()
+    seen = [check(simulator.get_context())]        # the first sample is applied at once
+    np.testing.assert_array_equal(*seen[0])
+    for k in range(1, 6):
+        simulator.AdvanceTo(0.01 * k)
+        seen.append(check(simulator.get_context()))
+    for (command, _), (_, previous), (_, current) in zip(seen[1:], seen[:-1], seen[1:]):
+        # with the delay, the commands applied lag the record by one sample
+        np.testing.assert_array_equal(command, previous if delay else current)
+    assert any(np.any(a != b) for (_, a), (_, b) in zip(seen[:-1], seen[1:]))
