@@ -7,7 +7,9 @@
  *
  *   tilt reference      _regulated_values: U, U̇ of the reference (forward_air_speed), α(U)
  *                       by the schedule (the plant-trim cubic spline or the data polynomial)
- *   q̈_des               _rnea's desired_acceleration (Sobolev gains, (7.81))
+ *   q̈_des               _rnea's desired_acceleration (Sobolev gains, (7.81)), or the law's
+ *                       Python desired_acceleration (another weighting, e.g. the envelope
+ *                       gain schedule) called with the lists the Python path gives it
  *   B, ϑ_passive, V     _forces' affine_terms at the last propeller speeds (through thrust)
  *   u*                  _rnea's inverse dynamics at q̈_des minus ϑ_passive
  *   lo, up              _forces' surface_bounds of V[1..4] (7.85)-(7.89)
@@ -23,7 +25,9 @@
  * decision this code does not: a non-finite input, no positive last speed (the bracketing
  * solver), an exception of a kernel (the Python path raises its descriptive error), the
  * allocation kernel returning None / NotImplemented (the general solver), Newton failing (the
- * bracketing solver), a non-finite result.  The caller then runs the Python path.
+ * bracketing solver), a non-finite result, a q̈_des callback result that is not 8 numbers.  The
+ * caller then runs the Python path (which calls a q̈_des callback again).  An exception raised
+ * by the callback propagates, as it would from the Python path.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -47,6 +51,7 @@ static const BlsCAPI *bls_api;
 
 typedef struct {
     PyObject *owned[3];          /* the kernels' capsules, kept alive */
+    PyObject *qdd_callback;      /* NULL, or the law's Python desired_acceleration (owned) */
     const void *rnea, *qdd, *forces;
     int kind;                    /* SCHEDULE_SPLINE or SCHEDULE_POLYNOMIAL */
     int npieces;                 /* spline: intervals (knots npieces + 1) */
@@ -65,6 +70,7 @@ static void free_sample(PyObject *capsule)
     if (S) {
         for (int i = 0; i < 3; i++)
             Py_XDECREF(S->owned[i]);
+        Py_XDECREF(S->qdd_callback);
         free(S->data);
         free(S);
     }
@@ -93,7 +99,8 @@ PyDoc_STRVAR(make_doc,
 "capsules (rnea_model, qdd_law, forces_model), the tilt schedule (schedule 0: knots,\n"
 "coefficients (4 per interval, highest power first); schedule 1: poly, poly_d1, poly_d2;\n"
 "both lo, hi), bounds (8), reg, max_iter, newton_iterations, newton_rtol, period, rel_tol,\n"
-"min_width (see tiltrotor/compiled_sample.py).");
+"min_width, and optionally qdd_callback: a callable f(q, qdot, e_int, tracked, reference,\n"
+"wind) -> 8 floats that replaces the compiled q̈_des (see tiltrotor/compiled_sample.py).");
 
 static PyObject *make_sample(PyObject *self, PyObject *args)
 {
@@ -170,6 +177,16 @@ static PyObject *make_sample(PyObject *self, PyObject *args)
             || dict_doubles(d, "poly_d2", c, S->data + a + b))
             goto fail;
     }
+    PyObject *callback = PyDict_GetItemString(d, "qdd_callback");      /* borrowed */
+    if (callback && callback != Py_None) {
+        if (!PyCallable_Check(callback)) {
+            PyErr_Format(PyExc_TypeError, "make_sample: qdd_callback must be callable or None, "
+                         "got %s", Py_TYPE(callback)->tp_name);
+            goto fail;
+        }
+        Py_INCREF(callback);
+        S->qdd_callback = callback;
+    }
     if (dict_doubles(d, "bounds", 8, S->bounds) || get_double(d, "reg", &S->reg)
         || get_long(d, "max_iter", 1, 1000000, &S->max_iter)
         || get_long(d, "newton_iterations", 0, 1000000, &S->newton_iterations)
@@ -183,6 +200,7 @@ static PyObject *make_sample(PyObject *self, PyObject *args)
 fail:
     for (int i = 0; i < 3; i++)
         Py_XDECREF(S->owned[i]);
+    Py_XDECREF(S->qdd_callback);
     free(S->data);
     free(S);
     return NULL;
@@ -237,6 +255,46 @@ static void schedule(const Sample *S, double U, double *a, double *da, double *d
     *dda = 6.0 * c[0] * x + 2.0 * c[1];
 }
 
+/* a new list of n Python floats */
+static PyObject *float_list(const double *v, int n)
+{
+    PyObject *list = PyList_New(n);
+    for (int i = 0; list && i < n; i++) {
+        PyObject *f = PyFloat_FromDouble(v[i]);
+        if (!f) {
+            Py_CLEAR(list);
+            break;
+        }
+        PyList_SET_ITEM(list, i, f);
+    }
+    return list;
+}
+
+/* q̈_des by the law's Python callback, called as TiltrotorWInfLaw.step calls it (lists of
+ * floats q, q̇, ∫e_c, tracked, reference, wind): 0, -1 with the callback's exception set, or 1
+ * when its result is not 8 numbers (declined: the Python path decides) */
+static int callback_qdd(const Sample *S, const double *q, const double *qd, const double *eint,
+                        const double *tracked, const double *r, const double *w, double *qdd)
+{
+    PyObject *args[6] = {float_list(q, 8), float_list(qd, 8), float_list(eint, 3),
+                         float_list(tracked, 18), float_list(r, 12), float_list(w, 3)};
+    PyObject *result = NULL;
+    int ok = 1;
+    for (int i = 0; i < 6; i++)
+        ok &= args[i] != NULL;
+    if (ok)
+        result = PyObject_Vectorcall(S->qdd_callback, args, 6, NULL);
+    for (int i = 0; i < 6; i++)
+        Py_XDECREF(args[i]);
+    if (!result)
+        return -1;
+    int status = read_doubles(result, 8, qdd, "qdd") ? 1 : 0;
+    Py_DECREF(result);
+    if (status)
+        PyErr_Clear();
+    return status;
+}
+
 static int all_finite(const double *v, int n)
 {
     for (int i = 0; i < n; i++)
@@ -288,7 +346,15 @@ static PyObject *py_sample(PyObject *self, PyObject *const *args, Py_ssize_t nar
 
     /* q̈_des, B and ϑ_passive, u* = ID(q, q̇, q̈_des) − ϑ_passive */
     double qdd[8], B[64], passive[8], V6[6], vxz[2], phi[2], u[8];
-    rnea_api->desired_acceleration(S->qdd, q, qd, eint, tracked, S->qdd_work, qdd);
+    if (S->qdd_callback) {
+        int status = callback_qdd(S, q, qd, eint, tracked, r, w, qdd);
+        if (status < 0)
+            return NULL;
+        if (status > 0)
+            Py_RETURN_FALSE;
+    } else {
+        rnea_api->desired_acceleration(S->qdd, q, qd, eint, tracked, S->qdd_work, qdd);
+    }
     if (forces_api->affine_terms(S->forces, q, qd, w, n_prev, 1, B, passive, V6, vxz, phi)) {
         PyErr_Clear();                    /* the Python path raises it */
         Py_RETURN_FALSE;

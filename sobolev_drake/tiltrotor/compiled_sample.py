@@ -17,7 +17,10 @@ box narrower than the flags' ``min_width`` is "switched off" there but may be ac
 solver: 44 % of the samples of the first 20 s of scenario 2 differ).  The warm start affects
 the iterations, not the solution (the active set PDAS settles on decides every value).
 
-The ``"scheduled"`` design (q̈_des from a Python ``EnvelopeSchedule``) stays on the Python path.
+A law with its own ``desired_acceleration`` (the ``"scheduled"`` design's Python
+``EnvelopeSchedule``) is compiled too: the kernel calls that function with the lists the Python
+path gives it (q, q̇, ∫e_c, the tracked and full references, the wind) and computes the rest; a
+declined sample calls it again on the Python path, so it must be a function of its arguments.
 """
 
 from __future__ import annotations
@@ -103,9 +106,10 @@ class CompiledSample:
 def compiled_sample(law: TiltrotorWInfLaw, forces_capsule: Any, *,
                     default_allocation: bool) -> CompiledSample | None:
     """The compiled per-sample update of ``law`` (module docstring), or None where it does
-    not apply: kernels not built or switched off, a design other than ``"thesis"``, an
-    allocation other than the default, a schedule without ``compiled_form``, a model with
-    friction or outside the inverse-dynamics kernel.
+    not apply: kernels not built or switched off, an allocation other than the default, a
+    schedule without ``compiled_form``, a model with friction or outside the inverse-dynamics
+    kernel.  A law's own ``desired_acceleration`` (the scheduled design) is called by the
+    kernel for q̈_des.
 
     Parameters
     ----------
@@ -134,8 +138,7 @@ def compiled_sample(law: TiltrotorWInfLaw, forces_capsule: Any, *,
     from sobolev_drake.tiltrotor.allocation import thesis_bounds_constants
 
     form = getattr(law.tilt_schedule, "compiled_form", None)
-    if (kernel("fused") is None or not default_allocation or form is None
-            or law.desired_acceleration is not None or not law.model.frictionless):
+    if kernel("fused") is None or not default_allocation or form is None or not law.model.frictionless:
         return None
     rnea = law.mech_law.dynamics.compiled_inverse_dynamics()
     qdd = compiled_desired_acceleration(law.mech_law)
@@ -145,4 +148,5 @@ def compiled_sample(law: TiltrotorWInfLaw, forces_capsule: Any, *,
         "rnea_model": rnea[1], "qdd_law": qdd.capsule, "forces_model": forces_capsule, **form,
         "bounds": list(thesis_bounds_constants()), "reg": REGULARIZATION,
         "max_iter": MAX_ITERATIONS, "newton_iterations": NEWTON_ITERATIONS,
-        "newton_rtol": NEWTON_RTOL, "rel_tol": REL_TOL, "min_width": MIN_WIDTH})
+        "newton_rtol": NEWTON_RTOL, "rel_tol": REL_TOL, "min_width": MIN_WIDTH,
+        "qdd_callback": law.desired_acceleration})

@@ -80,8 +80,8 @@ def make_law(model: TiltrotorModel, inner: SobolevLaw | None = None, *,
     TiltrotorWInfLaw
         The composed law (with ``propulsion`` and ``aero`` cores attached, a fused per-sample
         path when the compiled kernels are built, and ``compiled_sample``, the controller's
-        one-call update (``tiltrotor.compiled_sample``), for the thesis design with the
-        default allocation).
+        one-call update (``tiltrotor.compiled_sample``), for either design with the default
+        allocation).
     """
     from sobolev_drake.data import load
     from sobolev_drake.tiltrotor.allocation import (bounded_least_squares, propeller_speed_for_thrust,

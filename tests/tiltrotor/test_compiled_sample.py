@@ -10,6 +10,9 @@ order), so those must be equal to the bit, and so must a whole mission's logs.  
 of u* − Bτ̄ is computed with an error ≤ γ_{m+1}(|u*| + |B||τ̄|)_i (γ_k = k·eps/(1 − k·eps)) in
 any summation order, and the norm adds ≤ (n + 1)·eps relative, so the two residuals differ by
 at most 2γ_{m+1}‖|u*| + |B||τ̄|‖ + 2(n + 1)·eps·‖u* − Bτ̄‖ (m = n = 8).
+
+Both designs: the thesis law (q̈_des compiled) and the scheduled one (q̈_des by its Python
+``EnvelopeSchedule``, which the kernel calls with the Python path's arguments).
 """
 
 import numpy as np
@@ -33,7 +36,7 @@ SECONDS = 11.5
 RES = tc.TiltrotorWInfController.RECORD_FIELDS["allocation_residual"].start
 
 
-def _fly(monkeypatch, compiled):
+def _fly(monkeypatch, compiled, design="thesis"):
     """(built, logs, samples) of scenario 2; samples: (x, reference, wind, old record, new
     record, old active set, new active set) of every update the controller took."""
     samples = []
@@ -53,15 +56,25 @@ def _fly(monkeypatch, compiled):
         m.setattr(tc.TiltrotorWInfController, "_update", spy)
         if not compiled:
             m.setattr(CompiledSample, "kernel", lambda self, period: None)
-        built, logs = simulate_mission(2, SECONDS)
+        built, logs = simulate_mission(2, SECONDS, design=design)
     assert (built["controller"]._sample is not None) == compiled
     return built, logs, samples
 
 
-@pytest.fixture(scope="module")
-def python_flight():
-    with pytest.MonkeyPatch.context() as m:
-        return _fly(m, compiled=False)
+_FLIGHTS: dict = {}
+
+
+def _python_flight(design):
+    """The Python path's flight of ``design`` (flown once per test module run)."""
+    if design not in _FLIGHTS:
+        with pytest.MonkeyPatch.context() as m:
+            _FLIGHTS[design] = (*_fly(m, compiled=False, design=design), design)
+    return _FLIGHTS[design]
+
+
+@pytest.fixture(scope="module", params=["thesis", "scheduled"])
+def python_flight(request):
+    return _python_flight(request.param)
 
 
 def _residual_tolerance(law, x, wind, record):
@@ -82,7 +95,7 @@ def test_compiled_record_equals_python_path_on_mission_states(python_flight, mon
     the bracketing thrust solver (the first sample, no last speeds), else the same record (bits;
     residual to the derived bound) and active set.  The states include saturated surfaces."""
     monkeypatch.setattr(native, "_ENABLED", True)    # a kernel feature: on even under =0
-    built, _, samples = python_flight
+    built, _, samples, _ = python_flight
     law = built["law"]
     sample = law.compiled_sample.kernel(built["controller"].period)
     assert len(samples) > 1000
@@ -108,7 +121,7 @@ def test_declines_where_the_python_path_decides(python_flight, monkeypatch):
     Python path raises its error): declined, nothing written; the Python path still answers the
     first and raises on the second."""
     monkeypatch.setattr(native, "_ENABLED", True)
-    built, _, samples = python_flight
+    built, _, samples, _ = python_flight
     law = built["law"]
     sample = law.compiled_sample.kernel(0.01)
     x, ref, wind, old, *_ = samples[500]
@@ -130,8 +143,8 @@ def test_declines_where_the_python_path_decides(python_flight, monkeypatch):
 def test_mission_logs_match_the_python_path(python_flight, monkeypatch):
     """The same mission flown with the compiled update: identical state, reference and record
     logs (residual to the derived bound), with fewer Python-path samples (the first only)."""
-    _, py_logs, py_samples = python_flight
-    built, logs, samples = _fly(monkeypatch, compiled=True)
+    _, py_logs, py_samples, design = python_flight
+    built, logs, samples = _fly(monkeypatch, compiled=True, design=design)
     assert logs.keys() == py_logs.keys()
     for key in logs:
         if key != "allocation_residual":
@@ -142,10 +155,14 @@ def test_mission_logs_match_the_python_path(python_flight, monkeypatch):
 
 
 def test_compiled_path_only_for_the_law_it_was_made_for(monkeypatch):
-    """Not for the scheduled design, a user allocation or with the kernels off; a controller
-    whose law's pieces were replaced after construction takes the Python path."""
+    """Not for a user allocation or with the kernels off; a controller whose law's pieces were
+    replaced after construction (its q̈_des hook too) takes the Python path."""
     model = TiltrotorModel()
-    assert make_law(model, design="scheduled").compiled_sample is None
+    monkeypatch.setattr(native, "_ENABLED", True)
+    scheduled = make_law(model, design="scheduled")
+    assert scheduled.compiled_sample.matches(scheduled)
+    scheduled.desired_acceleration = lambda *a: [0.0] * 8
+    assert not scheduled.compiled_sample.matches(scheduled)
     assert make_law(model, allocate=lambda B, u, lo, up: np.clip(np.zeros(8), lo, up)
                     ).compiled_sample is None
     with native.disabled():
@@ -220,9 +237,9 @@ def test_mission_with_every_kernel_off_agrees(python_flight):
     dynamics.  Each kernel agrees with its reference to rounding (≤ 1e-9 relative on
     well-conditioned problems, tests/native), and the loop is stable over this window, so the
     logs agree to that level (measured: ≤ 2e-13 relative)."""
-    _, logs, _ = python_flight
+    _, logs, _, design = python_flight
     with native.disabled():
-        built, off = simulate_mission(2, SECONDS)
+        built, off = simulate_mission(2, SECONDS, design=design)
     assert built["law"].compiled_sample is None
     for key in ("x", "tau_bar", "propeller_speed", "u_star", "allocation_residual"):
         scale = np.abs(off[key]).max()
@@ -246,3 +263,39 @@ def test_schedule_the_kernel_refuses_runs_the_python_path(monkeypatch):
     law.allocate.warm_start["active"] = None
     st = law.step(x[:8], x[8:], np.zeros(12), np.zeros(3), np.zeros(3), n_prev=[60.0, 60.0])
     np.testing.assert_array_equal(record[3:11], st.tau_bar)
+
+
+def test_scheduled_callback_errors_and_bad_results(monkeypatch):
+    """The kernel calls the law's q̈_des hook as the Python path does: an exception it raises
+    propagates unchanged; a result that is not 8 numbers declines (nothing written) and the
+    Python path then reports it; a hook that is not callable is refused by name."""
+    monkeypatch.setattr(native, "_ENABLED", True)
+    fused = pytest.importorskip("sobolev_drake.native._fused")
+    built, _, samples, _ = _python_flight("scheduled")
+    law = built["law"]
+    x, ref, wind, old, new, old_active, _ = samples[300]
+    seen = []
+
+    def spy(*args):
+        seen.append([list(a) for a in args])
+        return law.desired_acceleration(*args)
+    constants = {**law.compiled_sample.constants, "period": 0.01, "qdd_callback": spy}
+    rec, act = np.full(30, np.nan), np.full(8, np.nan)
+    assert fused.sample(fused.make_sample(constants), x, ref, wind, old, old_active, rec, act)
+    np.testing.assert_array_equal(rec[:RES], new[:RES])
+    q, qd, e_int, tracked, r, w = seen[0]
+    assert (q, qd, e_int, r, w) == (x[:8].tolist(), x[8:].tolist(), old[:3].tolist(),
+                                    ref.tolist(), wind.tolist())
+    assert len(tracked) == 18 and tracked[:3] == ref[:3].tolist()
+
+    def raises(*args):
+        raise ZeroDivisionError("from the hook")
+    bad = fused.make_sample({**constants, "qdd_callback": raises})
+    with pytest.raises(ZeroDivisionError, match="from the hook"):
+        fused.sample(bad, x, ref, wind, old, old_active, rec, act)
+    rec[:] = np.nan
+    short = fused.make_sample({**constants, "qdd_callback": lambda *a: [0.0] * 7})
+    assert not fused.sample(short, x, ref, wind, old, old_active, rec, act)
+    assert np.isnan(rec).all()
+    with pytest.raises(TypeError, match="qdd_callback must be callable"):
+        fused.make_sample({**constants, "qdd_callback": 3.0})
