@@ -255,29 +255,14 @@ static void schedule(const Sample *S, double U, double *a, double *da, double *d
     *dda = 6.0 * c[0] * x + 2.0 * c[1];
 }
 
-/* a new list of n Python floats */
-static PyObject *float_list(const double *v, int n)
-{
-    PyObject *list = PyList_New(n);
-    for (int i = 0; list && i < n; i++) {
-        PyObject *f = PyFloat_FromDouble(v[i]);
-        if (!f) {
-            Py_CLEAR(list);
-            break;
-        }
-        PyList_SET_ITEM(list, i, f);
-    }
-    return list;
-}
-
 /* q̈_des by the law's Python callback, called as TiltrotorWInfLaw.step calls it (lists of
  * floats q, q̇, ∫e_c, tracked, reference, wind): 0, -1 with the callback's exception set, or 1
  * when its result is not 8 numbers (declined: the Python path decides) */
 static int callback_qdd(const Sample *S, const double *q, const double *qd, const double *eint,
                         const double *tracked, const double *r, const double *w, double *qdd)
 {
-    PyObject *args[6] = {float_list(q, 8), float_list(qd, 8), float_list(eint, 3),
-                         float_list(tracked, 18), float_list(r, 12), float_list(w, 3)};
+    PyObject *args[6] = {list_of(q, 8), list_of(qd, 8), list_of(eint, 3), list_of(tracked, 18),
+                         list_of(r, 12), list_of(w, 3)};
     PyObject *result = NULL;
     int ok = 1;
     for (int i = 0; i < 6; i++)

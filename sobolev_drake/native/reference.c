@@ -20,6 +20,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pyconvert.h"
+
 #define CAPSULE_NAME "sobolev_drake.native.reference.Program"
 #define KIND_CONST 0
 #define KIND_SINE 1
@@ -37,6 +39,7 @@ typedef struct {
     Py_ssize_t m, pieces, nbreak;
     double *breakpoints;             /* nbreak = pieces - 1, strictly increasing */
     Coordinate *coords;              /* pieces x m, row-major */
+    double *values;                  /* 3m: one evaluation, copied out by write_doubles */
 } Program;
 
 static void destroy_program(Program *p)
@@ -45,6 +48,7 @@ static void destroy_program(Program *p)
         for (Py_ssize_t i = 0; i < p->pieces * p->m; i++)
             free(p->coords[i].coef);
     free(p->coords);
+    free(p->values);
     free(p->breakpoints);
     free(p);
 }
@@ -192,7 +196,8 @@ static PyObject *make_program(PyObject *self, PyObject *args)
         if (k == 0) {
             p->m = m;
             p->coords = calloc((size_t)(p->pieces * (m > 0 ? m : 1)), sizeof(Coordinate));
-            if (!p->coords) {
+            p->values = malloc((size_t)(3 * (m > 0 ? m : 1)) * sizeof(double));
+            if (!p->coords || !p->values) {
                 Py_DECREF(piece);
                 PyErr_NoMemory();
                 goto fail;
@@ -288,18 +293,9 @@ static PyObject *py_evaluate(PyObject *self, PyObject *const *args, Py_ssize_t n
     double t = PyFloat_AsDouble(args[1]);
     if (t == -1.0 && PyErr_Occurred())
         return NULL;
-    Py_buffer view;
-    if (PyObject_GetBuffer(args[2], &view, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+    int finite = evaluate_program(p, t, p->values);
+    if (write_doubles(args[2], 3 * p->m, p->values, "out"))
         return NULL;
-    if (view.itemsize != sizeof(double) || !view.format || strcmp(view.format, "d") != 0 ||
-        view.len != (Py_ssize_t)(3 * p->m * sizeof(double))) {
-        PyErr_Format(PyExc_ValueError, "evaluate: out must be a writable contiguous float64 "
-                     "array of %zd entries", 3 * p->m);
-        PyBuffer_Release(&view);
-        return NULL;
-    }
-    int finite = evaluate_program(p, t, (double *)view.buf);
-    PyBuffer_Release(&view);
     return PyBool_FromLong(finite);
 }
 
