@@ -26,7 +26,8 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-VARIANTS = ("mission", "project-floor", "cpp-floor")
+sys.path.insert(0, str(HERE))                # the sibling speed_targets.py: its variants
+from speed_targets import PERIOD, VARIANTS   # noqa: E402
 TOGGLE = "drake::systems::Simulator<double>::AdvanceTo*"
 
 
@@ -57,7 +58,7 @@ def main(argv=None):
     print(f"tilt-rotor scenario 2, first {args.mission_seconds:g} s, instructions inside AdvanceTo\n")
     print("| variant | instructions | per controller sample |")
     print("|---|---|---|")
-    samples = args.mission_seconds / 0.01
+    samples = args.mission_seconds / PERIOD
     for name, n in counts.items():
         print(f"| {name} | {n / 1e6:.1f} M | {n / samples / 1e3:.0f} k |")
     m = counts["mission"]

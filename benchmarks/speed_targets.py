@@ -148,10 +148,13 @@ def mission(duration, period, accuracy, floor=False):
     return cpu, simulator.get_num_steps_taken()
 
 
-#: the mission's variants by command-line name: run(duration, period, accuracy) -> (cpu, steps)
-VARIANTS = {"mission": mission,
-            "project-floor": lambda *a: mission(*a, floor=True),
-            "cpp-floor": cpp_floor}
+#: the mission's controller period (s) and RK3 accuracy
+PERIOD, ACCURACY = 0.01, 1e-3
+#: the mission's variants: command-line name -> (printed name, run(duration, period, accuracy)
+#: -> (cpu, steps))
+VARIANTS = {"mission": ("mission", mission),
+            "project-floor": ("project floor", lambda *a: mission(*a, floor=True)),
+            "cpp-floor": ("C++-only floor", cpp_floor)}
 
 
 def verdict(ok):
@@ -173,7 +176,7 @@ def main(argv=None):
                          "as benchmarks/speed_instructions.py)")
     args = ap.parse_args(argv)
     if args.variant:
-        VARIANTS[args.variant](args.mission_seconds, 0.01, 1e-3)
+        VARIANTS[args.variant][1](args.mission_seconds, PERIOD, ACCURACY)
         return
     from sobolev_drake.models.serial_chain import seven_link_arm
 
@@ -188,7 +191,7 @@ def main(argv=None):
     def keep(key, value):
         best[key] = min(best.get(key, np.inf), value)
 
-    period, accuracy, T = 0.01, 1e-3, args.mission_seconds
+    period, accuracy, T = PERIOD, ACCURACY, args.mission_seconds
     for _ in range(args.repeat):
         for name, system in ({} if args.skip_arm else arm).items():
             full, fix = per_evaluation(system, states, desired)
@@ -197,10 +200,8 @@ def main(argv=None):
             keep(("sim", name), arm_simulation(make, args.arm_seconds))
         if not args.skip_mission:
             this_round = []
-            for name, run in (("mission", lambda: mission(T, period, accuracy)),
-                              ("project floor", lambda: mission(T, period, accuracy, floor=True)),
-                              ("C++-only floor", lambda: cpp_floor(T, period, accuracy))):
-                cpu, steps = run()
+            for name, run in VARIANTS.values():
+                cpu, steps = run(T, period, accuracy)
                 keep(("mission", name), cpu)
                 best["steps", name] = steps / T
                 this_round.append(cpu)

@@ -303,8 +303,8 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _SIZE = 30
     #: record slices held by the plant-facing outputs: n, τs (τ̄[2:4]) and δ (τ̄[4:8])
     _HELD = (_N, slice(5, 7), slice(7, 11))
-    #: record entries of ``actuator_command``: [n τs δ], the plant's ``u`` order
-    _COMMAND = np.r_[_N, 5:7, 7:11]
+    #: record entries of ``actuator_command``: the held slices joined, [n τs δ] (the plant's ``u``)
+    _COMMAND = np.r_[_HELD]
 
     def __init__(self, law: TiltrotorWInfLaw, *, period: float = 0.01,
                  initial_tau: ArrayLike | None = None, initial_speed: ArrayLike | None = None,
@@ -393,6 +393,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         ref = self.reference_port.Eval(context)
         wind = self.wind_port.Eval(context)
         old = context.get_discrete_state(self._state).value()
+        delayed = self.computation_delay and stamp != -np.inf   # the previous sample goes out
         sample = self._sample
         if sample is not None and self._compiled.matches(self.law):
             # the whole update in one compiled call (tiltrotor.compiled_sample), the record
@@ -400,8 +401,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
             rec = discrete_state.get_mutable_value(i_state)
             if sample(x, ref, wind, old, context.get_discrete_state(i_act).value(), rec,
                       discrete_state.get_mutable_value(i_act)):
-                self._hold(discrete_state, old if self.computation_delay and stamp != -np.inf
-                           else rec)
+                self._hold(discrete_state, old if delayed else rec)
                 return
         warm = getattr(self.law.allocate, "warm_start", None)
         if type(warm) is dict:
@@ -419,8 +419,7 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         discrete_state.set_value(i_state, np.array(
             ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
             + saturation_flag_list(tau, step.lo, step.up)))
-        self._hold(discrete_state, old if self.computation_delay and stamp != -np.inf
-                   else discrete_state.get_value(i_state))
+        self._hold(discrete_state, old if delayed else discrete_state.get_value(i_state))
 
     def _hold(self, discrete_state, record):
         """Copy n, τs and δ of ``record`` (the new sample's, or with ``computation_delay`` the
