@@ -290,10 +290,11 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
 
     conversion_refusal = ("its allocation is an active-set solve and its thrust inversion a root "
                           "search; linearize the hover loop with LinearHoverController instead")
-    # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation]; groups 1–3 hold
-    # copies of n, τs and δ for the three plant-facing outputs and group 6 all three in the
-    # plant's u order, declared as state output ports (copied by Drake in C++: no Python output
-    # callback per sample); group 4 the time stamp, group 5 the allocation's active set
+    # discrete state: group 0 [∫e_c | τ̄ | n | u* | residual | saturation] (the record); group 1
+    # the plant-facing command [n τs δ] (the plant's u order; with computation_delay the
+    # previous record's); group 2 the bookkeeping [time stamp | the allocation's active set].
+    # Groups 0 and 1 are state output ports (copied by Drake in C++: no Python output callback
+    # per sample); the update writes three groups, each in one pybind call
     _I = slice(0, 3)        # ∫e_c
     _TAU = slice(3, 11)     # τ̄
     _N = slice(11, 13)      # propeller speeds
@@ -301,10 +302,13 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
     _RES = slice(21, 22)    # residual
     _SAT = slice(22, 30)    # +1 on upper bound, −1 on lower bound, 0 inside
     _SIZE = 30
-    #: record slices held by the plant-facing outputs: n, τs (τ̄[2:4]) and δ (τ̄[4:8])
+    #: record slices of the plant-facing outputs: n, τs (τ̄[2:4]) and δ (τ̄[4:8])
     _HELD = (_N, slice(5, 7), slice(7, 11))
     #: record entries of ``actuator_command``: the held slices joined, [n τs δ] (the plant's ``u``)
     _COMMAND = np.r_[_HELD]
+    #: where each plant-facing output sits in ``actuator_command``
+    _COMMAND_PARTS = {"propeller_speed": slice(0, 2), "servo_torque": slice(2, 4),
+                      "surface_deflection": slice(4, 8)}
 
     def __init__(self, law: TiltrotorWInfLaw, *, period: float = 0.01,
                  initial_tau: ArrayLike | None = None, initial_speed: ArrayLike | None = None,
@@ -325,30 +329,30 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
         if initial_speed is not None:
             init[self._N] = check_vector("initial_speed", initial_speed, 2)
         self._state = self.DeclareDiscreteState(BasicVector(init))
-        self._held = [self.DeclareDiscreteState(BasicVector(init[sl])) for sl in self._HELD]
-        # the first sample is taken at initialization (outputs are never the placeholder); the
-        # periodic event at that same time then finds it stamped and leaves it
-        self._stamp = self.DeclareDiscreteState(BasicVector([-np.inf]))
-        # the allocation's last active set (−1, 0, +1 per actuator; NaN: none yet), its warm
-        # start on both paths (through make_law's allocate.warm_start on the Python path)
-        self._active = self.DeclareDiscreteState(BasicVector(np.full(N_TAU, np.nan)))
         self._command = self.DeclareDiscreteState(BasicVector(init[self._COMMAND]))
+        # [stamp | active set]: the time of the last sample (−inf: none; the first sample is
+        # taken at initialization, so the outputs are never the placeholder, and the periodic
+        # event at that same time finds it stamped and leaves it) and the allocation's last
+        # active set (−1, 0, +1 per actuator; NaN: none yet), its warm start on both paths
+        # (through make_law's allocate.warm_start on the Python path)
+        self._book = self.DeclareDiscreteState(BasicVector(np.r_[-np.inf, np.full(N_TAU, np.nan)]))
         compiled = law.compiled_sample
         self._compiled = compiled if compiled is not None and compiled.matches(law) else None
         self._sample = None if self._compiled is None else self._compiled.kernel(self.period)
         self.DeclareInitializationDiscreteUpdateEvent(self._update)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._update)
-        for name, idx in zip(("propeller_speed", "servo_torque", "surface_deflection", "actuator_command"),
-                             (*self._held, self._command)):
-            self.DeclareStateOutputPort(name, idx)
         # group numbers as ints: DiscreteValues.set_value(int, array) is one pybind call (a
         # BasicVector's SetFromVector from a list costs several times more)
-        self._groups = tuple(int(i) for i in (self._state, *self._held, self._stamp, self._active,
-                                              self._command))
+        self._groups = tuple(int(i) for i in (self._state, self._command, self._book))
+        command = {self.discrete_state_ticket(self._command)}
+        for name, sl in self._COMMAND_PARTS.items():
+            self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(self._command, sl),
+                                         prerequisites_of_calc=command)
+        self.DeclareStateOutputPort("actuator_command", self._command)
         dep = {self.discrete_state_ticket(self._state)}
         for name in ("tau_bar", "u_star", "allocation_residual", "integral_error", "saturation"):
             sl = self.RECORD_FIELDS[name]
-            self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(sl),
+            self.DeclareVectorOutputPort(name, sl.stop - sl.start, self._slicer(self._state, sl),
                                          prerequisites_of_calc=dep)
         # everything above in one port copied by Drake in C++ (a log sink on it costs no Python
         # call per sample); split with :meth:`split_record`
@@ -378,52 +382,49 @@ class TiltrotorWInfController(DoubleOnly, LeafSystem):
                              f"got shape {record.shape}")
         return {name: record[sl] for name, sl in cls.RECORD_FIELDS.items()}
 
-    def _slicer(self, sl):
+    def _slicer(self, group, sl):
         def calc(context, output):
-            output.SetFromVector(context.get_discrete_state(self._state).value()[sl])
+            output.SetFromVector(context.get_discrete_state(group).value()[sl])
         return calc
 
     def _update(self, context, discrete_state):
-        t, stamp = context.get_time(), context.get_discrete_state(self._stamp).GetAtIndex(0)
+        # Drake hands the handler the current discrete state to overwrite
+        # (LeafSystem::DispatchDiscreteVariableUpdateHandler copies it in), so the old values
+        # are read from ``discrete_state`` itself: one pybind call per group
+        i_state, i_command, i_book = self._groups
+        t = context.get_time()
+        book = discrete_state.get_mutable_value(i_book)          # [stamp | active set]
+        stamp = book[0]
         if stamp == t:
             return                                   # this sample was taken at initialization
-        i_state, i_stamp, i_act = self._groups[0], self._groups[4], self._groups[5]
-        discrete_state.get_mutable_value(i_stamp)[0] = t
+        book[0] = t
         x = self.x_port.Eval(context)
         ref = self.reference_port.Eval(context)
         wind = self.wind_port.Eval(context)
-        old = context.get_discrete_state(self._state).value()
+        rec = discrete_state.get_mutable_value(i_state)
+        old = rec.copy()
+        active = book[1:]
         delayed = self.computation_delay and stamp != -np.inf   # the previous sample goes out
         sample = self._sample
         if sample is not None and self._compiled.matches(self.law):
-            # the whole update in one compiled call (tiltrotor.compiled_sample), the record
-            # written in place; declined samples (False) take the Python path below
-            rec = discrete_state.get_mutable_value(i_state)
-            if sample(x, ref, wind, old, context.get_discrete_state(i_act).value(), rec,
-                      discrete_state.get_mutable_value(i_act)):
-                self._hold(discrete_state, old if delayed else rec)
+            # the whole update in one compiled call (tiltrotor.compiled_sample), the record and
+            # the active set written in place (it reads all its inputs first); declined samples
+            # (False) write nothing and take the Python path below
+            if sample(x, ref, wind, old, active, rec, active):
+                discrete_state.set_value(i_command, (old if delayed else rec)[self._COMMAND])
                 return
         warm = getattr(self.law.allocate, "warm_start", None)
         if type(warm) is dict:
-            active = context.get_discrete_state(i_act).value()
             warm["active"] = None if np.isnan(active).any() else active.copy()
         step = self.law.step(x[:N_Q], x[N_Q:], ref, wind, old[self._I], n_prev=old[self._N])
         if type(warm) is dict and warm["active"] is not None:
-            discrete_state.set_value(i_act, np.asarray(warm["active"], dtype=float))
+            active[:] = warm["active"]
         # layout [∫e_c | τ̄ | n | u* | residual | saturation], assembled from float lists (a
         # few numpy calls on 3-vectors cost more than the arithmetic); forward-Euler integral
         # of the controlled-DOF error over one sample
         tau, n = step.tau_bar, np.asarray(step.propeller_speed, dtype=float)
         xl, rl, h = x.tolist(), ref.tolist(), self.period
         ie = [e + h * (xl[c] - r) for e, c, r in zip(old[self._I].tolist(), _CONTROLLED_IDX, rl)]
-        discrete_state.set_value(i_state, np.array(
-            ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
-            + saturation_flag_list(tau, step.lo, step.up)))
-        self._hold(discrete_state, old if delayed else discrete_state.get_value(i_state))
-
-    def _hold(self, discrete_state, record):
-        """Copy n, τs and δ of ``record`` (the new sample's, or with ``computation_delay`` the
-        previous one's) into the groups of the plant-facing outputs."""
-        for group, sl in zip(self._groups[1:4], self._HELD):
-            discrete_state.set_value(group, record[sl])
-        discrete_state.set_value(self._groups[6], record[self._COMMAND])
+        rec[:] = (ie + tau.tolist() + n.tolist() + step.u_star.tolist() + [step.residual]
+                  + saturation_flag_list(tau, step.lo, step.up))
+        discrete_state.set_value(i_command, (old if delayed else rec)[self._COMMAND])

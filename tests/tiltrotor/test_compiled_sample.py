@@ -44,13 +44,13 @@ def _fly(monkeypatch, compiled, design="thesis"):
 
     def spy(self, context, discrete_state):
         ins = [p.Eval(context).copy() for p in (self.x_port, self.reference_port, self.wind_port)]
-        old, old_active = (context.get_discrete_state(i).value().copy()
-                           for i in (self._state, self._active))
-        taken = context.get_discrete_state(self._stamp).GetAtIndex(0) != context.get_time()
+        old = context.get_discrete_state(self._state).value().copy()
+        book = context.get_discrete_state(self._book).value()      # [stamp | active set]
+        old_active, taken = book[1:].copy(), book[0] != context.get_time()
         update(self, context, discrete_state)
         if taken:
             samples.append((*ins, old, discrete_state.get_value(int(self._state)).copy(),
-                            old_active, discrete_state.get_value(int(self._active)).copy()))
+                            old_active, discrete_state.get_value(int(self._book))[1:].copy()))
     with monkeypatch.context() as m:
         m.setattr(native, "_ENABLED", True)
         m.setattr(tc.TiltrotorWInfController, "_update", spy)
