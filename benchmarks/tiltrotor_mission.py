@@ -127,7 +127,7 @@ def _timed(obj, name, acc, key=None):
 
 
 def instrument(built):
-    """CPU timers on the controller law and its parts and on the plant force system."""
+    """CPU timers on the controller law and its parts (the force system: timed_force_calcs)."""
     from sobolev_drake.tiltrotor import controller as tc
     acc = {}
     law = built["law"]
@@ -141,10 +141,35 @@ def instrument(built):
     _timed(law.mech_law, "desired_acceleration_scalar", acc, "  mech_law q̈_des (floats)")
     _timed(law, "step", acc, "controller law.step (per sample)")
     _timed(tc, "saturation_flags", acc, "controller saturation flags (per sample)")
-    forces = built["handles"].forces
-    _timed(forces, "_native_force" if forces.native else "thesis_force", acc,
-           "plant force system (per derivative)")
     return acc
+
+
+def timed_force_calcs(acc):
+    """Context manager: force systems built inside it time their output calcs (the kernel's
+    or Python's) in ``acc`` under "plant force system (per derivative)"."""
+    import contextlib
+    import types
+
+    from sobolev_drake.tiltrotor.plant import TiltrotorForces
+
+    key = "plant force system (per derivative)"
+
+    def timing(make):
+        def made(self, drake_order):
+            holder = types.SimpleNamespace(calc=make(self, drake_order))
+            _timed(holder, "calc", acc, key)
+            return holder.calc
+        return made
+
+    @contextlib.contextmanager
+    def patched():
+        saved = TiltrotorForces._native_calc, TiltrotorForces._python_calc
+        TiltrotorForces._native_calc, TiltrotorForces._python_calc = map(timing, saved)
+        try:
+            yield
+        finally:
+            TiltrotorForces._native_calc, TiltrotorForces._python_calc = saved
+    return patched()
 
 
 def floor_patches():
@@ -163,7 +188,7 @@ def floor_patches():
     @contextlib.contextmanager
     def patched():
         step, force = TiltrotorWInfLaw.step, TiltrotorForces.thesis_force
-        native, compiled = TiltrotorForces._native_force, CompiledSample.kernel
+        native, compiled = TiltrotorForces._native_calc, CompiledSample.kernel
         first = {}
 
         def const_step(self, *a, **k):
@@ -189,12 +214,13 @@ def floor_patches():
         TiltrotorWInfLaw.step = const_step
         CompiledSample.kernel = const_kernel
         TiltrotorForces.thesis_force = lambda self, context: zero
-        TiltrotorForces._native_force = lambda self, context, out, drake_order: out.fill(0.0)
+        TiltrotorForces._native_calc = lambda self, drake_order: (
+            lambda context, output: output.get_mutable_value().fill(0.0))
         try:
             yield
         finally:
             TiltrotorWInfLaw.step, TiltrotorForces.thesis_force = step, force
-            TiltrotorForces._native_force, CompiledSample.kernel = native, compiled
+            TiltrotorForces._native_calc, CompiledSample.kernel = native, compiled
     return patched()
 
 
@@ -208,8 +234,10 @@ def run(duration, args, breakdown=False, integrator=None, label=""):
 
         def build_instrumented(*a, **k):
             nonlocal acc
-            built = build(*a, **k)
-            acc = instrument(built)
+            forces = {}
+            with timed_force_calcs(forces):
+                built = build(*a, **k)
+            acc = {**instrument(built), **forces}
             return built
         tm.build_mission = build_instrumented
     try:

@@ -235,11 +235,6 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
                                                  calc=self._calc_inputs),
                 {self.input_port_ticket(p.get_index()) for p in self._port_list[:4]})
             self.input_evaluations = 0    # recomputations of that cache entry (tests, benchmarks)
-            st = {self.input_port_ticket(self._state.get_index())}
-            self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
-            inputs = {self.all_input_ports_ticket()}   # explicit: no symbolic feedthrough probe
-            self.DeclareVectorOutputPort("applied_generalized_force", 8, self._calc_drake, prerequisites_of_calc=inputs)
-            self.DeclareVectorOutputPort("generalized_force", 8, self._calc_thesis, prerequisites_of_calc=inputs)
             # T is a permutation (q_drake = T q_thesis): index arrays instead of matrix products
             perm = np.argmax(model.T, axis=0)          # q_thesis[j] = q_drake[perm[j]]
             self._perm16 = np.concatenate([perm, perm + 8])
@@ -256,10 +251,16 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
             self._native = None if self._kernel is None else force_model(
                 self.prop, self.aero, perm16=self._perm16.tolist(),
                 perm8_inv=self._perm8_inv.tolist(), cos_beta_servo=self._cosb)
-            # the per-evaluation calls bound once (pybind look-ups cost about a kernel call each)
-            self._fast = None if self._native is None else (
-                self._kernel.plant_force, self._native, self._state.Eval, self._inputs.EvalAbstract,
-                *(f for p in self._port_list[4:] for f in (p.Eval, p.HasValue)))
+            st = {self.input_port_ticket(self._state.get_index())}
+            self.DeclareVectorOutputPort("x", 16, self._calc_x, prerequisites_of_calc=st)
+            inputs = {self.all_input_ports_ticket()}   # explicit: no symbolic feedthrough probe
+            # the kernel's calc functions are closures over the per-evaluation calls, bound once
+            # (a pybind attribute look-up costs about a kernel call; Drake calls these 3 times
+            # per RK3 step)
+            for name, drake_order in (("applied_generalized_force", True), ("generalized_force", False)):
+                calc = (self._python_calc(drake_order) if self._native is None
+                        else self._native_calc(drake_order))
+                self.DeclareVectorOutputPort(name, 8, calc, prerequisites_of_calc=inputs)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.model, native=other._native_request if T is float else False,
@@ -346,25 +347,31 @@ def TiltrotorForces_(T):                         # noqa: D103 - the template of 
                 tau += p_dist.Eval(context)
             return tau
 
-        def _native_force(self, context, out, drake_order) -> None:
-            """:meth:`thesis_force` by the compiled kernel, written into ``out`` (a float64 view)."""
-            self.evaluations += 1
-            force, model, state, inputs, wind, has_wind, fd, has_fd, dist, has_dist = self._fast
-            # EvalAbstract(...).get_value(): the cached tuple itself, cheaper than CacheEntry.Eval
-            u, has = inputs(context).get_value()
-            force(model, state(context), u, wind(context) if has[4] or has_wind(context) else None,
-                  fd(context) if has[5] or has_fd(context) else None,
-                  dist(context) if has[6] or has_dist(context) else None, out, drake_order)
+        def _native_calc(self, drake_order):
+            """The output calc of :meth:`thesis_force` by the compiled kernel (``drake_order``:
+            permuted to Drake's velocity order), written into the output's buffer."""
+            force, model, state, inputs = (self._kernel.plant_force, self._native, self._state.Eval,
+                                           self._inputs.EvalAbstract)
+            wind, has_wind, fd, has_fd, dist, has_dist = (f for p in self._port_list[4:]
+                                                          for f in (p.Eval, p.HasValue))
 
-        def _calc_thesis(self, context, output) -> None:
-            if self._native is None:
-                return output.SetFromVector(self.thesis_force(context))
-            self._native_force(context, output.get_mutable_value(), False)
+            def calc(context, output):
+                self.evaluations += 1
+                # EvalAbstract(...).get_value(): the cached tuple itself, cheaper than CacheEntry.Eval
+                u, has = inputs(context).get_value()
+                force(model, state(context), u, wind(context) if has[4] or has_wind(context) else None,
+                      fd(context) if has[5] or has_fd(context) else None,
+                      dist(context) if has[6] or has_dist(context) else None,
+                      output.get_mutable_value(), drake_order)
+            return calc
 
-        def _calc_drake(self, context, output) -> None:
-            if self._native is None:
-                return output.SetFromVector(self.thesis_force(context)[self._perm8_inv])
-            self._native_force(context, output.get_mutable_value(), True)
+        def _python_calc(self, drake_order):
+            """The output calc of :meth:`thesis_force` (``drake_order``: permuted to Drake's
+            velocity order)."""
+            if drake_order:
+                return lambda context, output: output.SetFromVector(
+                    self.thesis_force(context)[self._perm8_inv])
+            return lambda context, output: output.SetFromVector(self.thesis_force(context))
 
     return Impl
 
