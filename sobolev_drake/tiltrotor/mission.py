@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, ConstantVectorSource, TrajectorySource
+from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from sobolev_drake.data import load
@@ -215,16 +215,17 @@ def build_mission(scenario: int, duration: float, *, period: float = 0.01, sched
     ctrl.set_name("w_inf_controller")
     ref = builder.AddSystem(mission_reference(scenario, smooth_reference))
     ref.set_name("mission_reference")
-    # wind: measured constant part (Assumption 19) + unmeasured gusts (footnote 8); C++
-    # primitives so the plant's every-stage wind evaluation stays cheap.
+    # wind: measured constant part (Assumption 19) + unmeasured gusts (footnote 8), both in one
+    # zero-order-hold profile (the sums an Adder of the two would form, to the bit) so that
+    # the force system's every-stage read is one C++ source
     if constant_wind is None:
         constant_wind = spec["constant_wind"]
-    const = builder.AddSystem(ConstantVectorSource(check_vector("constant_wind", constant_wind, 3)))
+    measured = check_vector("constant_wind", constant_wind, 3)
+    const = builder.AddSystem(ConstantVectorSource(measured))
     tg, vg = pulses(spec.get("wind_gusts", []) if wind_gusts is None else wind_gusts, duration)
-    gust = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(tg, vg)))
-    wind = builder.AddSystem(Adder(2, 3))
-    builder.Connect(const.get_output_port(), wind.get_input_port(0))
-    builder.Connect(gust.get_output_port(), wind.get_input_port(1))
+    wind = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+        tg, measured[:, None] + vg)))
+    wind.set_name("wind")
     tf, vf = pulses(spec.get("force_disturbances", []) if force_disturbances is None
                     else force_disturbances, duration)
     force = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(tf, vf)))

@@ -288,3 +288,33 @@ def test_actuator_command_joins_the_three_split_outputs(law, delay):
         # with the delay, the commands applied lag the record by one sample
         np.testing.assert_array_equal(command, previous if delay else current)
     assert any(np.any(a != b) for (_, a), (_, b) in zip(seen[:-1], seen[1:]))
+
+
+def test_drake_hands_discrete_updates_the_current_state():
+    """The controller's update reads its old record, stamp and active set from the buffer it
+    writes (``TiltrotorWInfController._update``): Drake must fill that buffer with the current
+    discrete state before every handler, also after a sample that wrote nothing."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import LeafSystem
+
+    seen = []
+
+    class Counter(LeafSystem):
+        def __init__(self):
+            super().__init__()
+            self.group = int(self.DeclareDiscreteState(2))
+            self.DeclarePeriodicDiscreteUpdateEvent(0.1, 0.0, self.update)
+
+        def update(self, context, discrete_state):
+            current = context.get_discrete_state(self.group).value().copy()
+            buffer = discrete_state.get_mutable_value(self.group)
+            seen.append((current, buffer.copy()))
+            if context.get_time() < 0.25:          # later samples write nothing
+                buffer[:] = current + [1.0, 2.0]
+
+    simulator = Simulator(Counter())
+    simulator.AdvanceTo(0.45)
+    assert len(seen) == 5
+    for current, buffer in seen:
+        np.testing.assert_array_equal(buffer, current)
+    assert seen[-1][0].tolist() == [3.0, 6.0]
