@@ -293,7 +293,9 @@ def test_actuator_command_joins_the_three_split_outputs(law, delay):
 def test_drake_hands_discrete_updates_the_current_state():
     """The controller's update reads its old record, stamp and active set from the buffer it
     writes (``TiltrotorWInfController._update``): Drake must fill that buffer with the current
-    discrete state before every handler, also after a sample that wrote nothing."""
+    discrete state before every handler — also a state set from outside between samples, and
+    after a sample that wrote nothing (a buffer that merely kept the handler's last writes, or
+    a fresh one, would fail here)."""
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import LeafSystem
 
@@ -313,8 +315,13 @@ def test_drake_hands_discrete_updates_the_current_state():
                 buffer[:] = current + [1.0, 2.0]
 
     simulator = Simulator(Counter())
+    context = simulator.get_mutable_context()
+    context.SetDiscreteState(0, [5.0, 7.0])        # not the default
+    simulator.AdvanceTo(0.15)
+    context.SetDiscreteState(0, [-3.0, 11.0])      # set between samples
     simulator.AdvanceTo(0.45)
     assert len(seen) == 5
     for current, buffer in seen:
         np.testing.assert_array_equal(buffer, current)
-    assert seen[-1][0].tolist() == [3.0, 6.0]
+    assert [c.tolist() for c, _ in seen] == [[5.0, 7.0], [6.0, 9.0], [-3.0, 11.0], [-2.0, 13.0],
+                                             [-2.0, 13.0]]
