@@ -107,10 +107,8 @@ import pstats
 import time
 
 
-def _timed(obj, name, acc, key=None):
-    """Replace ``obj.name`` by a wrapper accumulating CPU seconds and calls in ``acc[key]``."""
-    f = getattr(obj, name)
-    key = key or name
+def _timer(f, acc, key):
+    """``f`` wrapped to accumulate its CPU seconds and calls in ``acc[key]``."""
     acc.setdefault(key, [0.0, 0])
 
     def wrapper(*a, **k):
@@ -123,7 +121,12 @@ def _timed(obj, name, acc, key=None):
             rec[1] += 1
     if hasattr(f, "parts"):               # the law's fused sample checks its parts
         wrapper.parts = f.parts
-    setattr(obj, name, wrapper)
+    return wrapper
+
+
+def _timed(obj, name, acc, key=None):
+    """Replace ``obj.name`` by :func:`_timer`'s wrapper (under ``key``, default ``name``)."""
+    setattr(obj, name, _timer(getattr(obj, name), acc, key or name))
 
 
 def instrument(built):
@@ -148,18 +151,12 @@ def timed_force_calcs(acc):
     """Context manager: force systems built inside it time their output calcs (the kernel's
     or Python's) in ``acc`` under "plant force system (per derivative)"."""
     import contextlib
-    import types
 
     from sobolev_drake.tiltrotor.plant import TiltrotorForces
 
-    key = "plant force system (per derivative)"
-
     def timing(make):
-        def made(self, drake_order):
-            holder = types.SimpleNamespace(calc=make(self, drake_order))
-            _timed(holder, "calc", acc, key)
-            return holder.calc
-        return made
+        return lambda self, drake_order: _timer(make(self, drake_order), acc,
+                                                "plant force system (per derivative)")
 
     @contextlib.contextmanager
     def patched():
